@@ -1,0 +1,11 @@
+//! realcam: render glTF scenes through real multi-element camera lenses.
+//!
+//! The optics live in [`lens`], the scene in [`scene`], ray–scene intersection in [`accel`],
+//! the path tracer in [`shade`], the image in [`film`], and the bevy_ecs schedule that ties
+//! them together in [`pipeline`].
+
+pub mod accel;
+pub mod batch;
+pub mod sampling;
+pub mod scene;
+pub mod shade;
