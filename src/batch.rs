@@ -53,8 +53,15 @@ impl RayBatch {
 
     pub fn clear(&mut self) {
         for v in [
-            &mut self.ox, &mut self.oy, &mut self.oz, &mut self.dx, &mut self.dy, &mut self.dz,
-            &mut self.tr, &mut self.tg, &mut self.tb,
+            &mut self.ox,
+            &mut self.oy,
+            &mut self.oz,
+            &mut self.dx,
+            &mut self.dy,
+            &mut self.dz,
+            &mut self.tr,
+            &mut self.tg,
+            &mut self.tb,
         ] {
             v.clear();
         }

@@ -6,6 +6,7 @@
 
 pub mod accel;
 pub mod batch;
+pub mod lens;
 pub mod sampling;
 pub mod scene;
 pub mod shade;

@@ -23,7 +23,10 @@ fn mix64(mut z: u64) -> u64 {
 impl Rng {
     /// A stream from an arbitrary 64-bit state and stream selector.
     pub fn new(state: u64, stream: u64) -> Self {
-        let mut rng = Rng { state: 0, increment: (stream << 1) | 1 };
+        let mut rng = Rng {
+            state: 0,
+            increment: (stream << 1) | 1,
+        };
         rng.next_u32();
         rng.state = rng.state.wrapping_add(state);
         rng.next_u32();
@@ -38,7 +41,9 @@ impl Rng {
 
     pub fn next_u32(&mut self) -> u32 {
         let old = self.state;
-        self.state = old.wrapping_mul(PCG_MULTIPLIER).wrapping_add(self.increment);
+        self.state = old
+            .wrapping_mul(PCG_MULTIPLIER)
+            .wrapping_add(self.increment);
         let xorshifted = (((old >> 18) ^ old) >> 27) as u32;
         let rot = (old >> 59) as u32;
         xorshifted.rotate_right(rot)
@@ -67,9 +72,24 @@ mod tests {
 
     #[test]
     fn streams_are_reproducible_and_distinct() {
-        let a: Vec<u32> = (0..8).map({ let mut r = Rng::for_sample(7, 3, 1); move |_| r.next_u32() }).collect();
-        let b: Vec<u32> = (0..8).map({ let mut r = Rng::for_sample(7, 3, 1); move |_| r.next_u32() }).collect();
-        let c: Vec<u32> = (0..8).map({ let mut r = Rng::for_sample(7, 3, 2); move |_| r.next_u32() }).collect();
+        let a: Vec<u32> = (0..8)
+            .map({
+                let mut r = Rng::for_sample(7, 3, 1);
+                move |_| r.next_u32()
+            })
+            .collect();
+        let b: Vec<u32> = (0..8)
+            .map({
+                let mut r = Rng::for_sample(7, 3, 1);
+                move |_| r.next_u32()
+            })
+            .collect();
+        let c: Vec<u32> = (0..8)
+            .map({
+                let mut r = Rng::for_sample(7, 3, 2);
+                move |_| r.next_u32()
+            })
+            .collect();
         assert_eq!(a, b);
         assert_ne!(a, c);
     }

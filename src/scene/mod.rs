@@ -105,7 +105,11 @@ impl Default for Material {
 impl Material {
     /// A matte (Lambertian-like) dielectric of the given linear albedo.
     pub fn matte(albedo: Vec3) -> Self {
-        Material { base_color: albedo.extend(1.0), metallic: 0.0, ..Default::default() }
+        Material {
+            base_color: albedo.extend(1.0),
+            metallic: 0.0,
+            ..Default::default()
+        }
     }
 
     pub fn is_emissive(&self) -> bool {
@@ -124,14 +128,20 @@ pub struct MaterialLibrary {
 
 impl MaterialLibrary {
     pub fn get(&self, index: Option<usize>) -> &Material {
-        index.and_then(|i| self.materials.get(i)).unwrap_or(&self.default_material)
+        index
+            .and_then(|i| self.materials.get(i))
+            .unwrap_or(&self.default_material)
     }
 }
 
 /// `KHR_lights_punctual` lights in world space, photometric units (see the module docs).
 #[derive(Component, Clone, Debug, PartialEq)]
 pub enum PunctualLight {
-    Point { position: Vec3, intensity: Vec3, range: Option<f32> },
+    Point {
+        position: Vec3,
+        intensity: Vec3,
+        range: Option<f32>,
+    },
     Spot {
         position: Vec3,
         /// Unit direction the spot points along (the node's −Z).
@@ -186,7 +196,10 @@ impl Default for Bounds {
 }
 
 impl Bounds {
-    pub const EMPTY: Bounds = Bounds { min: Vec3::INFINITY, max: Vec3::NEG_INFINITY };
+    pub const EMPTY: Bounds = Bounds {
+        min: Vec3::INFINITY,
+        max: Vec3::NEG_INFINITY,
+    };
 
     pub fn include(&mut self, p: Vec3) {
         self.min = self.min.min(p);

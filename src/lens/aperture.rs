@@ -1,0 +1,55 @@
+//! Sizing the aperture stop: by diameter, or by the f-number a user asks for.
+
+use super::first_order::FirstOrder;
+use super::system::LensSystem;
+
+/// How wide the stop is opened.
+#[derive(bevy_ecs::component::Component, Clone, Copy, Debug, PartialEq, Default)]
+pub enum ApertureSetting {
+    /// The stop row's own diameter (its maximum).
+    #[default]
+    Full,
+    /// Stop diameter in mm.
+    Diameter(f64),
+    /// The real f-number N = EFL / entrance-pupil diameter. pbrt and appleseed divide the
+    /// focal length by N and use that as the *stop* diameter, which is wrong whenever the
+    /// elements in front of the stop magnify it (they usually do).
+    FNumber(f64),
+}
+
+/// The stop diameter for `setting`, clamped to what the stop row allows, with a warning when
+/// it had to be clamped. `full` is the lens with its stop at the row's diameter.
+pub fn stop_diameter(
+    setting: ApertureSetting,
+    full: &LensSystem,
+    full_first_order: &FirstOrder,
+) -> Result<(f64, Option<String>), String> {
+    let maximum = full.stop_diameter();
+    let requested = match setting {
+        ApertureSetting::Full => return Ok((maximum, None)),
+        ApertureSetting::Diameter(d) => {
+            if !(d.is_finite() && d > 0.0) {
+                return Err(format!(
+                    "aperture diameter {d} mm must be a positive number"
+                ));
+            }
+            d
+        }
+        ApertureSetting::FNumber(n) => {
+            if !(n.is_finite() && n > 0.0) {
+                return Err(format!("f-number {n} must be a positive number"));
+            }
+            // The entrance pupil scales linearly with the stop: EP = stop × (EP/stop at full).
+            let pupil_per_stop = full_first_order.entrance_pupil.diameter_mm / maximum;
+            full_first_order.focal_length / n / pupil_per_stop
+        }
+    };
+    if requested > maximum {
+        let widest = full_first_order.f_number;
+        let warning = format!(
+            "requested stop of {requested:.3} mm is wider than this lens's stop ({maximum:.3} mm, f/{widest:.2}); using {maximum:.3} mm"
+        );
+        return Ok((maximum, Some(warning)));
+    }
+    Ok((requested, None))
+}

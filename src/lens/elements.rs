@@ -1,0 +1,317 @@
+//! Lenses as ECS entities, and the systems that derive what tracing needs from them.
+//!
+//! A lens is a root entity ([`Lens`], [`FocusSetting`], [`ApertureSetting`]) whose children are
+//! its surfaces ([`LensSurface`], one per prescription row). Derived data lives in components
+//! on the lens entity and is recomputed only when its inputs change, in three steps:
+//!
+//! | step | writes | reruns when |
+//! |---|---|---|
+//! | [`derive_geometry`] | [`LensGeometry`] (packed surfaces, first-order data) | a surface or the aperture changes |
+//! | [`place_film`] | [`FilmPlacement`] (film distance) | the geometry or the focus changes |
+//! | [`bound_exit_pupil`] | [`ExitPupil`] bounds | the placement or the [`FilmFormat`] changes |
+//!
+//! A lens that cannot be used (bad edit, impossible focus) gets a [`LensFault`] instead.
+
+use std::path::PathBuf;
+use std::time::{Duration, Instant};
+
+use bevy_ecs::change_detection::DetectChanges;
+use bevy_ecs::component::Component;
+use bevy_ecs::entity::Entity;
+use bevy_ecs::hierarchy::Children;
+use bevy_ecs::query::With;
+use bevy_ecs::resource::Resource;
+use bevy_ecs::schedule::{IntoScheduleConfigs, Schedule, SystemSet};
+use bevy_ecs::system::{Commands, Query, Res, ResMut};
+use bevy_ecs::world::{Ref, World};
+
+use super::aperture::{ApertureSetting, stop_diameter};
+use super::first_order::FirstOrder;
+use super::focus::{FocusMode, best_film_distance, paraxial_film_distance};
+use super::prescription::{LensFormat, Prescription, SurfaceRow};
+use super::pupil::{ExitPupil, PupilSampling};
+use super::system::LensSystem;
+
+/// The lens (root) entity.
+#[derive(Component, Clone, Debug)]
+pub struct Lens {
+    pub name: String,
+    pub source: PathBuf,
+    pub format: LensFormat,
+}
+
+/// One surface of a lens: a child entity of its [`Lens`].
+#[derive(Component, Clone, Copy, Debug, PartialEq)]
+pub struct LensSurface {
+    /// Position from the front (0) to the back.
+    pub order: usize,
+    pub row: SurfaceRow,
+}
+
+/// Marks the lens the renderer uses.
+#[derive(Component, Clone, Copy, Debug, Default)]
+pub struct ActiveLens;
+
+/// Where the lens is focused.
+#[derive(Component, Clone, Copy, Debug, PartialEq)]
+pub enum FocusSetting {
+    /// Object plane at this distance from the film, metres.
+    Distance { metres: f64, mode: FocusMode },
+    /// Rear vertex → film, mm, set directly.
+    FilmDistance(f64),
+}
+
+impl Default for FocusSetting {
+    /// pbrt's and `realcam lens`'s default.
+    fn default() -> Self {
+        FocusSetting::Distance {
+            metres: 10.0,
+            mode: FocusMode::Paraxial,
+        }
+    }
+}
+
+/// Film size and pupil-sampling scheme: a resource, since the film belongs to the camera, not
+/// to any one lens.
+#[derive(Resource, Clone, Copy, Debug, PartialEq)]
+pub struct FilmFormat {
+    pub diagonal_mm: f64,
+    pub pupil_sampling: PupilSampling,
+}
+
+impl Default for FilmFormat {
+    fn default() -> Self {
+        FilmFormat {
+            diagonal_mm: 35.0,
+            pupil_sampling: PupilSampling::Bounds,
+        }
+    }
+}
+
+/// Packed surfaces with the stop opened as set, and their first-order data.
+#[derive(Component, Clone, Debug)]
+pub struct LensGeometry {
+    pub system: LensSystem,
+    pub first_order: FirstOrder,
+    pub warnings: Vec<String>,
+}
+
+/// The film position for the current focus.
+#[derive(Component, Clone, Copy, Debug, PartialEq)]
+pub struct FilmPlacement {
+    /// Rear vertex → film, mm.
+    pub film_distance: f64,
+}
+
+/// Why a lens cannot be rendered with right now.
+#[derive(Component, Clone, Debug, PartialEq)]
+pub struct LensFault(pub String);
+
+/// How often and how long each derivation step ran (for `--stats` and the swap benchmark).
+#[derive(Resource, Clone, Copy, Debug, Default)]
+pub struct LensDerivationStats {
+    pub geometry_runs: u64,
+    pub placement_runs: u64,
+    pub pupil_runs: u64,
+    pub total_time: Duration,
+}
+
+/// The derivation steps, in order.
+#[derive(SystemSet, Clone, Debug, PartialEq, Eq, Hash)]
+pub enum LensDerivation {
+    Geometry,
+    Placement,
+    Pupil,
+}
+
+/// Adds the derivation systems to `schedule`, chained so each sees the previous one's writes.
+pub fn add_lens_systems(schedule: &mut Schedule) {
+    schedule.configure_sets(
+        (
+            LensDerivation::Geometry,
+            LensDerivation::Placement,
+            LensDerivation::Pupil,
+        )
+            .chain(),
+    );
+    schedule.add_systems((
+        derive_geometry.in_set(LensDerivation::Geometry),
+        place_film.in_set(LensDerivation::Placement),
+        bound_exit_pupil.in_set(LensDerivation::Pupil),
+    ));
+}
+
+/// Spawns a lens and its surfaces; returns the lens entity.
+pub fn spawn_lens(
+    world: &mut World,
+    prescription: &Prescription,
+    focus: FocusSetting,
+    aperture: ApertureSetting,
+) -> Entity {
+    let lens = Lens {
+        name: prescription.name.clone(),
+        source: prescription.source.clone(),
+        format: prescription.format,
+    };
+    let mut entity = world.spawn((lens, focus, aperture));
+    entity.with_children(|children| {
+        for (order, row) in prescription.rows.iter().enumerate() {
+            children.spawn(LensSurface { order, row: *row });
+        }
+    });
+    entity.id()
+}
+
+/// Makes `lens` the only [`ActiveLens`].
+pub fn activate_lens(world: &mut World, lens: Entity) {
+    let active: Vec<Entity> = world
+        .query_filtered::<Entity, With<ActiveLens>>()
+        .iter(world)
+        .collect();
+    for e in active {
+        world.entity_mut(e).remove::<ActiveLens>();
+    }
+    world.entity_mut(lens).insert(ActiveLens);
+}
+
+/// Builds the geometry of every lens whose surfaces or aperture changed.
+pub fn derive_geometry(
+    mut commands: Commands,
+    lenses: Query<(Entity, &Lens, Ref<Children>, Ref<ApertureSetting>)>,
+    surfaces: Query<Ref<LensSurface>>,
+    mut stats: ResMut<LensDerivationStats>,
+) {
+    for (entity, lens, children, aperture) in &lenses {
+        let surface_changed = children
+            .iter()
+            .any(|c| surfaces.get(*c).is_ok_and(|s| s.is_changed()));
+        if !(children.is_changed() || aperture.is_changed() || surface_changed) {
+            continue;
+        }
+        let start = Instant::now();
+        let mut rows: Vec<LensSurface> = children
+            .iter()
+            .filter_map(|c| surfaces.get(*c).ok().map(|s| *s))
+            .collect();
+        rows.sort_by_key(|s| s.order);
+        let rows: Vec<SurfaceRow> = rows.into_iter().map(|s| s.row).collect();
+        match build_geometry(lens, &rows, *aperture) {
+            Ok(geometry) => {
+                commands
+                    .entity(entity)
+                    .insert(geometry)
+                    .remove::<LensFault>();
+            }
+            Err(message) => {
+                commands
+                    .entity(entity)
+                    .insert(LensFault(message))
+                    .remove::<LensGeometry>();
+            }
+        }
+        stats.geometry_runs += 1;
+        stats.total_time += start.elapsed();
+    }
+}
+
+/// Re-validates `rows` (an edit may have broken them), sizes the stop, computes first-order data.
+pub fn build_geometry(
+    lens: &Lens,
+    rows: &[SurfaceRow],
+    aperture: ApertureSetting,
+) -> Result<LensGeometry, String> {
+    let prescription =
+        Prescription::from_rows(&lens.name, &lens.source, lens.format, rows.to_vec())
+            .map_err(|e| e.to_string())?;
+    let full = LensSystem::new(&prescription.rows, None);
+    let full_first_order =
+        FirstOrder::compute(&full).map_err(|e| format!("{}: {e}", lens.source.display()))?;
+    let (diameter, warning) = stop_diameter(aperture, &full, &full_first_order)?;
+    let system = LensSystem::new(&prescription.rows, Some(diameter));
+    let first_order =
+        FirstOrder::compute(&system).map_err(|e| format!("{}: {e}", lens.source.display()))?;
+    Ok(LensGeometry {
+        system,
+        first_order,
+        warnings: warning.into_iter().collect(),
+    })
+}
+
+/// Solves the film distance of every lens whose geometry or focus changed.
+pub fn place_film(
+    mut commands: Commands,
+    lenses: Query<(Entity, &Lens, Ref<LensGeometry>, Ref<FocusSetting>)>,
+    mut stats: ResMut<LensDerivationStats>,
+) {
+    for (entity, lens, geometry, focus) in &lenses {
+        if !(geometry.is_changed() || focus.is_changed()) {
+            continue;
+        }
+        let start = Instant::now();
+        match film_distance_for(&geometry, *focus) {
+            Ok(film_distance) => {
+                commands
+                    .entity(entity)
+                    .insert(FilmPlacement { film_distance })
+                    .remove::<LensFault>();
+            }
+            Err(message) => {
+                let message = format!("{}: {message}", lens.source.display());
+                commands
+                    .entity(entity)
+                    .insert(LensFault(message))
+                    .remove::<FilmPlacement>();
+            }
+        }
+        stats.placement_runs += 1;
+        stats.total_time += start.elapsed();
+    }
+}
+
+/// Film distance (rear vertex → film, mm) for a focus setting.
+pub fn film_distance_for(geometry: &LensGeometry, focus: FocusSetting) -> Result<f64, String> {
+    match focus {
+        FocusSetting::FilmDistance(mm) => {
+            if mm.is_finite() && mm > 0.0 {
+                Ok(mm)
+            } else {
+                Err(format!("film distance {mm} mm must be a positive number"))
+            }
+        }
+        FocusSetting::Distance { metres, mode } => {
+            let mm = metres * 1000.0;
+            let paraxial = paraxial_film_distance(&geometry.system, &geometry.first_order, mm)
+                .map_err(|e| e.to_string())?;
+            match mode {
+                FocusMode::Paraxial => Ok(paraxial),
+                FocusMode::Best => {
+                    best_film_distance(&geometry.system, mm, paraxial).map_err(|e| e.to_string())
+                }
+            }
+        }
+    }
+}
+
+/// Bounds the exit pupil of every lens whose placement changed, or of all when the film did.
+pub fn bound_exit_pupil(
+    mut commands: Commands,
+    lenses: Query<(Entity, Ref<LensGeometry>, Ref<FilmPlacement>)>,
+    film: Res<FilmFormat>,
+    mut stats: ResMut<LensDerivationStats>,
+) {
+    for (entity, geometry, placement) in &lenses {
+        if !(geometry.is_changed() || placement.is_changed() || film.is_changed()) {
+            continue;
+        }
+        let start = Instant::now();
+        let pupil = ExitPupil::compute(
+            &geometry.system,
+            placement.film_distance,
+            film.diagonal_mm,
+            film.pupil_sampling,
+        );
+        commands.entity(entity).insert(pupil);
+        stats.pupil_runs += 1;
+        stats.total_time += start.elapsed();
+    }
+}

@@ -1,0 +1,31 @@
+//! The lens: a real multi-element camera lens, traced exactly (Kolb, Mitchell & Hanrahan 1995).
+//!
+//! # Frame and sign conventions (used everywhere in this module)
+//!
+//! * **Lens frame**: millimetres, origin at the vertex of the *first* (front, scene-side)
+//!   surface, **+z along the optical axis toward the film**. The scene lies at z < 0; the film is
+//!   the plane `z = rear vertex + film distance`.
+//! * The lens frame's x and y are the camera's x (image right) and y (image up), so the lens
+//!   frame is the camera frame (which looks down −z) up to a shift along z and mm → m; see
+//!   [`camera`]. A real lens forms an inverted image: the film point at (+x, +y) sees the
+//!   scene at (−x, −y), which [`camera`] undoes when it maps pixels to film points.
+//! * **Radius** R > 0 when the centre of curvature lies on the film side (+z) of the vertex;
+//!   curvature c = 1/R; flat surfaces and the stop have c = 0.
+//! * **Index** of a row = the medium *after* the surface (toward the film).
+//! * **Film distance**: rear vertex → film, along +z. **Focus distance**: film plane → in-focus
+//!   object plane, in metres (as pbrt).
+//! * Every z reported to users (`realcam lens --json`) is a lens-frame z in mm.
+
+pub mod aperture;
+pub mod camera;
+pub mod elements;
+pub mod first_order;
+pub mod focus;
+pub mod prescription;
+pub mod pupil;
+pub mod system;
+pub mod trace;
+pub mod trace_batch;
+
+pub use prescription::{LensFormat, Prescription, PrescriptionError, SurfaceKind, SurfaceRow};
+pub use system::{LensSystem, SurfaceArrays};

@@ -1,0 +1,605 @@
+//! Lens prescription files: parsing, layout detection and validation.
+//!
+//! A prescription is a table of rows `radius thickness index aperture-diameter` (mm), front
+//! (scene side) to back (film side). See [`crate::lens`] for the sign conventions. Two layouts
+//! of the second column exist in the wild and both load:
+//!
+//! * **thickness-after** (pbrt-v3/v4): the distance from this surface to the next one; the last
+//!   row holds 0, a placeholder for the film distance that focusing computes.
+//! * **gap-before** (Kolb et al. 1995, the 100 mm designs): the distance from the previous
+//!   surface to this one; the first row holds 0.
+//!
+//! Whatever the file's layout, a [`Prescription`] stores thickness-after rows, with the last
+//! thickness 0 (the film distance is not part of the lens).
+
+use std::fmt;
+use std::path::{Path, PathBuf};
+
+/// Radii at or beyond this magnitude (mm) are flat surfaces: a sphere that large has a sag
+/// below 1e-8 mm over any real clear aperture, and treating it as a plane keeps f32 tracing
+/// free of catastrophic cancellation.
+pub const FLAT_RADIUS_MM: f64 = 1e8;
+
+/// Prescription files larger than this are refused before reading: the largest real lens
+/// prescriptions have a few dozen rows.
+pub const MAX_FILE_BYTES: u64 = 1 << 20;
+
+/// How to read the second column.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum LensFormat {
+    ThicknessAfter,
+    GapBefore,
+}
+
+impl LensFormat {
+    pub fn name(self) -> &'static str {
+        match self {
+            LensFormat::ThicknessAfter => "thickness-after",
+            LensFormat::GapBefore => "gap-before",
+        }
+    }
+}
+
+impl std::str::FromStr for LensFormat {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        match s {
+            "thickness-after" => Ok(LensFormat::ThicknessAfter),
+            "gap-before" => Ok(LensFormat::GapBefore),
+            other => Err(format!(
+                "unknown lens format '{other}': use thickness-after or gap-before"
+            )),
+        }
+    }
+}
+
+/// What kind of surface a row describes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum SurfaceKind {
+    /// A spherical refracting surface.
+    Spherical,
+    /// A plane refracting surface (`inf` or a huge radius in the file).
+    Flat,
+    /// The aperture stop (radius 0 in the file): a plane hole in an opaque diaphragm.
+    Stop,
+}
+
+/// One normalised row: thickness is the distance to the next surface (the last row's is 0).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SurfaceRow {
+    /// Signed radius of curvature, mm; > 0 when the centre lies on the film side. Infinite
+    /// for flat surfaces, 0 for the stop.
+    pub radius: f64,
+    pub thickness: f64,
+    /// Refractive index of the medium after the surface, toward the film (1 for air, the
+    /// stop's 0 included).
+    pub index: f64,
+    /// Clear aperture diameter, mm.
+    pub aperture: f64,
+    /// 1-based line in the source file (0 for rows made in code).
+    pub line: usize,
+}
+
+impl SurfaceRow {
+    pub fn kind(&self) -> SurfaceKind {
+        if self.radius == 0.0 {
+            SurfaceKind::Stop
+        } else if self.radius.abs() >= FLAT_RADIUS_MM {
+            SurfaceKind::Flat
+        } else {
+            SurfaceKind::Spherical
+        }
+    }
+
+    /// Curvature 1/R (0 for flat surfaces and the stop).
+    pub fn curvature(&self) -> f64 {
+        match self.kind() {
+            SurfaceKind::Spherical => 1.0 / self.radius,
+            SurfaceKind::Flat | SurfaceKind::Stop => 0.0,
+        }
+    }
+
+    pub fn is_stop(&self) -> bool {
+        self.kind() == SurfaceKind::Stop
+    }
+}
+
+/// A parsed, validated lens.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Prescription {
+    /// File stem, e.g. `dgauss.50mm`.
+    pub name: String,
+    pub source: PathBuf,
+    /// The layout the file was read in.
+    pub format: LensFormat,
+    pub rows: Vec<SurfaceRow>,
+}
+
+/// A problem with a prescription file, located by line where it has one.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub struct PrescriptionError {
+    pub file: PathBuf,
+    pub line: Option<usize>,
+    pub message: String,
+}
+
+impl fmt::Display for PrescriptionError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self.line {
+            Some(line) => write!(f, "{}:{}: {}", self.file.display(), line, self.message),
+            None => write!(f, "{}: {}", self.file.display(), self.message),
+        }
+    }
+}
+
+impl Prescription {
+    /// Reads and validates a prescription file; `format` overrides layout detection.
+    pub fn load(
+        path: &Path,
+        format: Option<LensFormat>,
+    ) -> Result<Prescription, PrescriptionError> {
+        let error = |message: String| PrescriptionError {
+            file: path.to_path_buf(),
+            line: None,
+            message,
+        };
+        let metadata =
+            std::fs::metadata(path).map_err(|e| error(format!("cannot read lens file: {e}")))?;
+        if metadata.is_dir() {
+            return Err(error("is a directory, not a lens file".into()));
+        }
+        if metadata.len() > MAX_FILE_BYTES {
+            return Err(error(format!(
+                "is {} bytes; a lens prescription is a small text table (limit {} bytes)",
+                metadata.len(),
+                MAX_FILE_BYTES
+            )));
+        }
+        let bytes =
+            std::fs::read(path).map_err(|e| error(format!("cannot read lens file: {e}")))?;
+        let text = String::from_utf8(bytes).map_err(|_| {
+            error("is not a text file (invalid UTF-8); expected rows of 'radius thickness index aperture'".into())
+        })?;
+        Prescription::parse(&text, path, format)
+    }
+
+    /// Parses prescription text; `source` names it in errors and gives the lens its name.
+    pub fn parse(
+        text: &str,
+        source: &Path,
+        format: Option<LensFormat>,
+    ) -> Result<Prescription, PrescriptionError> {
+        let raw = parse_rows(text, source)?;
+        let error = |line: Option<usize>, message: String| PrescriptionError {
+            file: source.to_path_buf(),
+            line,
+            message,
+        };
+        if raw.is_empty() {
+            return Err(error(
+                None,
+                "no surfaces: expected rows of 'radius thickness index aperture' (mm)".into(),
+            ));
+        }
+        let format = match format {
+            Some(f) => f,
+            None => detect_format(&raw).map_err(|m| error(None, m))?,
+        };
+        let rows = normalise(&raw, format);
+        let name = source
+            .file_name()
+            .map(|n| n.to_string_lossy().trim_end_matches(".dat").to_string())
+            .unwrap_or_else(|| "lens".into());
+        Prescription::from_rows(&name, source, format, rows)
+    }
+
+    /// A prescription from rows already in thickness-after form (edited lens entities),
+    /// validated as a file would be.
+    pub fn from_rows(
+        name: &str,
+        source: &Path,
+        format: LensFormat,
+        rows: Vec<SurfaceRow>,
+    ) -> Result<Prescription, PrescriptionError> {
+        if rows.is_empty() {
+            return Err(PrescriptionError {
+                file: source.to_path_buf(),
+                line: None,
+                message: "no surfaces".into(),
+            });
+        }
+        let prescription = Prescription {
+            name: name.to_string(),
+            source: source.to_path_buf(),
+            format,
+            rows,
+        };
+        prescription.validate()?;
+        Ok(prescription)
+    }
+
+    /// Index of the aperture stop row.
+    pub fn stop_index(&self) -> usize {
+        self.rows.iter().position(SurfaceRow::is_stop).unwrap_or(0)
+    }
+
+    /// Distance from the first to the last vertex, mm.
+    pub fn vertex_span(&self) -> f64 {
+        self.rows[..self.rows.len() - 1]
+            .iter()
+            .map(|r| r.thickness)
+            .sum()
+    }
+
+    fn validate(&self) -> Result<(), PrescriptionError> {
+        let error = |line: usize, message: String| PrescriptionError {
+            file: self.source.clone(),
+            line: (line > 0).then_some(line),
+            message,
+        };
+        let stops: Vec<&SurfaceRow> = self.rows.iter().filter(|r| r.is_stop()).collect();
+        match stops.len() {
+            0 => {
+                return Err(error(
+                    0,
+                    "no aperture stop: one row must have radius 0 (the diaphragm)".into(),
+                ));
+            }
+            1 => {}
+            _ => {
+                return Err(error(
+                    stops[1].line,
+                    format!(
+                        "a second aperture stop (radius 0; the first is on line {}): a lens has exactly one",
+                        stops[0].line
+                    ),
+                ));
+            }
+        }
+        let last = self.rows.len() - 1;
+        for row in &self.rows {
+            if row.aperture <= 0.0 {
+                return Err(error(
+                    row.line,
+                    format!("aperture diameter {} must be positive", row.aperture),
+                ));
+            }
+            if row.thickness < 0.0 {
+                return Err(error(
+                    row.line,
+                    format!("negative thickness {} mm", row.thickness),
+                ));
+            }
+            if row.index < 1.0 {
+                return Err(error(
+                    row.line,
+                    format!(
+                        "refractive index {} is below 1 (use 1 or 0 for air)",
+                        row.index
+                    ),
+                ));
+            }
+            if row.kind() == SurfaceKind::Spherical && row.aperture / 2.0 > row.radius.abs() {
+                return Err(error(
+                    row.line,
+                    format!(
+                        "clear aperture {} mm is wider than the sphere of radius {} mm allows",
+                        row.aperture, row.radius
+                    ),
+                ));
+            }
+        }
+        if self.rows[last].is_stop() {
+            return Err(error(
+                self.rows[last].line,
+                "the aperture stop cannot be the last surface: the rear element must be glass"
+                    .into(),
+            ));
+        }
+        self.check_overlaps()
+    }
+
+    /// Neighbouring surfaces must not cross inside their common clear aperture: a lens whose
+    /// glass or air gaps have negative thickness anywhere is not buildable, and tracing it
+    /// would send rays backwards.
+    fn check_overlaps(&self) -> Result<(), PrescriptionError> {
+        const SAMPLES: usize = 32;
+        const TOLERANCE_MM: f64 = 1e-6;
+        for pair in self.rows.windows(2) {
+            let (front, back) = (&pair[0], &pair[1]);
+            let semi = front.aperture.min(back.aperture) / 2.0;
+            for k in 0..=SAMPLES {
+                let h = semi * k as f64 / SAMPLES as f64;
+                let gap = front.thickness + sag(back, h) - sag(front, h);
+                if gap < -TOLERANCE_MM {
+                    return Err(PrescriptionError {
+                        file: self.source.clone(),
+                        line: Some(back.line).filter(|&l| l > 0),
+                        message: format!(
+                            "this surface crosses the previous one (line {}) {:.3} mm from the axis, inside their clear apertures; check the thickness column and the layout (--lens-format)",
+                            front.line, h
+                        ),
+                    });
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Sag (axial depth) of a surface at height `h` from the axis, measured from its vertex
+/// toward +z (the film).
+pub fn sag(row: &SurfaceRow, h: f64) -> f64 {
+    let c = row.curvature();
+    if c == 0.0 {
+        return 0.0;
+    }
+    // c h² / (1 + sqrt(1 − c² h²)) is R − sign(R) sqrt(R² − h²) without the cancellation.
+    let root = (1.0 - c * c * h * h).max(0.0).sqrt();
+    c * h * h / (1.0 + root)
+}
+
+/// A row as written in the file, before layout normalisation.
+struct RawRow {
+    values: [f64; 4],
+    line: usize,
+}
+
+fn parse_rows(text: &str, source: &Path) -> Result<Vec<RawRow>, PrescriptionError> {
+    let mut rows = Vec::new();
+    for (i, line) in text.lines().enumerate() {
+        let line_number = i + 1;
+        let error = |message: String| PrescriptionError {
+            file: source.to_path_buf(),
+            line: Some(line_number),
+            message,
+        };
+        let content = line.split('#').next().unwrap_or("").trim();
+        if content.is_empty() {
+            continue;
+        }
+        if content.len() > 1000 {
+            return Err(error(format!(
+                "line is {} characters long; expected 4 numbers",
+                content.len()
+            )));
+        }
+        let fields: Vec<&str> = content.split_whitespace().collect();
+        if fields.len() != 4 {
+            return Err(error(format!(
+                "expected 4 columns 'radius thickness index aperture', found {}: '{}'",
+                fields.len(),
+                shorten(content)
+            )));
+        }
+        let mut values = [0.0; 4];
+        const COLUMNS: [&str; 4] = ["radius", "thickness", "index", "aperture"];
+        for (c, field) in fields.iter().enumerate() {
+            let value = parse_number(field, c == 0).ok_or_else(|| {
+                error(format!(
+                    "{} '{}' is not a number{}",
+                    COLUMNS[c],
+                    shorten(field),
+                    if c == 0 {
+                        " (use inf for a flat surface)"
+                    } else {
+                        ""
+                    }
+                ))
+            })?;
+            values[c] = value;
+        }
+        rows.push(RawRow {
+            values,
+            line: line_number,
+        });
+    }
+    Ok(rows)
+}
+
+/// A finite number, or for the radius column also ±inf (a flat surface).
+fn parse_number(field: &str, allow_infinite: bool) -> Option<f64> {
+    let value: f64 = field.parse().ok()?;
+    if value.is_nan() || (value.is_infinite() && !allow_infinite) {
+        return None;
+    }
+    Some(value)
+}
+
+fn shorten(s: &str) -> String {
+    const MAX: usize = 60;
+    if s.chars().count() <= MAX {
+        s.to_string()
+    } else {
+        format!("{}…", s.chars().take(MAX).collect::<String>())
+    }
+}
+
+fn detect_format(rows: &[RawRow]) -> Result<LensFormat, String> {
+    let first_zero = rows[0].values[1] == 0.0;
+    let last_zero = rows[rows.len() - 1].values[1] == 0.0;
+    match (first_zero, last_zero) {
+        (true, false) => Ok(LensFormat::GapBefore),
+        (false, true) => Ok(LensFormat::ThicknessAfter),
+        _ => Err(format!(
+            "cannot tell the layout of the thickness column ({}): pass --lens-format thickness-after (distance to the next surface, last row 0) or --lens-format gap-before (distance from the previous surface, first row 0)",
+            if first_zero {
+                "first and last rows are both 0"
+            } else {
+                "neither the first nor the last row is 0"
+            }
+        )),
+    }
+}
+
+fn normalise(raw: &[RawRow], format: LensFormat) -> Vec<SurfaceRow> {
+    let n = raw.len();
+    (0..n)
+        .map(|i| {
+            let [radius, column2, index, aperture] = raw[i].values;
+            let thickness = match format {
+                LensFormat::ThicknessAfter if i + 1 < n => column2,
+                LensFormat::GapBefore if i + 1 < n => raw[i + 1].values[1],
+                _ => 0.0,
+            };
+            SurfaceRow {
+                radius,
+                thickness,
+                // The stop's 0 (and any 0) in the index column means air.
+                index: if index == 0.0 { 1.0 } else { index },
+                aperture,
+                line: raw[i].line,
+            }
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn parse(text: &str) -> Result<Prescription, PrescriptionError> {
+        Prescription::parse(text, Path::new("test.dat"), None)
+    }
+
+    const SIMPLE_AFTER: &str = "# comment\n50 5 1.5 20\n0 5 0 10\n-50 0 1 20\n";
+
+    #[test]
+    fn thickness_after_layout() {
+        let p = parse(SIMPLE_AFTER).unwrap();
+        assert_eq!(p.format, LensFormat::ThicknessAfter);
+        assert_eq!(p.rows.len(), 3);
+        assert_eq!(p.rows[0].thickness, 5.0);
+        assert_eq!(p.rows[1].index, 1.0);
+        assert_eq!(p.stop_index(), 1);
+        assert_eq!(p.vertex_span(), 10.0);
+    }
+
+    #[test]
+    fn gap_before_layout_gives_same_rows() {
+        let before = "50 0 1.5 20\r\n0\t5 0 10  # stop \"quoted\r\n-50 5 1 20";
+        let a = parse(SIMPLE_AFTER).unwrap();
+        let b = parse(before).unwrap();
+        assert_eq!(b.format, LensFormat::GapBefore);
+        let strip = |p: &Prescription| {
+            p.rows
+                .iter()
+                .map(|r| (r.radius, r.thickness, r.index, r.aperture))
+                .collect::<Vec<_>>()
+        };
+        assert_eq!(strip(&a), strip(&b));
+    }
+
+    #[test]
+    fn infinite_radius_is_flat() {
+        let p = parse("inf 5 1.5 20\n0 5 0 10\n-50 0 1 20\n").unwrap();
+        assert_eq!(p.rows[0].kind(), SurfaceKind::Flat);
+        assert_eq!(p.rows[0].curvature(), 0.0);
+        let p = parse("1e12 5 1.5 20\n0 5 0 10\n-50 0 1 20\n").unwrap();
+        assert_eq!(p.rows[0].kind(), SurfaceKind::Flat);
+    }
+
+    #[test]
+    fn ambiguous_layout_asks_for_override() {
+        let e = parse("50 5 1.5 20\n0 5 0 10\n-50 3 1 20\n").unwrap_err();
+        assert!(e.to_string().contains("--lens-format"), "{e}");
+        let p = Prescription::parse(
+            "50 5 1.5 20\n0 5 0 10\n-50 3 1 20\n",
+            Path::new("x.dat"),
+            Some(LensFormat::ThicknessAfter),
+        )
+        .unwrap();
+        assert_eq!(p.rows[2].thickness, 0.0);
+    }
+
+    #[test]
+    fn bad_files_name_file_and_line() {
+        let cases: &[(&str, &str, Option<usize>)] = &[
+            ("", "no surfaces", None),
+            ("# only a comment\n", "no surfaces", None),
+            ("50 5 1.5 20\n-50 0 1 20\n", "no aperture stop", None),
+            (
+                "50 5 1.5 20\n0 5 0 10\n0 5 0 10\n-50 0 1 20\n",
+                "second aperture stop",
+                Some(3),
+            ),
+            (
+                "50 5 1.5\n0 5 0 10\n-50 0 1 20\n",
+                "expected 4 columns",
+                Some(1),
+            ),
+            (
+                "50 5 glass 20\n0 5 0 10\n-50 0 1 20\n",
+                "index 'glass' is not a number",
+                Some(1),
+            ),
+            (
+                "50 5 1.5 nan\n0 5 0 10\n-50 0 1 20\n",
+                "aperture 'nan'",
+                Some(1),
+            ),
+            (
+                "50 inf 1.5 20\n0 5 0 10\n-50 0 1 20\n",
+                "thickness 'inf'",
+                Some(1),
+            ),
+            (
+                "50 5 1.5 -20\n0 5 0 10\n-50 0 1 20\n",
+                "must be positive",
+                Some(1),
+            ),
+            (
+                "50 5 1.5 0\n0 5 0 10\n-50 0 1 20\n",
+                "must be positive",
+                Some(1),
+            ),
+            (
+                "50 -5 1.5 20\n0 5 0 10\n-50 0 1 20\n",
+                "negative thickness",
+                Some(1),
+            ),
+            ("50 5 0.5 20\n0 5 0 10\n-50 0 1 20\n", "below 1", Some(1)),
+            (
+                "5 5 1.5 20\n0 5 0 10\n-50 0 1 20\n",
+                "wider than the sphere",
+                Some(1),
+            ),
+            (
+                "20 0.5 1.5 20\n-20 5 1 20\n0 0 0 10\n-50 0 1 20\n",
+                "crosses the previous one",
+                Some(2),
+            ),
+            (
+                "50 5 1.5 20\n-50 0 0 10\n0 0 0 10",
+                "cannot be the last surface",
+                Some(3),
+            ),
+        ];
+        for (text, expect, line) in cases {
+            let e =
+                Prescription::parse(text, Path::new("bad.dat"), Some(LensFormat::ThicknessAfter))
+                    .unwrap_err();
+            let shown = e.to_string();
+            assert!(shown.contains(expect), "{text:?}: {shown}");
+            assert!(shown.starts_with("bad.dat"), "{shown}");
+            assert_eq!(e.line, *line, "{text:?}: {shown}");
+        }
+    }
+
+    #[test]
+    fn sag_matches_sphere_geometry() {
+        let row = SurfaceRow {
+            radius: -40.0,
+            thickness: 0.0,
+            index: 1.0,
+            aperture: 20.0,
+            line: 0,
+        };
+        let h: f64 = 10.0;
+        let expected = -(40.0 - (40.0f64 * 40.0 - h * h).sqrt());
+        assert!((sag(&row, h) - expected).abs() < 1e-12);
+    }
+}

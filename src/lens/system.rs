@@ -1,0 +1,109 @@
+//! The packed form of a lens that tracing reads: surface parameters as structure-of-arrays.
+
+use super::prescription::{SurfaceKind, SurfaceRow};
+
+/// Surface parameters in one precision, one array per parameter, indexed by surface (front to
+/// back). `f64` for the reference optics, `f32` for the batched render path.
+#[derive(Clone, Debug, PartialEq, Default)]
+pub struct SurfaceArrays<T> {
+    /// Lens-frame z of each vertex (the first is 0).
+    pub vertex_z: Vec<T>,
+    /// 1/R; 0 for flat surfaces and the stop.
+    pub curvature: Vec<T>,
+    /// Square of the clear semi-aperture (the stop's as currently set).
+    pub semi_aperture_sq: Vec<T>,
+    /// Refractive index on the scene side of each surface.
+    pub index_front: Vec<T>,
+    /// Refractive index on the film side of each surface.
+    pub index_back: Vec<T>,
+}
+
+impl<T: Copy> SurfaceArrays<T> {
+    pub fn len(&self) -> usize {
+        self.vertex_z.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.vertex_z.is_empty()
+    }
+
+    fn from_rows(rows: &[SurfaceRow], convert: impl Fn(f64) -> T) -> Self {
+        let mut arrays = SurfaceArrays {
+            vertex_z: Vec::with_capacity(rows.len()),
+            curvature: Vec::with_capacity(rows.len()),
+            semi_aperture_sq: Vec::with_capacity(rows.len()),
+            index_front: Vec::with_capacity(rows.len()),
+            index_back: Vec::with_capacity(rows.len()),
+        };
+        let mut z = 0.0;
+        let mut index_before = 1.0;
+        for row in rows {
+            arrays.vertex_z.push(convert(z));
+            arrays.curvature.push(convert(row.curvature()));
+            arrays
+                .semi_aperture_sq
+                .push(convert((row.aperture / 2.0).powi(2)));
+            arrays.index_front.push(convert(index_before));
+            arrays.index_back.push(convert(row.index));
+            z += row.thickness;
+            index_before = row.index;
+        }
+        arrays
+    }
+}
+
+/// A lens ready for tracing: its rows with the stop opened to the chosen diameter, and the
+/// same data packed as arrays in f64 and f32.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LensSystem {
+    pub rows: Vec<SurfaceRow>,
+    pub stop: usize,
+    pub f64s: SurfaceArrays<f64>,
+    pub f32s: SurfaceArrays<f32>,
+}
+
+impl LensSystem {
+    /// Packs `rows` (thickness-after, validated); `stop_diameter` replaces the stop row's
+    /// aperture when given (the caller clamps it to the row's maximum).
+    pub fn new(rows: &[SurfaceRow], stop_diameter: Option<f64>) -> LensSystem {
+        let mut rows = rows.to_vec();
+        let stop = rows
+            .iter()
+            .position(|r| r.kind() == SurfaceKind::Stop)
+            .unwrap_or(0);
+        if let Some(d) = stop_diameter {
+            rows[stop].aperture = d;
+        }
+        let f64s = SurfaceArrays::from_rows(&rows, |v| v);
+        let f32s = SurfaceArrays::from_rows(&rows, |v| v as f32);
+        LensSystem {
+            rows,
+            stop,
+            f64s,
+            f32s,
+        }
+    }
+
+    pub fn surface_count(&self) -> usize {
+        self.rows.len()
+    }
+
+    /// Lens-frame z of the rear (last) vertex, mm.
+    pub fn rear_z(&self) -> f64 {
+        *self.f64s.vertex_z.last().unwrap_or(&0.0)
+    }
+
+    /// Clear semi-aperture of the rear element, mm.
+    pub fn rear_semi_aperture(&self) -> f64 {
+        self.rows.last().map_or(0.0, |r| r.aperture / 2.0)
+    }
+
+    /// Clear semi-aperture of the front element, mm.
+    pub fn front_semi_aperture(&self) -> f64 {
+        self.rows.first().map_or(0.0, |r| r.aperture / 2.0)
+    }
+
+    pub fn stop_diameter(&self) -> f64 {
+        self.rows[self.stop].aperture
+    }
+}

@@ -1,0 +1,309 @@
+//! Exact ray tracing through the lens, one ray at a time: the reference implementation.
+//!
+//! Written for clarity in the textbook form (sphere centre, quadratic, Snell's law in vector
+//! form) and generic over the float type, so the same code is the f64 reference for the optics
+//! and the f32 per-ray path that the batched SoA tracer ([`super::trace_batch`]) is measured
+//! against. Lens frame, mm (see [`crate::lens`]).
+
+use num_traits::Float;
+
+use super::system::SurfaceArrays;
+
+/// A ray in the lens frame; `direction` is a unit vector.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Ray<T> {
+    pub origin: [T; 3],
+    pub direction: [T; 3],
+}
+
+/// Which way a ray travels through the lens.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Travel {
+    /// From the scene (z < 0) toward the film (+z), surfaces front to back.
+    SceneToFilm,
+    /// From the film toward the scene (−z), surfaces back to front.
+    FilmToScene,
+}
+
+/// Why a ray stopped inside the lens.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum BlockReason {
+    /// Hit the surface outside its clear aperture (or the diaphragm around the stop).
+    Aperture,
+    /// Total internal reflection.
+    Tir,
+    /// Never reaches the surface's cap next to its vertex, or turned back after refracting.
+    Miss,
+}
+
+/// The first surface (row index, front = 0) that stopped a ray, and why.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Blocked {
+    pub reason: BlockReason,
+    pub surface: usize,
+}
+
+/// Traces `ray` through every surface in the order of `travel`; on success returns the ray as
+/// it leaves the last surface crossed (point on that surface, refracted unit direction).
+pub fn trace<T: Float>(
+    surfaces: &SurfaceArrays<T>,
+    ray: Ray<T>,
+    travel: Travel,
+) -> Result<Ray<T>, Blocked> {
+    trace_with(surfaces, ray, travel, true)
+}
+
+/// As [`trace`], optionally ignoring clear apertures (for geometric chief rays).
+pub fn trace_with<T: Float>(
+    surfaces: &SurfaceArrays<T>,
+    mut ray: Ray<T>,
+    travel: Travel,
+    check_apertures: bool,
+) -> Result<Ray<T>, Blocked> {
+    let n = surfaces.len();
+    for step in 0..n {
+        let i = match travel {
+            Travel::SceneToFilm => step,
+            Travel::FilmToScene => n - 1 - step,
+        };
+        let (index_in, index_out) = match travel {
+            Travel::SceneToFilm => (surfaces.index_front[i], surfaces.index_back[i]),
+            Travel::FilmToScene => (surfaces.index_back[i], surfaces.index_front[i]),
+        };
+        let blocked = |reason| Blocked { reason, surface: i };
+        let curvature = surfaces.curvature[i];
+        let vertex_z = surfaces.vertex_z[i];
+        let t = intersect_surface(vertex_z, curvature, &ray).ok_or(blocked(BlockReason::Miss))?;
+        let p = add(ray.origin, scale(ray.direction, t));
+        if check_apertures && p[0] * p[0] + p[1] * p[1] > surfaces.semi_aperture_sq[i] {
+            return Err(blocked(BlockReason::Aperture));
+        }
+        let normal = surface_normal(vertex_z, curvature, p);
+        let direction = refract(ray.direction, normal, index_in / index_out)
+            .ok_or(blocked(BlockReason::Tir))?;
+        let forward = match travel {
+            Travel::SceneToFilm => direction[2] > T::zero(),
+            Travel::FilmToScene => direction[2] < T::zero(),
+        };
+        if !forward {
+            return Err(blocked(BlockReason::Miss));
+        }
+        ray = Ray {
+            origin: p,
+            direction,
+        };
+    }
+    Ok(ray)
+}
+
+/// Distance along the ray to the surface's cap next to its vertex, if the ray reaches it ahead.
+///
+/// A sphere is met twice by a line; a lens surface is only the cap around the vertex, i.e. the
+/// points with c·(z − z_vertex) < 1 (nearer the vertex than the sphere's equator). The quadratic
+/// is solved in the numerically stable form (q = −b − sign(b)·√Δ; roots q and c/q) with the
+/// constant term expanded about the vertex, so flat-ish surfaces lose no precision.
+pub fn intersect_surface<T: Float>(vertex_z: T, curvature: T, ray: &Ray<T>) -> Option<T> {
+    let [ox, oy, oz] = ray.origin;
+    let [dx, dy, dz] = ray.direction;
+    let ovz = oz - vertex_z;
+    let epsilon = T::from(1e-9).unwrap_or_else(T::epsilon);
+    if curvature == T::zero() {
+        if dz == T::zero() {
+            return None;
+        }
+        let t = -ovz / dz;
+        return (t > epsilon).then_some(t);
+    }
+    let radius = curvature.recip();
+    // Relative to the centre (0, 0, vertex_z + R): b = oc·d, c0 = |oc|² − R² expanded about the
+    // vertex as |ov|² − 2R·ov_z to avoid cancelling two large squares.
+    let b = ox * dx + oy * dy + (ovz - radius) * dz;
+    let c0 = ox * ox + oy * oy + ovz * ovz - (radius + radius) * ovz;
+    let discriminant = b * b - c0;
+    if discriminant < T::zero() {
+        return None;
+    }
+    let root = discriminant.sqrt();
+    let q = -b - if b < T::zero() { -root } else { root };
+    let mut best: Option<T> = None;
+    for t in [
+        q,
+        if q != T::zero() {
+            c0 / q
+        } else {
+            T::infinity()
+        },
+    ] {
+        let z = ovz + t * dz;
+        let on_vertex_cap = curvature * z < T::one();
+        if t > epsilon && t.is_finite() && on_vertex_cap && best.is_none_or(|b| t < b) {
+            best = Some(t);
+        }
+    }
+    best
+}
+
+/// Unit normal of the surface at `p`, pointing toward the scene (−z) at the vertex.
+///
+/// For a sphere, (p − centre)/R = (c·x, c·y, c·(z − z_vertex) − 1), which is (0, 0, −1) on
+/// the axis whatever the sign of R, and stays well defined as c → 0.
+pub fn surface_normal<T: Float>(vertex_z: T, curvature: T, p: [T; 3]) -> [T; 3] {
+    normalize([
+        curvature * p[0],
+        curvature * p[1],
+        curvature * (p[2] - vertex_z) - T::one(),
+    ])
+}
+
+/// Snell refraction of unit `direction` at a surface with unit `normal` (either orientation),
+/// `eta` = n_incident / n_transmitted. `None` on total internal reflection.
+pub fn refract<T: Float>(direction: [T; 3], normal: [T; 3], eta: T) -> Option<[T; 3]> {
+    let mut n = normal;
+    let mut cos_i = -dot(direction, n);
+    if cos_i < T::zero() {
+        n = scale(n, -T::one());
+        cos_i = -cos_i;
+    }
+    let sin2_t = eta * eta * (T::one() - cos_i * cos_i);
+    if sin2_t > T::one() {
+        return None;
+    }
+    let cos_t = (T::one() - sin2_t).sqrt();
+    Some(normalize(add(
+        scale(direction, eta),
+        scale(n, eta * cos_i - cos_t),
+    )))
+}
+
+pub fn dot<T: Float>(a: [T; 3], b: [T; 3]) -> T {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+pub fn add<T: Float>(a: [T; 3], b: [T; 3]) -> [T; 3] {
+    [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
+}
+
+pub fn scale<T: Float>(a: [T; 3], s: T) -> [T; 3] {
+    [a[0] * s, a[1] * s, a[2] * s]
+}
+
+pub fn normalize<T: Float>(a: [T; 3]) -> [T; 3] {
+    let length = dot(a, a).sqrt();
+    if length > T::zero() {
+        scale(a, length.recip())
+    } else {
+        a
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::lens::{LensSystem, SurfaceRow};
+
+    fn row(radius: f64, thickness: f64, index: f64, aperture: f64) -> SurfaceRow {
+        SurfaceRow {
+            radius,
+            thickness,
+            index,
+            aperture,
+            line: 0,
+        }
+    }
+
+    #[test]
+    fn vertex_cap_is_chosen_for_both_signs_and_directions() {
+        for &(radius, dz) in &[(10.0, 1.0), (-10.0, 1.0), (10.0, -1.0), (-10.0, -1.0)] {
+            let ray = Ray {
+                origin: [1.0, 0.0, -30.0 * dz],
+                direction: [0.0, 0.0, dz],
+            };
+            let t = intersect_surface(0.0, 1.0 / radius, &ray).unwrap();
+            let z = ray.origin[2] + t * dz;
+            let expected_z = radius - (radius * radius - 1.0f64).sqrt() * radius.signum();
+            assert!((z - expected_z).abs() < 1e-12, "R={radius} dz={dz}: z={z}");
+        }
+    }
+
+    #[test]
+    fn snell_law_holds() {
+        let theta: f64 = 0.4;
+        let d = [theta.sin(), 0.0, theta.cos()];
+        let out = refract(d, [0.0, 0.0, -1.0], 1.0 / 1.5).unwrap();
+        assert!((out[0] * 1.5 - theta.sin()).abs() < 1e-12);
+        assert!(
+            refract([0.8, 0.0, 0.6], [0.0, 0.0, -1.0], 1.5).is_none(),
+            "TIR expected"
+        );
+    }
+
+    #[test]
+    fn flat_plate_shifts_but_keeps_direction() {
+        // A tilted ray through a parallel plate leaves parallel to itself (Snell twice).
+        let system = LensSystem::new(
+            &[
+                row(f64::INFINITY, 5.0, 1.5, 40.0),
+                row(0.0, 5.0, 1.0, 30.0),
+                row(f64::INFINITY, 0.0, 1.0, 40.0),
+            ],
+            None,
+        );
+        let d = normalize([0.2, 0.1, 1.0]);
+        let out = trace(
+            &system.f64s,
+            Ray {
+                origin: [0.0, 0.0, -10.0],
+                direction: d,
+            },
+            Travel::SceneToFilm,
+        )
+        .unwrap();
+        for k in 0..3 {
+            assert!((out.direction[k] - d[k]).abs() < 1e-12);
+        }
+    }
+
+    #[test]
+    fn blocked_reasons() {
+        let system = LensSystem::new(
+            &[
+                row(20.0, 5.0, 1.5, 10.0),
+                row(0.0, 5.0, 1.0, 4.0),
+                row(-20.0, 0.0, 1.0, 10.0),
+            ],
+            None,
+        );
+        let outside = Ray {
+            origin: [6.0, 0.0, -10.0],
+            direction: [0.0, 0.0, 1.0],
+        };
+        assert_eq!(
+            trace(&system.f64s, outside, Travel::SceneToFilm),
+            Err(Blocked {
+                reason: BlockReason::Aperture,
+                surface: 0
+            })
+        );
+        let at_stop = Ray {
+            origin: [3.0, 0.0, -10.0],
+            direction: [0.0, 0.0, 1.0],
+        };
+        assert_eq!(
+            trace(&system.f64s, at_stop, Travel::SceneToFilm)
+                .unwrap_err()
+                .surface,
+            1
+        );
+        let parallel = Ray {
+            origin: [0.0, 0.0, -10.0],
+            direction: [1.0, 0.0, 0.0],
+        };
+        assert_eq!(
+            trace(&system.f64s, parallel, Travel::SceneToFilm)
+                .unwrap_err()
+                .reason,
+            BlockReason::Miss
+        );
+    }
+}
