@@ -6,7 +6,10 @@
 
 pub mod accel;
 pub mod batch;
+pub mod cli;
+pub mod film;
 pub mod lens;
+pub mod pipeline;
 pub mod sampling;
 pub mod scene;
 pub mod shade;

@@ -235,16 +235,7 @@ fn f_number_sizes_the_entrance_pupil() {
             // entrance pupil from how much a ray from infinity shrinks on its way to the stop.
             let (efl, _) = thick_lens_from_real_rays(&stopped, 1e-3).unwrap();
             let h = 1e-4;
-            let mut front = stopped.f64s.clone();
-            for v in [
-                &mut front.vertex_z,
-                &mut front.curvature,
-                &mut front.semi_aperture_sq,
-                &mut front.index_front,
-                &mut front.index_back,
-            ] {
-                v.truncate(stopped.stop);
-            }
+            let front = stopped.f64s.slice(0..stopped.stop);
             let out = trace(
                 &front,
                 Ray {
@@ -284,17 +275,7 @@ fn pupils_are_images_of_the_stop() {
             origin: [0.0, 0.0, stop_z],
             direction: normalize([u, 0.0, -1.0]),
         };
-        let mut front_only = system.f64s.clone();
-        let keep = system.stop;
-        for v in [
-            &mut front_only.vertex_z,
-            &mut front_only.curvature,
-            &mut front_only.semi_aperture_sq,
-            &mut front_only.index_front,
-            &mut front_only.index_back,
-        ] {
-            v.truncate(keep);
-        }
+        let front_only = system.f64s.slice(0..system.stop);
         let out = trace(&front_only, back, Travel::FilmToScene).unwrap();
         let ep_z = out.origin[2] - out.origin[0] * out.direction[2] / out.direction[0];
         assert!(
@@ -306,16 +287,7 @@ fn pupils_are_images_of_the_stop() {
             origin: [0.0, 0.0, stop_z],
             direction: normalize([u, 0.0, 1.0]),
         };
-        let mut back_only = system.f64s.clone();
-        for v in [
-            &mut back_only.vertex_z,
-            &mut back_only.curvature,
-            &mut back_only.semi_aperture_sq,
-            &mut back_only.index_front,
-            &mut back_only.index_back,
-        ] {
-            v.drain(..keep + 1);
-        }
+        let back_only = system.f64s.slice(system.stop + 1..system.surface_count());
         let out = trace(&back_only, fwd, Travel::SceneToFilm).unwrap();
         let xp_z = out.origin[2] - out.origin[0] * out.direction[2] / out.direction[0];
         assert!(

@@ -17,8 +17,11 @@
 //! * Every z reported to users (`realcam lens --json`) is a lens-frame z in mm.
 
 pub mod aperture;
+pub mod bundled;
 pub mod camera;
+pub mod diagram;
 pub mod elements;
+pub mod field;
 pub mod first_order;
 pub mod focus;
 pub mod prescription;

@@ -27,6 +27,17 @@ impl<T: Copy> SurfaceArrays<T> {
         self.vertex_z.is_empty()
     }
 
+    /// The surfaces in `range` alone (a front or rear group), keeping their lens-frame z.
+    pub fn slice(&self, range: std::ops::Range<usize>) -> SurfaceArrays<T> {
+        SurfaceArrays {
+            vertex_z: self.vertex_z[range.clone()].to_vec(),
+            curvature: self.curvature[range.clone()].to_vec(),
+            semi_aperture_sq: self.semi_aperture_sq[range.clone()].to_vec(),
+            index_front: self.index_front[range.clone()].to_vec(),
+            index_back: self.index_back[range].to_vec(),
+        }
+    }
+
     fn from_rows(rows: &[SurfaceRow], convert: impl Fn(f64) -> T) -> Self {
         let mut arrays = SurfaceArrays {
             vertex_z: Vec::with_capacity(rows.len()),

@@ -57,9 +57,21 @@ pub fn trace<T: Float>(
 /// As [`trace`], optionally ignoring clear apertures (for geometric chief rays).
 pub fn trace_with<T: Float>(
     surfaces: &SurfaceArrays<T>,
+    ray: Ray<T>,
+    travel: Travel,
+    check_apertures: bool,
+) -> Result<Ray<T>, Blocked> {
+    trace_path(surfaces, ray, travel, check_apertures, |_, _| {})
+}
+
+/// As [`trace_with`], calling `visit(surface, point)` at every surface the ray reaches
+/// (including the one that blocks it, where it has a point there): for drawing ray paths.
+pub fn trace_path<T: Float>(
+    surfaces: &SurfaceArrays<T>,
     mut ray: Ray<T>,
     travel: Travel,
     check_apertures: bool,
+    mut visit: impl FnMut(usize, [T; 3]),
 ) -> Result<Ray<T>, Blocked> {
     let n = surfaces.len();
     for step in 0..n {
@@ -76,6 +88,7 @@ pub fn trace_with<T: Float>(
         let vertex_z = surfaces.vertex_z[i];
         let t = intersect_surface(vertex_z, curvature, &ray).ok_or(blocked(BlockReason::Miss))?;
         let p = add(ray.origin, scale(ray.direction, t));
+        visit(i, p);
         if check_apertures && p[0] * p[0] + p[1] * p[1] > surfaces.semi_aperture_sq[i] {
             return Err(blocked(BlockReason::Aperture));
         }

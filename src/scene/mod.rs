@@ -13,7 +13,10 @@
 //! entities ([`MeshInstance`], [`PunctualLight`], [`SceneCamera`]) and the [`MaterialLibrary`]
 //! resource.
 
+pub mod gltf_loader;
 pub mod texture;
+
+pub use gltf_loader::{load_gltf, load_gltf_bytes};
 
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -180,6 +183,20 @@ pub struct SceneCamera {
     pub yfov: Option<f32>,
     pub aspect_ratio: Option<f32>,
     pub hints: CameraHints,
+}
+
+/// Rigid world-from-camera transform of a camera at `eye` looking at `target` (glTF camera
+/// convention: it looks down its local −Z with +Y up). `up` must not be parallel to the view.
+pub fn look_at(eye: Vec3, target: Vec3, up: Vec3) -> Mat4 {
+    let back = (eye - target).normalize();
+    let right = up.cross(back).normalize();
+    let true_up = back.cross(right);
+    Mat4::from_cols(
+        right.extend(0.0),
+        true_up.extend(0.0),
+        back.extend(0.0),
+        eye.extend(1.0),
+    )
 }
 
 /// Axis-aligned bounds in world space.

@@ -16,6 +16,14 @@ pub enum Environment {
     Uniform(Vec3),
 }
 
+/// Loads an equirectangular environment image.
+pub fn load_environment(path: &std::path::Path) -> anyhow::Result<Environment> {
+    anyhow::bail!(
+        "{}: environment images are not supported yet",
+        path.display()
+    )
+}
+
 /// All light sources, prepared for sampling: punctual lights, emissive triangles, environment.
 #[derive(Resource)]
 pub struct LightSet {

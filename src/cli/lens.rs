@@ -1,0 +1,306 @@
+//! `realcam lens FILE`: what a lens is, before rendering with it.
+
+use std::io::Read;
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use anyhow::{Context, bail};
+use clap::Args;
+use serde_json::{Value, json};
+
+use super::options::LensOptions;
+use crate::lens::aperture::ApertureSetting;
+use crate::lens::bundled::load_lens;
+use crate::lens::diagram::draw_diagram;
+use crate::lens::elements::{
+    FilmFormat, FilmPlacement, FocusSetting, LensFault, LensGeometry, activate_lens, spawn_lens,
+};
+use crate::lens::field::field_angle;
+use crate::lens::focus::closest_focus_mm;
+use crate::lens::pupil::ExitPupil;
+use crate::lens::trace::{Ray, Travel, normalize, trace};
+use crate::lens::{Prescription, SurfaceKind};
+use crate::pipeline::Renderer;
+
+#[derive(Args, Debug, Clone)]
+pub struct LensArgs {
+    /// Lens prescription file, or a bundled lens name (e.g. dgauss.50mm).
+    pub file: String,
+    #[command(flatten)]
+    pub lens: LensOptions,
+    /// Print one JSON object instead of the summary.
+    #[arg(long)]
+    pub json: bool,
+    /// Read a JSON array of rays {"origin":[x,y,z],"direction":[x,y,z]} (lens frame, mm,
+    /// heading toward +z) on stdin, trace each scene→film and print the results as JSON.
+    #[arg(long)]
+    pub trace: bool,
+    /// Draw the lens cross-section with traced ray fans to this SVG file.
+    #[arg(long, value_name = "FILE.svg")]
+    pub diagram: Option<PathBuf>,
+}
+
+/// Everything `realcam lens` reports, derived through the same entities and systems the
+/// renderer uses.
+pub struct LensReport {
+    pub prescription: Prescription,
+    pub geometry: LensGeometry,
+    pub film_distance: f64,
+    pub film_diagonal: f64,
+    pub focus: FocusSetting,
+    pub pupil: ExitPupil,
+    pub pupil_seconds: f64,
+}
+
+impl LensReport {
+    pub fn derive(prescription: Prescription, options: &LensOptions) -> anyhow::Result<LensReport> {
+        options.validate()?;
+        let focus = options.focus(FocusSetting::default());
+        let film_diagonal = options.film_diagonal.unwrap_or(35.0);
+        let mut renderer = Renderer::new();
+        renderer.world.insert_resource(FilmFormat {
+            diagonal_mm: film_diagonal,
+            pupil_sampling: options.pupil_sampling,
+        });
+        let entity = spawn_lens(
+            &mut renderer.world,
+            &prescription,
+            focus,
+            options.aperture(ApertureSetting::Full),
+        );
+        activate_lens(&mut renderer.world, entity);
+        let start = std::time::Instant::now();
+        renderer.update()?;
+        let pupil_seconds = start.elapsed().as_secs_f64();
+        let lens = renderer.world.entity(entity);
+        if let Some(fault) = lens.get::<LensFault>() {
+            bail!(fault.0.clone());
+        }
+        let geometry = lens
+            .get::<LensGeometry>()
+            .context("lens geometry was not derived")?
+            .clone();
+        let film_distance = lens
+            .get::<FilmPlacement>()
+            .context("film placement was not derived")?
+            .film_distance;
+        let pupil = lens
+            .get::<ExitPupil>()
+            .context("exit pupil was not derived")?
+            .clone();
+        for warning in &geometry.warnings {
+            eprintln!("warning: {warning}");
+        }
+        Ok(LensReport {
+            prescription,
+            geometry,
+            film_distance,
+            film_diagonal,
+            focus,
+            pupil,
+            pupil_seconds,
+        })
+    }
+
+    /// Diagonal field of view for the film diagonal, degrees (real chief rays).
+    pub fn field_of_view_degrees(&self) -> Option<f64> {
+        field_angle(
+            &self.geometry.system,
+            self.film_distance,
+            self.film_diagonal / 2.0,
+        )
+        .map(|a| 2.0 * a.to_degrees())
+    }
+
+    /// Largest film radius (mm) that still has a chief ray, and its field angle: the image
+    /// circle of a lens (a fisheye's) that does not cover the film's corners.
+    pub fn image_circle(&self) -> Option<(f64, f64)> {
+        const STEPS: usize = 64;
+        (1..=STEPS).rev().find_map(|k| {
+            let h = self.film_diagonal / 2.0 * k as f64 / STEPS as f64;
+            field_angle(&self.geometry.system, self.film_distance, h).map(|a| (h, a))
+        })
+    }
+
+    pub fn to_json(&self) -> Value {
+        let fo = &self.geometry.first_order;
+        let system = &self.geometry.system;
+        let last = system.surface_count() - 1;
+        let surfaces: Vec<Value> = system
+            .rows
+            .iter()
+            .enumerate()
+            .map(|(i, row)| {
+                let thickness = if i == last { self.film_distance } else { row.thickness };
+                json!({
+                    "radius_mm": match row.kind() { SurfaceKind::Flat => Value::Null, _ => json!(row.radius) },
+                    "curvature_per_mm": row.curvature(),
+                    "thickness_mm": thickness,
+                    "index": row.index,
+                    "aperture_mm": row.aperture,
+                    "kind": row.kind(),
+                    "z_mm": system.f64s.vertex_z[i],
+                })
+            })
+            .collect();
+        json!({
+            "name": self.prescription.name,
+            "source": self.prescription.source.display().to_string(),
+            "format": self.prescription.format,
+            "focal_length_mm": fo.focal_length,
+            "back_focal_length_mm": fo.back_focal_length,
+            "front_focal_length_mm": fo.front_focal_z,
+            "principal_planes_mm": { "front": fo.front_principal_z, "rear": fo.rear_principal_z },
+            "entrance_pupil": fo.entrance_pupil,
+            "exit_pupil": fo.exit_pupil,
+            "f_number": fo.f_number,
+            "stop_diameter_mm": system.stop_diameter(),
+            "total_track_mm": system.rear_z() + self.film_distance,
+            "vertex_span_mm": system.rear_z(),
+            "film_distance_mm": self.film_distance,
+            "focus_distance_m": match self.focus { FocusSetting::Distance { metres, .. } => json!(metres), FocusSetting::FilmDistance(_) => Value::Null },
+            "closest_focus_m": closest_focus_mm(system, fo) / 1000.0,
+            "film_diagonal_mm": self.film_diagonal,
+            "field_of_view_deg": self.field_of_view_degrees(),
+            "exit_pupil_bounds": {
+                "segments": self.pupil.segments.len(),
+                "rays_traced": self.pupil.rays_traced,
+            },
+            "surfaces": surfaces,
+        })
+    }
+
+    pub fn summary(&self) -> String {
+        let fo = &self.geometry.first_order;
+        let system = &self.geometry.system;
+        let mut out = format!(
+            "{}  ({}, {} layout)\n\n   #     radius  thickness    index   aperture\n",
+            self.prescription.name,
+            self.prescription.source.display(),
+            self.prescription.format.name()
+        );
+        let last = system.surface_count() - 1;
+        for (i, row) in system.rows.iter().enumerate() {
+            let radius = match row.kind() {
+                SurfaceKind::Stop => "stop".to_string(),
+                SurfaceKind::Flat => "flat".to_string(),
+                SurfaceKind::Spherical => format!("{:.3}", row.radius),
+            };
+            let thickness = if i == last {
+                self.film_distance
+            } else {
+                row.thickness
+            };
+            let note = if i == last { "  (to film)" } else { "" };
+            out += &format!(
+                "{i:4} {radius:>10} {thickness:>10.3} {:>8.4} {:>10.2}{note}\n",
+                row.index, row.aperture
+            );
+        }
+        let focus = match self.focus {
+            FocusSetting::Distance { metres, mode } => {
+                format!("focused at {metres} m, {mode:?} focus")
+            }
+            FocusSetting::FilmDistance(_) => "set directly".into(),
+        };
+        let fov = match self.field_of_view_degrees() {
+            Some(d) => format!("{d:.1}°"),
+            None => self.image_circle().map_or("n/a".into(), |(h, a)| {
+                format!(
+                    "corners outside the image circle (⌀ {:.1} mm, {:.1}° across); n/a",
+                    2.0 * h,
+                    2.0 * a.to_degrees()
+                )
+            }),
+        };
+        out += &format!(
+            "\nfocal length        {:10.3} mm\nback focal length   {:10.3} mm\nfront focal point   z = {:.3} mm\nprincipal planes    front z = {:.3} mm, rear z = {:.3} mm\nentrance pupil      z = {:.3} mm, diameter {:.3} mm\nexit pupil          z = {:.3} mm, diameter {:.3} mm\nf-number            f/{:.2} (stop {:.2} mm)\ntotal track         {:10.3} mm (front vertex to film)\nfilm distance       {:10.3} mm ({focus})\nclosest focus       {:10.3} m\nfield of view       {fov} diagonal on a {} mm film diagonal\nexit-pupil bounds   {} segments, {} rays, {:.3} s to derive\n\nz: lens frame, mm, origin at the front vertex, +z toward the film.\n",
+            fo.focal_length,
+            fo.back_focal_length,
+            fo.front_focal_z,
+            fo.front_principal_z,
+            fo.rear_principal_z,
+            fo.entrance_pupil.z_mm,
+            fo.entrance_pupil.diameter_mm,
+            fo.exit_pupil.z_mm,
+            fo.exit_pupil.diameter_mm,
+            fo.f_number,
+            system.stop_diameter(),
+            system.rear_z() + self.film_distance,
+            self.film_distance,
+            closest_focus_mm(system, fo) / 1000.0,
+            self.film_diagonal,
+            self.pupil.segments.len(),
+            self.pupil.rays_traced,
+            self.pupil_seconds,
+        );
+        out
+    }
+}
+
+pub fn run(args: &LensArgs) -> anyhow::Result<ExitCode> {
+    let prescription = load_lens(&args.file, args.lens.lens_format)?;
+    let report = LensReport::derive(prescription, &args.lens)?;
+    if let Some(path) = &args.diagram {
+        let svg = draw_diagram(
+            &report.geometry.system,
+            report.film_distance,
+            report.film_diagonal,
+            &report.prescription.name,
+        );
+        crate::film::output::write_atomically(path, |w| {
+            w.extend_from_slice(svg.as_bytes());
+            Ok(())
+        })?;
+        eprintln!("wrote {}", path.display());
+    }
+    if args.trace {
+        let mut input = String::new();
+        std::io::stdin()
+            .read_to_string(&mut input)
+            .context("cannot read rays from stdin")?;
+        let traced = trace_json(&report, &input)?;
+        println!("{}", serde_json::to_string_pretty(&traced)?);
+    } else if args.json {
+        println!("{}", serde_json::to_string_pretty(&report.to_json())?);
+    } else {
+        print!("{}", report.summary());
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+#[derive(serde::Deserialize)]
+struct InputRay {
+    origin: [f64; 3],
+    direction: [f64; 3],
+}
+
+/// Traces the JSON array of rays in `input` scene→film, in f64.
+pub fn trace_json(report: &LensReport, input: &str) -> anyhow::Result<Value> {
+    let rays: Vec<InputRay> = serde_json::from_str(input)
+        .context("stdin: expected a JSON array of {\"origin\":[x,y,z],\"direction\":[x,y,z]}")?;
+    let results = rays
+        .iter()
+        .enumerate()
+        .map(|(i, r)| {
+            let finite = r.origin.iter().chain(&r.direction).all(|v| v.is_finite());
+            let length = r.direction.iter().map(|v| v * v).sum::<f64>().sqrt();
+            if !finite || length == 0.0 {
+                bail!("stdin: ray {i} has a non-finite or zero origin/direction");
+            }
+            let ray = Ray {
+                origin: r.origin,
+                direction: normalize(r.direction),
+            };
+            Ok(
+                match trace(&report.geometry.system.f64s, ray, Travel::SceneToFilm) {
+                    Ok(out) => json!({ "point": out.origin, "direction": out.direction }),
+                    Err(blocked) => {
+                        json!({ "blocked": blocked.reason, "surface": blocked.surface })
+                    }
+                },
+            )
+        })
+        .collect::<anyhow::Result<Vec<Value>>>()?;
+    Ok(Value::Array(results))
+}

@@ -1,0 +1,59 @@
+//! The `realcam` command line.
+
+pub mod lens;
+pub mod options;
+pub mod render;
+
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+
+#[derive(Parser, Debug)]
+#[command(
+    name = "realcam",
+    version,
+    about = "Render glTF scenes through real multi-element camera lenses",
+    long_about = "Render glTF scenes through real multi-element camera lenses.\n\nWith no command, `realcam` renders the built-in default scene through the bundled dgauss.50mm lens (same as `realcam render`)."
+)]
+pub struct Cli {
+    #[command(subcommand)]
+    pub command: Option<Command>,
+}
+
+#[derive(Subcommand, Debug)]
+pub enum Command {
+    /// Render a glTF scene (default: the built-in "dof dragons" scene) through a lens.
+    Render(Box<render::RenderArgs>),
+    /// Inspect a lens: first-order data, focus, pupils; trace rays; draw its cross-section.
+    Lens(lens::LensArgs),
+}
+
+/// Runs the command line; errors are printed as `error: …` with a non-zero exit.
+pub fn main() -> ExitCode {
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        Err(e) => {
+            let _ = e.print();
+            return if e.use_stderr() {
+                ExitCode::from(2)
+            } else {
+                ExitCode::SUCCESS
+            };
+        }
+    };
+    let result = match cli.command {
+        None => match Cli::parse_from(["realcam", "render"]).command {
+            Some(Command::Render(args)) => render::run(&args),
+            _ => unreachable!("`realcam render` parses as the render command"),
+        },
+        Some(Command::Render(args)) => render::run(&args),
+        Some(Command::Lens(args)) => lens::run(&args),
+    };
+    match result {
+        Ok(code) => code,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            ExitCode::FAILURE
+        }
+    }
+}

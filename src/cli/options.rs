@@ -1,0 +1,83 @@
+//! Lens options shared by `realcam render` and `realcam lens`.
+
+use clap::Args;
+
+use crate::lens::LensFormat;
+use crate::lens::aperture::ApertureSetting;
+use crate::lens::elements::FocusSetting;
+use crate::lens::focus::FocusMode;
+use crate::lens::pupil::PupilSampling;
+
+#[derive(Args, Debug, Clone, Default)]
+pub struct LensOptions {
+    /// Focus on the plane this far from the film, in metres (as pbrt).
+    #[arg(long, value_name = "M", conflicts_with = "film_distance")]
+    pub focus_distance: Option<f64>,
+    /// How the film distance is found for --focus-distance: `paraxial` (pbrt's thick-lens
+    /// answer) or `best` (smallest real-ray RMS spot of the on-axis point).
+    #[arg(long, value_name = "MODE", default_value = "paraxial")]
+    pub focus_mode: FocusMode,
+    /// Set the film distance (rear vertex → film, mm) directly instead of focusing.
+    #[arg(long, value_name = "MM")]
+    pub film_distance: Option<f64>,
+    /// Aperture-stop diameter, mm (clamped to the lens's maximum, with a warning).
+    #[arg(long, value_name = "MM", conflicts_with = "f_number")]
+    pub aperture: Option<f64>,
+    /// Open the stop so the real f-number (EFL / entrance-pupil diameter) is N.
+    #[arg(long, value_name = "N")]
+    pub f_number: Option<f64>,
+    /// Film diagonal, mm [default: 35, or the scene camera's hint].
+    #[arg(long, value_name = "MM")]
+    pub film_diagonal: Option<f64>,
+    /// Layout of the lens file's thickness column, when it cannot be detected.
+    #[arg(long, value_name = "thickness-after|gap-before")]
+    pub lens_format: Option<LensFormat>,
+    /// Where camera rays aim: `bounds` (exit-pupil bounds, efficient) or `rear-element`
+    /// (the whole rear element, as the CS348b course did).
+    #[arg(long, value_name = "SCHEME", default_value = "bounds")]
+    pub pupil_sampling: PupilSampling,
+}
+
+impl LensOptions {
+    /// The focus the flags ask for, else `fallback`.
+    pub fn focus(&self, fallback: FocusSetting) -> FocusSetting {
+        match (self.film_distance, self.focus_distance) {
+            (Some(mm), _) => FocusSetting::FilmDistance(mm),
+            (None, Some(metres)) => FocusSetting::Distance {
+                metres,
+                mode: self.focus_mode,
+            },
+            (None, None) => match fallback {
+                FocusSetting::Distance { metres, .. } => FocusSetting::Distance {
+                    metres,
+                    mode: self.focus_mode,
+                },
+                other => other,
+            },
+        }
+    }
+
+    /// The aperture the flags ask for, else `fallback`.
+    pub fn aperture(&self, fallback: ApertureSetting) -> ApertureSetting {
+        match (self.aperture, self.f_number) {
+            (Some(mm), _) => ApertureSetting::Diameter(mm),
+            (None, Some(n)) => ApertureSetting::FNumber(n),
+            (None, None) => fallback,
+        }
+    }
+
+    pub fn validate(&self) -> anyhow::Result<()> {
+        let positive = |name: &str, v: Option<f64>| match v {
+            Some(x) if !(x.is_finite() && x > 0.0) => Err(anyhow::anyhow!(
+                "--{name} must be a positive number, got {x}"
+            )),
+            _ => Ok(()),
+        };
+        positive("focus-distance", self.focus_distance)?;
+        positive("film-distance", self.film_distance)?;
+        positive("aperture", self.aperture)?;
+        positive("f-number", self.f_number)?;
+        positive("film-diagonal", self.film_diagonal)?;
+        Ok(())
+    }
+}

@@ -1,0 +1,124 @@
+//! The film: tiles that accumulate linear radiance, and the finished image.
+//!
+//! Each [`FilmTile`] is an entity with its own accumulation buffers, so tiles are rendered in
+//! parallel without sharing anything. A tile stores *sums* of weighted samples (not means), so
+//! a render can be stopped, saved and resumed, or split and merged, without rounding drift.
+
+pub mod output;
+
+use bevy_ecs::component::Component;
+
+/// A rectangle of the image with its accumulation buffers.
+#[derive(Component, Clone, Debug)]
+pub struct FilmTile {
+    pub x0: u32,
+    pub y0: u32,
+    pub width: u32,
+    pub height: u32,
+    /// Per-pixel sums of weighted radiance, row-major within the tile.
+    pub sum_r: Vec<f32>,
+    pub sum_g: Vec<f32>,
+    pub sum_b: Vec<f32>,
+    /// Samples accumulated into every pixel of the tile.
+    pub samples: u32,
+}
+
+impl FilmTile {
+    pub fn new(x0: u32, y0: u32, width: u32, height: u32) -> FilmTile {
+        let n = (width * height) as usize;
+        FilmTile {
+            x0,
+            y0,
+            width,
+            height,
+            sum_r: vec![0.0; n],
+            sum_g: vec![0.0; n],
+            sum_b: vec![0.0; n],
+            samples: 0,
+        }
+    }
+
+    /// Image coordinates of the tile's pixels in accumulation order.
+    pub fn pixels(&self) -> impl Iterator<Item = (u32, u32)> + '_ {
+        (0..self.height).flat_map(move |y| (0..self.width).map(move |x| (self.x0 + x, self.y0 + y)))
+    }
+
+    pub fn clear(&mut self) {
+        for v in [&mut self.sum_r, &mut self.sum_g, &mut self.sum_b] {
+            v.iter_mut().for_each(|s| *s = 0.0);
+        }
+        self.samples = 0;
+    }
+}
+
+/// Cuts a `width` × `height` image into tiles of at most `size` × `size` pixels.
+pub fn tiles(width: u32, height: u32, size: u32) -> Vec<FilmTile> {
+    let size = size.max(1);
+    let mut out = Vec::new();
+    for y0 in (0..height).step_by(size as usize) {
+        for x0 in (0..width).step_by(size as usize) {
+            out.push(FilmTile::new(
+                x0,
+                y0,
+                size.min(width - x0),
+                size.min(height - y0),
+            ));
+        }
+    }
+    out
+}
+
+/// A finished linear image: the film's per-pixel sums and sample counts.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Image {
+    pub width: u32,
+    pub height: u32,
+    /// Row-major linear RGB *sums* of weighted samples.
+    pub sums: Vec<[f32; 3]>,
+    /// Samples per pixel accumulated into `sums`.
+    pub samples: u32,
+}
+
+impl Image {
+    pub fn new(width: u32, height: u32) -> Image {
+        Image {
+            width,
+            height,
+            sums: vec![[0.0; 3]; (width * height) as usize],
+            samples: 0,
+        }
+    }
+
+    /// Gathers tiles (all with the same sample count) into one image.
+    pub fn from_tiles<'a>(
+        width: u32,
+        height: u32,
+        tiles: impl IntoIterator<Item = &'a FilmTile>,
+    ) -> Image {
+        let mut image = Image::new(width, height);
+        for tile in tiles {
+            image.samples = tile.samples;
+            for ty in 0..tile.height {
+                for tx in 0..tile.width {
+                    let t = (ty * tile.width + tx) as usize;
+                    let i = ((tile.y0 + ty) * width + tile.x0 + tx) as usize;
+                    image.sums[i] = [tile.sum_r[t], tile.sum_g[t], tile.sum_b[t]];
+                }
+            }
+        }
+        image
+    }
+
+    /// Per-pixel means: the film's irradiance estimate (scene radiance × lens weight).
+    pub fn mean(&self) -> Vec<[f32; 3]> {
+        let scale = if self.samples > 0 {
+            1.0 / self.samples as f32
+        } else {
+            0.0
+        };
+        self.sums
+            .iter()
+            .map(|s| [s[0] * scale, s[1] * scale, s[2] * scale])
+            .collect()
+    }
+}

@@ -1,0 +1,193 @@
+//! The lens cross-section as SVG: elements, stop, film, axis, and traced ray fans (on axis
+//! and at the edge of the field), blocked rays dashed. Drawn in the meridional (y–z) plane of
+//! the lens frame, scene on the left.
+
+use std::fmt::Write;
+
+use super::field::field_angle;
+use super::first_order::FirstOrder;
+use super::prescription::sag;
+use super::system::LensSystem;
+use super::trace::{Ray, Travel, normalize, trace_path};
+
+const WIDTH: f64 = 1000.0;
+const RAYS_PER_FAN: usize = 11;
+
+struct View {
+    z0: f64,
+    y_max: f64,
+    scale: f64,
+    height: f64,
+}
+
+impl View {
+    fn x(&self, z: f64) -> f64 {
+        20.0 + (z - self.z0) * self.scale
+    }
+
+    fn y(&self, y: f64) -> f64 {
+        self.height / 2.0 - y * self.scale
+    }
+
+    fn point(&self, z: f64, y: f64) -> String {
+        format!("{:.2},{:.2}", self.x(z), self.y(y))
+    }
+}
+
+/// SVG text of the cross-section of `system` with its film `film_distance` behind the rear
+/// vertex and a film of diagonal `film_diagonal` (mm).
+pub fn draw_diagram(
+    system: &LensSystem,
+    film_distance: f64,
+    film_diagonal: f64,
+    title: &str,
+) -> String {
+    let s = &system.f64s;
+    let film_z = system.rear_z() + film_distance;
+    let max_aperture = system
+        .rows
+        .iter()
+        .map(|r| r.aperture / 2.0)
+        .fold(0.0, f64::max);
+    let y_max = max_aperture.max(film_diagonal / 2.0) * 1.15;
+    let lead = (0.3 * film_z).max(max_aperture);
+    let z0 = -lead;
+    let scale = (WIDTH - 40.0) / (film_z + film_distance.max(5.0) * 0.1 + lead);
+    let view = View {
+        z0,
+        y_max,
+        scale,
+        height: 2.0 * y_max * scale + 60.0,
+    };
+    let mut svg = String::new();
+    let _ = writeln!(
+        svg,
+        r#"<svg xmlns="http://www.w3.org/2000/svg" width="{WIDTH}" height="{:.0}" viewBox="0 0 {WIDTH} {:.0}" font-family="sans-serif" font-size="13">"#,
+        view.height + 20.0,
+        view.height + 20.0
+    );
+    let _ = writeln!(svg, r#"<rect width="100%" height="100%" fill="white"/>"#);
+    let _ = writeln!(svg, r#"<text x="20" y="18">{}</text>"#, escape(title));
+
+    // Glass between a surface and the next where the medium is not air.
+    for i in 0..system.surface_count().saturating_sub(1) {
+        if s.index_back[i] <= 1.0 {
+            continue;
+        }
+        let (front, back) = (&system.rows[i], &system.rows[i + 1]);
+        let mut points = Vec::new();
+        for k in 0..=24 {
+            let h = -front.aperture / 2.0 + front.aperture * k as f64 / 24.0;
+            points.push(view.point(s.vertex_z[i] + sag(front, h), h));
+        }
+        for k in 0..=24 {
+            let h = back.aperture / 2.0 - back.aperture * k as f64 / 24.0;
+            points.push(view.point(s.vertex_z[i + 1] + sag(back, h), h));
+        }
+        let _ = writeln!(
+            svg,
+            r##"<polygon points="{}" fill="#cfe3f5" stroke="#3a6b99" stroke-width="1"/>"##,
+            points.join(" ")
+        );
+    }
+    // Bare surfaces (air on both sides never happens in practice, but draw every profile).
+    for (i, row) in system.rows.iter().enumerate() {
+        if row.is_stop() {
+            let a = row.aperture / 2.0;
+            let outer = max_aperture * 1.08;
+            let x = view.x(s.vertex_z[i]);
+            for (y0, y1) in [(a, outer), (-a, -outer)] {
+                let _ = writeln!(
+                    svg,
+                    r#"<line x1="{x:.2}" y1="{:.2}" x2="{x:.2}" y2="{:.2}" stroke="black" stroke-width="3"/>"#,
+                    view.y(y0),
+                    view.y(y1)
+                );
+            }
+            continue;
+        }
+        let points: Vec<String> = (0..=24)
+            .map(|k| {
+                let h = -row.aperture / 2.0 + row.aperture * k as f64 / 24.0;
+                view.point(s.vertex_z[i] + sag(row, h), h)
+            })
+            .collect();
+        let _ = writeln!(
+            svg,
+            r##"<polyline points="{}" fill="none" stroke="#3a6b99" stroke-width="1"/>"##,
+            points.join(" ")
+        );
+    }
+    // Axis and film.
+    let _ = writeln!(
+        svg,
+        r##"<line x1="{:.2}" y1="{:.2}" x2="{:.2}" y2="{:.2}" stroke="#888" stroke-dasharray="8 4"/>"##,
+        view.x(z0),
+        view.y(0.0),
+        view.x(film_z + 2.0),
+        view.y(0.0)
+    );
+    let half_film = film_diagonal / 2.0;
+    let _ = writeln!(
+        svg,
+        r##"<line x1="{x:.2}" y1="{:.2}" x2="{x:.2}" y2="{:.2}" stroke="#222" stroke-width="2"/><text x="{x:.2}" y="{:.2}" text-anchor="middle">film</text>"##,
+        view.y(half_film),
+        view.y(-half_film),
+        view.y(-half_film) + 16.0,
+        x = view.x(film_z)
+    );
+
+    // Ray fans: parallel bundles from infinity, on axis and at the field edge.
+    let field = field_angle(system, film_distance, half_film).unwrap_or(0.0);
+    let pupil_z = FirstOrder::compute(system)
+        .map(|fo| fo.entrance_pupil.z_mm)
+        .unwrap_or(0.0);
+    let front = system.front_semi_aperture();
+    for (angle, colour) in [(0.0, "#1b7f3b"), (field, "#c0392b")] {
+        let direction = normalize([0.0, -angle.sin(), angle.cos()]);
+        let centre = (pupil_z - z0) * angle.tan();
+        for k in 0..RAYS_PER_FAN {
+            let offset = front * (2.0 * k as f64 / (RAYS_PER_FAN - 1) as f64 - 1.0);
+            let origin = [0.0, centre + offset, z0];
+            let mut path = vec![(origin[2], origin[1])];
+            let result = trace_path(
+                s,
+                Ray { origin, direction },
+                Travel::SceneToFilm,
+                true,
+                |_, p| path.push((p[2], p[1])),
+            );
+            let dashed = match result {
+                Ok(out) => {
+                    let t = (film_z - out.origin[2]) / out.direction[2];
+                    path.push((film_z, out.origin[1] + t * out.direction[1]));
+                    ""
+                }
+                Err(_) => r#" stroke-dasharray="4 3" opacity="0.6""#,
+            };
+            let points: Vec<String> = path
+                .iter()
+                .map(|&(z, y)| view.point(z, y.clamp(-view.y_max, view.y_max)))
+                .collect();
+            let _ = writeln!(
+                svg,
+                r#"<polyline points="{}" fill="none" stroke="{colour}" stroke-width="0.8"{dashed}/>"#,
+                points.join(" ")
+            );
+        }
+    }
+    let _ = writeln!(
+        svg,
+        r##"<text x="20" y="{:.0}" fill="#444">green: on-axis bundle; red: film-corner bundle ({:.1}° off axis); dashed: blocked</text>"##,
+        view.height + 12.0,
+        field.to_degrees()
+    );
+    svg.push_str("</svg>\n");
+    svg
+}
+
+fn escape(text: &str) -> String {
+    text.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+}

@@ -1,0 +1,603 @@
+//! The render schedule: one bevy_ecs [`Schedule`] whose stages are named [`SystemSet`]s.
+//!
+//! ```text
+//! LoadScene → BuildBvh → DeriveLens → GenerateRays → Trace → Shade → Weight → WriteFilm
+//! └─ once per scene ─┘   └ on change ┘ └──────────── once per sample pass ─────────────┘
+//! ```
+//!
+//! Every run of the schedule is cheap when nothing changed: LoadScene acts only on a new
+//! [`SceneSource`], BuildBvh only on new mesh instances, the lens systems only on changed lens
+//! entities (change detection), and the pass stages only while a pass is pending. The pass
+//! stages work tile by tile in parallel (rayon); rays travel between them as SoA batches in
+//! each tile's [`TileBatch`]. See ARCHITECTURE.md for what each stage reads and writes.
+
+use std::path::PathBuf;
+use std::time::{Duration, Instant};
+
+use bevy_ecs::change_detection::DetectChanges;
+use bevy_ecs::component::Component;
+use bevy_ecs::entity::Entity;
+use bevy_ecs::query::{Added, With};
+use bevy_ecs::resource::Resource;
+use bevy_ecs::schedule::{IntoScheduleConfigs, Schedule, ScheduleLabel, SystemSet};
+use bevy_ecs::system::{Commands, Query, Res, ResMut};
+use bevy_ecs::world::{Mut, Ref, World};
+use glam::Mat4;
+use rayon::prelude::*;
+
+use crate::accel::SceneAccel;
+use crate::batch::HitBatch;
+use crate::film::{FilmTile, Image, tiles};
+use crate::lens::camera::{CameraRays, FilmGeometry, LensCamera};
+use crate::lens::elements::{
+    ActiveLens, FilmFormat, FilmPlacement, LensDerivation, LensDerivationStats, LensFault,
+    LensGeometry, add_lens_systems,
+};
+use crate::lens::pupil::ExitPupil;
+use crate::scene::{
+    Bounds, LoadedScene, MaterialLibrary, MeshInstance, PunctualLight, SceneCamera,
+};
+use crate::shade::{Environment, LightSet, RadianceBatch, ShadeStats, Shader};
+
+/// The schedule's label.
+#[derive(ScheduleLabel, Clone, Debug, PartialEq, Eq, Hash)]
+pub struct RenderSchedule;
+
+/// The stages, in the order they run.
+#[derive(SystemSet, Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Stage {
+    LoadScene,
+    BuildBvh,
+    DeriveLens,
+    GenerateRays,
+    Trace,
+    Shade,
+    Weight,
+    WriteFilm,
+}
+
+impl Stage {
+    pub const ALL: [Stage; 8] = [
+        Stage::LoadScene,
+        Stage::BuildBvh,
+        Stage::DeriveLens,
+        Stage::GenerateRays,
+        Stage::Trace,
+        Stage::Shade,
+        Stage::Weight,
+        Stage::WriteFilm,
+    ];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Stage::LoadScene => "load_scene",
+            Stage::BuildBvh => "build_bvh",
+            Stage::DeriveLens => "derive_lens",
+            Stage::GenerateRays => "generate_rays",
+            Stage::Trace => "trace",
+            Stage::Shade => "shade",
+            Stage::Weight => "weight",
+            Stage::WriteFilm => "write_film",
+        }
+    }
+}
+
+/// Where the scene comes from: a file, or bytes built into the binary.
+#[derive(Resource, Clone, Debug)]
+pub struct SceneSource {
+    pub path: PathBuf,
+    pub embedded: Option<&'static [u8]>,
+}
+
+/// Settings of the render passes.
+#[derive(Resource, Clone, Debug, PartialEq)]
+pub struct RenderSettings {
+    pub width: u32,
+    pub height: u32,
+    pub seed: u64,
+    pub max_depth: u32,
+    pub tile_size: u32,
+}
+
+impl Default for RenderSettings {
+    fn default() -> Self {
+        RenderSettings {
+            width: 512,
+            height: 512,
+            seed: 0,
+            max_depth: 8,
+            tile_size: 32,
+        }
+    }
+}
+
+/// Rigid transform from the camera frame (see [`crate::lens::camera`]) to the world.
+#[derive(Resource, Clone, Copy, Debug, PartialEq)]
+pub struct CameraPose(pub Mat4);
+
+/// The environment the path tracer sees beyond the scene.
+#[derive(Resource, Clone, Debug)]
+pub struct SceneEnvironment(pub Environment);
+
+/// World bounds of the loaded scene.
+#[derive(Resource, Clone, Copy, Debug)]
+pub struct SceneBounds(pub Bounds);
+
+/// Warnings collected while loading (shown to the user once).
+#[derive(Resource, Clone, Debug, Default)]
+pub struct SceneWarnings(pub Vec<String>);
+
+/// Marks every entity spawned from the scene, so a new scene replaces it.
+#[derive(Component, Clone, Copy, Debug, Default)]
+pub struct SceneObject;
+
+/// The sample pass the pass stages are working on.
+#[derive(Resource, Clone, Copy, Debug, Default)]
+pub struct PassState {
+    /// True between a request and WriteFilm.
+    pub pending: bool,
+    /// Sample index this pass renders into every pixel (the key of its random streams).
+    pub sample: u32,
+}
+
+/// A stage that could not do its work; the driver turns it into an error.
+#[derive(Resource, Clone, Debug)]
+pub struct PipelineFault(pub String);
+
+/// Counters and wall times for `--stats`.
+#[derive(Resource, Clone, Debug, Default)]
+pub struct RenderStats {
+    pub stage_time: [Duration; 8],
+    pub scene_loads: u64,
+    pub bvh_builds: u64,
+    pub triangles: u64,
+    pub bvh_nodes: u64,
+    pub camera_samples: u64,
+    pub lens_rays_passed: u64,
+    pub rays_traced: u64,
+    pub rejected_samples: u64,
+}
+
+impl RenderStats {
+    fn add_time(&mut self, stage: Stage, start: Instant) {
+        self.stage_time[stage as usize] += start.elapsed();
+    }
+}
+
+/// One tile's rays between stages, as structure-of-arrays batches.
+#[derive(Component, Clone, Debug, Default)]
+pub struct TileBatch {
+    pub camera: CameraRays,
+    pub hits: HitBatch,
+    pub radiance: RadianceBatch,
+}
+
+/// Builds the schedule with every stage.
+pub fn render_schedule() -> Schedule {
+    let mut schedule = Schedule::new(RenderSchedule);
+    schedule.configure_sets(
+        (
+            Stage::LoadScene,
+            Stage::BuildBvh,
+            Stage::DeriveLens,
+            Stage::GenerateRays,
+            Stage::Trace,
+            Stage::Shade,
+            Stage::Weight,
+            Stage::WriteFilm,
+        )
+            .chain(),
+    );
+    add_lens_systems(&mut schedule);
+    schedule.configure_sets(
+        (
+            LensDerivation::Geometry,
+            LensDerivation::Placement,
+            LensDerivation::Pupil,
+        )
+            .in_set(Stage::DeriveLens),
+    );
+    schedule.add_systems((
+        load_scene.in_set(Stage::LoadScene),
+        (build_bvh, build_lights).chain().in_set(Stage::BuildBvh),
+        generate_rays
+            .in_set(Stage::GenerateRays)
+            .run_if(pass_pending),
+        trace_rays.in_set(Stage::Trace).run_if(pass_pending),
+        shade.in_set(Stage::Shade).run_if(pass_pending),
+        weight.in_set(Stage::Weight).run_if(pass_pending),
+        write_film.in_set(Stage::WriteFilm).run_if(pass_pending),
+    ));
+    schedule
+}
+
+fn pass_pending(pass: Res<PassState>) -> bool {
+    pass.pending
+}
+
+/// LoadScene: reads the glTF named by a new [`SceneSource`] and spawns its objects.
+pub fn load_scene(
+    mut commands: Commands,
+    source: Option<Res<SceneSource>>,
+    old: Query<Entity, With<SceneObject>>,
+    mut stats: ResMut<RenderStats>,
+) {
+    let Some(source) = source else { return };
+    if !source.is_changed() {
+        return;
+    }
+    let start = Instant::now();
+    let loaded = match source.embedded {
+        Some(bytes) => crate::scene::load_gltf_bytes(bytes, None, &source.path),
+        None => crate::scene::load_gltf(&source.path),
+    };
+    match loaded {
+        Ok(scene) => {
+            for entity in &old {
+                commands.entity(entity).despawn();
+            }
+            spawn_scene(&mut commands, scene);
+            stats.scene_loads += 1;
+        }
+        Err(e) => commands.insert_resource(PipelineFault(format!("{e:#}"))),
+    }
+    stats.add_time(Stage::LoadScene, start);
+}
+
+fn spawn_scene(commands: &mut Commands, scene: LoadedScene) {
+    for instance in scene.instances {
+        commands.spawn((instance, SceneObject));
+    }
+    for light in scene.lights {
+        commands.spawn((light, SceneObject));
+    }
+    for camera in scene.cameras {
+        commands.spawn((camera, SceneObject));
+    }
+    commands.insert_resource(scene.materials);
+    commands.insert_resource(SceneBounds(scene.bounds));
+    commands.insert_resource(SceneWarnings(scene.warnings));
+}
+
+/// BuildBvh: builds the BVH when mesh instances were added.
+pub fn build_bvh(
+    mut commands: Commands,
+    added: Query<(), Added<MeshInstance>>,
+    instances: Query<&MeshInstance>,
+    materials: Option<Res<MaterialLibrary>>,
+    mut stats: ResMut<RenderStats>,
+) {
+    let Some(materials) = materials else { return };
+    if added.is_empty() && !materials.is_changed() {
+        return;
+    }
+    let start = Instant::now();
+    match SceneAccel::build(instances.iter(), &materials) {
+        Ok(accel) => {
+            stats.bvh_builds += 1;
+            stats.triangles = accel.triangle_count() as u64;
+            stats.bvh_nodes = accel.node_count() as u64;
+            commands.insert_resource(accel);
+        }
+        Err(e) => commands.insert_resource(PipelineFault(format!("{e:#}"))),
+    }
+    stats.add_time(Stage::BuildBvh, start);
+}
+
+/// BuildBvh (after the BVH): the light set, rebuilt when the BVH, lights or environment change.
+pub fn build_lights(
+    mut commands: Commands,
+    accel: Option<Res<SceneAccel>>,
+    materials: Option<Res<MaterialLibrary>>,
+    environment: Option<Res<SceneEnvironment>>,
+    lights: Query<Ref<PunctualLight>>,
+    mut stats: ResMut<RenderStats>,
+) {
+    let (Some(accel), Some(materials)) = (accel, materials) else {
+        return;
+    };
+    let environment_changed = environment.as_ref().is_some_and(|e| e.is_changed());
+    let lights_changed = lights.iter().any(|l| l.is_changed());
+    if !(accel.is_changed() || environment_changed || lights_changed) {
+        return;
+    }
+    let start = Instant::now();
+    let punctual: Vec<PunctualLight> = lights.iter().map(|l| (*l).clone()).collect();
+    let black = Environment::Uniform(glam::Vec3::ZERO);
+    let environment = environment.as_deref().map_or(&black, |e| &e.0);
+    commands.insert_resource(LightSet::build(&punctual, &accel, &materials, environment));
+    stats.add_time(Stage::BuildBvh, start);
+}
+
+type ActiveLensQuery<'w, 's> = Query<
+    'w,
+    's,
+    (
+        &'static LensGeometry,
+        &'static FilmPlacement,
+        &'static ExitPupil,
+    ),
+    With<ActiveLens>,
+>;
+
+/// GenerateRays: camera rays of this pass for every tile, traced through the active lens.
+pub fn generate_rays(
+    mut commands: Commands,
+    lens: ActiveLensQuery,
+    pose: Option<Res<CameraPose>>,
+    settings: Res<RenderSettings>,
+    pass: Res<PassState>,
+    mut tiles: Query<(&FilmTile, &mut TileBatch)>,
+    mut stats: ResMut<RenderStats>,
+) {
+    let start = Instant::now();
+    let (Ok((geometry, _placement, pupil)), Some(pose)) = (lens.single(), pose) else {
+        commands.insert_resource(PipelineFault(
+            "no active lens with a valid focus, or no camera pose".into(),
+        ));
+        return;
+    };
+    let camera = LensCamera {
+        system: &geometry.system,
+        pupil,
+        film: FilmGeometry::new(settings.width, settings.height, pupil.film_radius * 2.0),
+        world_from_camera: pose.0,
+    };
+    let mut work: Vec<(&FilmTile, Mut<TileBatch>)> = tiles.iter_mut().collect();
+    let passed: u64 = work
+        .par_iter_mut()
+        .map(|(tile, batch)| {
+            camera.generate(tile.pixels(), pass.sample, settings.seed, &mut batch.camera);
+            batch.camera.rays.alive_count() as u64
+        })
+        .sum();
+    stats.camera_samples += (settings.width * settings.height) as u64;
+    stats.lens_rays_passed += passed;
+    stats.add_time(Stage::GenerateRays, start);
+}
+
+/// Trace: closest hits of every tile's camera rays.
+pub fn trace_rays(
+    accel: Option<Res<SceneAccel>>,
+    mut tiles: Query<&mut TileBatch>,
+    mut stats: ResMut<RenderStats>,
+) {
+    let start = Instant::now();
+    let Some(accel) = accel else { return };
+    let mut work: Vec<Mut<TileBatch>> = tiles.iter_mut().collect();
+    let traced: u64 = work
+        .par_iter_mut()
+        .map(|batch| {
+            let batch = &mut **batch;
+            accel.intersect_batch(&batch.camera.rays, &mut batch.hits);
+            batch.camera.rays.alive_count() as u64
+        })
+        .sum();
+    stats.rays_traced += traced;
+    stats.add_time(Stage::Trace, start);
+}
+
+/// Shade: path-traced radiance arriving along every camera ray.
+#[allow(clippy::too_many_arguments)]
+pub fn shade(
+    accel: Option<Res<SceneAccel>>,
+    materials: Option<Res<MaterialLibrary>>,
+    lights: Option<Res<LightSet>>,
+    environment: Option<Res<SceneEnvironment>>,
+    settings: Res<RenderSettings>,
+    mut tiles: Query<&mut TileBatch>,
+    mut stats: ResMut<RenderStats>,
+) {
+    let start = Instant::now();
+    let (Some(accel), Some(materials), Some(lights)) = (accel, materials, lights) else {
+        return;
+    };
+    let default_env = SceneEnvironment(Environment::Uniform(glam::Vec3::ZERO));
+    let environment = environment.as_deref().unwrap_or(&default_env);
+    let shader = Shader {
+        accel: &accel,
+        materials: &materials,
+        lights: &lights,
+        environment: &environment.0,
+        max_depth: settings.max_depth,
+        seed: settings.seed,
+    };
+    let mut work: Vec<Mut<TileBatch>> = tiles.iter_mut().collect();
+    let traced: u64 = work
+        .par_iter_mut()
+        .map(|batch| {
+            let batch = &mut **batch;
+            let mut tile_stats = ShadeStats::default();
+            shader.shade_batch(
+                &batch.camera.rays,
+                &batch.hits,
+                &mut batch.radiance,
+                &mut tile_stats,
+            );
+            tile_stats.rays_traced
+        })
+        .sum();
+    stats.rays_traced += traced;
+    stats.add_time(Stage::Shade, start);
+}
+
+/// Weight: multiplies radiance by the lens weight; non-finite samples never reach the film.
+pub fn weight(mut tiles: Query<&mut TileBatch>, mut stats: ResMut<RenderStats>) {
+    let start = Instant::now();
+    let mut work: Vec<Mut<TileBatch>> = tiles.iter_mut().collect();
+    let rejected: u64 = work
+        .par_iter_mut()
+        .map(|batch| {
+            let TileBatch {
+                camera, radiance, ..
+            } = &mut **batch;
+            let mut rejected = 0;
+            for i in 0..camera.weight.len() {
+                let w = camera.weight[i];
+                let (r, g, b) = (radiance.r[i] * w, radiance.g[i] * w, radiance.b[i] * w);
+                let finite = r.is_finite() && g.is_finite() && b.is_finite();
+                rejected += u64::from(!finite);
+                radiance.r[i] = if finite { r } else { 0.0 };
+                radiance.g[i] = if finite { g } else { 0.0 };
+                radiance.b[i] = if finite { b } else { 0.0 };
+            }
+            rejected
+        })
+        .sum();
+    stats.rejected_samples += rejected;
+    stats.add_time(Stage::Weight, start);
+}
+
+/// WriteFilm: adds the pass's weighted samples to each tile's sums.
+pub fn write_film(
+    mut tiles: Query<(&mut FilmTile, &TileBatch)>,
+    mut pass: ResMut<PassState>,
+    mut stats: ResMut<RenderStats>,
+) {
+    let start = Instant::now();
+    let mut work: Vec<(Mut<FilmTile>, &TileBatch)> = tiles.iter_mut().collect();
+    work.par_iter_mut().for_each(|(tile, batch)| {
+        let tile = &mut **tile;
+        // Camera rays were generated in `FilmTile::pixels` order: index i is local pixel i.
+        for i in 0..tile.sum_r.len() {
+            tile.sum_r[i] += batch.radiance.r[i];
+            tile.sum_g[i] += batch.radiance.g[i];
+            tile.sum_b[i] += batch.radiance.b[i];
+        }
+        tile.samples += 1;
+    });
+    pass.pending = false;
+    pass.sample += 1;
+    stats.add_time(Stage::WriteFilm, start);
+}
+
+/// Owns the world and the schedule: the library's entry point for rendering.
+pub struct Renderer {
+    pub world: World,
+    schedule: Schedule,
+}
+
+impl Default for Renderer {
+    fn default() -> Self {
+        Renderer::new()
+    }
+}
+
+impl Renderer {
+    pub fn new() -> Renderer {
+        let mut world = World::new();
+        world.init_resource::<RenderStats>();
+        world.init_resource::<LensDerivationStats>();
+        world.init_resource::<FilmFormat>();
+        world.init_resource::<PassState>();
+        world.init_resource::<RenderSettings>();
+        Renderer {
+            world,
+            schedule: render_schedule(),
+        }
+    }
+
+    /// Runs the schedule once; returns the fault a stage reported, if any.
+    pub fn update(&mut self) -> anyhow::Result<()> {
+        self.schedule.run(&mut self.world);
+        if let Some(fault) = self.world.remove_resource::<PipelineFault>() {
+            anyhow::bail!(fault.0);
+        }
+        Ok(())
+    }
+
+    /// Sets the scene; it loads (and its BVH builds) on the next update.
+    pub fn set_scene(&mut self, source: SceneSource) {
+        self.world.insert_resource(source);
+    }
+
+    pub fn set_environment(&mut self, environment: Environment) {
+        self.world.insert_resource(SceneEnvironment(environment));
+    }
+
+    /// Sets resolution, seed, depth; respawns the film tiles when the image size changed.
+    pub fn set_settings(&mut self, settings: RenderSettings) {
+        let resize = *self.world.resource::<RenderSettings>() != settings
+            || self
+                .world
+                .query::<&FilmTile>()
+                .iter(&self.world)
+                .next()
+                .is_none();
+        if resize {
+            let old: Vec<Entity> = self
+                .world
+                .query_filtered::<Entity, With<FilmTile>>()
+                .iter(&self.world)
+                .collect();
+            for e in old {
+                self.world.despawn(e);
+            }
+            for tile in tiles(settings.width, settings.height, settings.tile_size) {
+                self.world.spawn((tile, TileBatch::default()));
+            }
+        }
+        self.world.insert_resource(settings);
+    }
+
+    /// Errors if the active lens cannot be used (bad edit, impossible focus).
+    pub fn check_active_lens(&mut self) -> anyhow::Result<()> {
+        let mut faults = self.world.query_filtered::<&LensFault, With<ActiveLens>>();
+        if let Some(fault) = faults.iter(&self.world).next() {
+            anyhow::bail!(fault.0.clone());
+        }
+        let mut active = self.world.query_filtered::<Entity, With<ActiveLens>>();
+        if active.iter(&self.world).next().is_none() {
+            anyhow::bail!("no active lens");
+        }
+        Ok(())
+    }
+
+    /// Clears the film and renders `spp` sample passes, calling `progress(done, total)` after
+    /// each; stops early (keeping what was rendered) when `progress` returns false.
+    pub fn render(
+        &mut self,
+        spp: u32,
+        mut progress: impl FnMut(u32, u32) -> bool,
+    ) -> anyhow::Result<Image> {
+        self.update()?;
+        self.check_active_lens()?;
+        for mut tile in self
+            .world
+            .query::<&mut FilmTile>()
+            .iter_mut(&mut self.world)
+        {
+            tile.clear();
+        }
+        self.world.insert_resource(PassState {
+            pending: false,
+            sample: 0,
+        });
+        for done in 0..spp {
+            self.world.resource_mut::<PassState>().pending = true;
+            self.update()?;
+            if !progress(done + 1, spp) {
+                break;
+            }
+        }
+        Ok(self.image())
+    }
+
+    /// The film's current contents.
+    pub fn image(&mut self) -> Image {
+        let settings = self.world.resource::<RenderSettings>().clone();
+        let mut query = self.world.query::<&FilmTile>();
+        Image::from_tiles(settings.width, settings.height, query.iter(&self.world))
+    }
+
+    pub fn scene_cameras(&mut self) -> Vec<SceneCamera> {
+        let mut cameras: Vec<SceneCamera> = self
+            .world
+            .query::<&SceneCamera>()
+            .iter(&self.world)
+            .cloned()
+            .collect();
+        cameras.sort_by_key(|c| c.index);
+        cameras
+    }
+}
