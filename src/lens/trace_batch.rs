@@ -11,12 +11,33 @@
 
 use super::system::SurfaceArrays;
 use super::trace::Travel;
+use wide::f32x8;
+
 use crate::batch::RayBatch;
+
+/// Which implementation of the per-surface kernel to run.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Kernel {
+    /// Explicit 8-lane SIMD (`wide::f32x8`: AVX where the build targets it, SSE pairs otherwise).
+    Simd,
+    /// A plain loop left to the compiler's auto-vectoriser.
+    AutoVectorised,
+}
 
 /// Traces every alive ray of `rays` (lens frame, mm, unit directions) through all surfaces in
 /// the order of `travel`, in place: survivors end on the last surface crossed with their
 /// refracted direction; blocked rays get `alive = false`.
 pub fn trace_batch(surfaces: &SurfaceArrays<f32>, rays: &mut RayBatch, travel: Travel) {
+    trace_batch_with(surfaces, rays, travel, Kernel::AutoVectorised)
+}
+
+/// [`trace_batch`] with a chosen kernel (for benchmarks and cross-checks).
+pub fn trace_batch_with(
+    surfaces: &SurfaceArrays<f32>,
+    rays: &mut RayBatch,
+    travel: Travel,
+    kernel: Kernel,
+) {
     let n = surfaces.len();
     for step in 0..n {
         let i = match travel {
@@ -38,7 +59,10 @@ pub fn trace_batch(surfaces: &SurfaceArrays<f32>, rays: &mut RayBatch, travel: T
             eta,
             forward_sign,
         };
-        refract_through(&surface, rays);
+        match kernel {
+            Kernel::Simd => refract_through_simd(&surface, rays),
+            Kernel::AutoVectorised => refract_through(&surface, rays),
+        }
     }
 }
 
@@ -131,6 +155,94 @@ pub fn refract_through(s: &BatchSurface, rays: &mut RayBatch) {
     }
 }
 
+const LANES: usize = 8;
+
+/// [`refract_through`] written with explicit 8-wide SIMD; the same arithmetic lane by lane.
+pub fn refract_through_simd(s: &BatchSurface, rays: &mut RayBatch) {
+    let len = rays.len();
+    let zero = f32x8::ZERO;
+    let one = f32x8::ONE;
+    let c = f32x8::splat(s.curvature);
+    let vertex_z = f32x8::splat(s.vertex_z);
+    let semi_aperture_sq = f32x8::splat(s.semi_aperture_sq);
+    let eta = f32x8::splat(s.eta);
+    let forward_sign = f32x8::splat(s.forward_sign);
+    let t_min = f32x8::splat(1e-6);
+    let infinity = f32x8::splat(f32::INFINITY);
+    let mut start = 0;
+    while start < len {
+        let n = (len - start).min(LANES);
+        let load = |v: &[f32]| {
+            let mut lanes = [0.0f32; LANES];
+            lanes[..n].copy_from_slice(&v[start..start + n]);
+            f32x8::from(lanes)
+        };
+        let (px, py, pz) = (load(&rays.ox), load(&rays.oy), load(&rays.oz));
+        let (vx, vy, vz) = (load(&rays.dx), load(&rays.dy), load(&rays.dz));
+        let mut alive_lanes = [0.0f32; LANES];
+        for (lane, &a) in alive_lanes.iter_mut().zip(&rays.alive[start..start + n]) {
+            *lane = if a { 1.0 } else { 0.0 };
+        }
+        let alive = f32x8::from(alive_lanes).simd_gt(zero);
+
+        let ovz = pz - vertex_z;
+        let b = c * (px * vx + py * vy + ovz * vz) - vz;
+        let k = c * (px * px + py * py + ovz * ovz) - f32x8::splat(2.0) * ovz;
+        let discriminant = b * b - c * k;
+        let root = discriminant.max(zero).sqrt();
+        let q = b.simd_lt(zero).bitselect(root - b, -b - root);
+        let t_near = k / q;
+        let t_far = q / c;
+        let cap_near = (c * (ovz + t_near * vz)).simd_lt(one);
+        let cap_far = (c * (ovz + t_far * vz)).simd_lt(one);
+        let ok_near = t_near.simd_gt(t_min) & cap_near & t_near.abs().simd_lt(infinity);
+        let ok_far = t_far.simd_gt(t_min) & cap_far & t_far.abs().simd_lt(infinity);
+        let use_near = ok_near & (!ok_far | t_near.simd_le(t_far));
+        let t = use_near.bitselect(t_near, t_far);
+        let hit = discriminant.simd_ge(zero) & (ok_near | ok_far);
+
+        let hx = px + t * vx;
+        let hy = py + t * vy;
+        let hz = pz + t * vz;
+        let inside = (hx * hx + hy * hy).simd_le(semi_aperture_sq);
+
+        let nx0 = c * hx;
+        let ny0 = c * hy;
+        let nz0 = c * (hz - vertex_z) - one;
+        let inv_len = one / (nx0 * nx0 + ny0 * ny0 + nz0 * nz0).sqrt();
+        let (nx, ny, nz) = (nx0 * inv_len, ny0 * inv_len, nz0 * inv_len);
+        let cos_raw = -(vx * nx + vy * ny + vz * nz);
+        let flip = cos_raw.simd_lt(zero).bitselect(-one, one);
+        let cos_i = cos_raw * flip;
+        let k2 = one - eta * eta * (one - cos_i * cos_i);
+        let no_tir = k2.simd_ge(zero);
+        let cos_t = k2.max(zero).sqrt();
+        let along_normal = (eta * cos_i - cos_t) * flip;
+        let rx0 = eta * vx + along_normal * nx;
+        let ry0 = eta * vy + along_normal * ny;
+        let rz0 = eta * vz + along_normal * nz;
+        let inv_r = one / (rx0 * rx0 + ry0 * ry0 + rz0 * rz0).sqrt();
+        let (rx, ry, rz) = (rx0 * inv_r, ry0 * inv_r, rz0 * inv_r);
+        let forward = (rz * forward_sign).simd_gt(zero);
+
+        let survives = alive & hit & inside & no_tir & forward;
+        let store = |v: &mut [f32], new: f32x8, old: f32x8| {
+            v[start..start + n].copy_from_slice(&survives.bitselect(new, old).to_array()[..n]);
+        };
+        store(&mut rays.ox, hx, px);
+        store(&mut rays.oy, hy, py);
+        store(&mut rays.oz, hz, pz);
+        store(&mut rays.dx, rx, vx);
+        store(&mut rays.dy, ry, vy);
+        store(&mut rays.dz, rz, vz);
+        let mask = survives.to_bitmask();
+        for (lane, a) in rays.alive[start..start + n].iter_mut().enumerate() {
+            *a = mask & (1 << lane) != 0;
+        }
+        start += n;
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -196,7 +308,14 @@ mod tests {
                 let f = |a: [f64; 3]| [a[0] as f32, a[1] as f32, a[2] as f32];
                 batch.push(f(r.origin), f(r.direction), 0, 0);
             }
+            let mut simd = batch.clone();
             trace_batch(&system.f32s, &mut batch, Travel::FilmToScene);
+            trace_batch_with(&system.f32s, &mut simd, Travel::FilmToScene, Kernel::Simd);
+            assert_eq!(
+                batch.alive, simd.alive,
+                "{name}: SIMD and plain kernels disagree"
+            );
+            assert_eq!(batch.dx, simd.dx, "{name}: SIMD and plain kernels disagree");
             let mut passed = 0;
             let mut disagreements = 0;
             for (i, r) in rays.iter().enumerate() {
