@@ -15,7 +15,7 @@ use crate::lens::diagram::draw_diagram;
 use crate::lens::elements::{
     FilmFormat, FilmPlacement, FocusSetting, LensFault, LensGeometry, activate_lens, spawn_lens,
 };
-use crate::lens::field::field_angle;
+use crate::lens::field::{field_angle, field_edge};
 use crate::lens::focus::closest_focus_mm;
 use crate::lens::pupil::ExitPupil;
 use crate::lens::trace::{Ray, Travel, normalize, trace};
@@ -112,14 +112,13 @@ impl LensReport {
         .map(|a| 2.0 * a.to_degrees())
     }
 
-    /// Largest film radius (mm) that still has a chief ray, and its field angle: the image
-    /// circle of a lens (a fisheye's) that does not cover the film's corners.
+    /// Film radius and field angle of the image circle's edge (see [`field_edge`]).
     pub fn image_circle(&self) -> Option<(f64, f64)> {
-        const STEPS: usize = 64;
-        (1..=STEPS).rev().find_map(|k| {
-            let h = self.film_diagonal / 2.0 * k as f64 / STEPS as f64;
-            field_angle(&self.geometry.system, self.film_distance, h).map(|a| (h, a))
-        })
+        field_edge(
+            &self.geometry.system,
+            self.film_distance,
+            self.film_diagonal / 2.0,
+        )
     }
 
     pub fn to_json(&self) -> Value {

@@ -4,7 +4,7 @@
 
 use std::fmt::Write;
 
-use super::field::field_angle;
+use super::field::field_edge;
 use super::first_order::FirstOrder;
 use super::prescription::sag;
 use super::system::LensSystem;
@@ -137,45 +137,64 @@ pub fn draw_diagram(
         x = view.x(film_z)
     );
 
-    // Ray fans: parallel bundles from infinity, on axis and at the field edge.
-    let field = field_angle(system, film_distance, half_film).unwrap_or(0.0);
-    let pupil_z = FirstOrder::compute(system)
-        .map(|fo| fo.entrance_pupil.z_mm)
-        .unwrap_or(0.0);
-    let front = system.front_semi_aperture();
-    for (angle, colour) in [(0.0, "#1b7f3b"), (field, "#c0392b")] {
-        let direction = normalize([0.0, -angle.sin(), angle.cos()]);
-        let centre = (pupil_z - z0) * angle.tan();
-        for k in 0..RAYS_PER_FAN {
-            let offset = front * (2.0 * k as f64 / (RAYS_PER_FAN - 1) as f64 - 1.0);
-            let origin = [0.0, centre + offset, z0];
-            let mut path = vec![(origin[2], origin[1])];
-            let result = trace_path(
-                s,
-                Ray { origin, direction },
-                Travel::SceneToFilm,
-                true,
-                |_, p| path.push((p[2], p[1])),
-            );
-            let dashed = match result {
-                Ok(out) => {
-                    let t = (film_z - out.origin[2]) / out.direction[2];
-                    path.push((film_z, out.origin[1] + t * out.direction[1]));
-                    ""
+    // On axis: a parallel bundle from infinity filling the entrance pupil (a little over, so
+    // the clipping shows). At the field edge: rays from the film point back out through the
+    // rear element, which finds the real pupil however strongly it is aberrated (a fisheye's).
+    let pupil_radius = FirstOrder::compute(system).map_or(system.front_semi_aperture(), |fo| {
+        fo.entrance_pupil.diameter_mm / 2.0
+    });
+    for k in 0..RAYS_PER_FAN {
+        let height = 1.15 * pupil_radius * (2.0 * k as f64 / (RAYS_PER_FAN - 1) as f64 - 1.0);
+        let origin = [0.0, height, z0];
+        let mut path = vec![(z0, height)];
+        let result = trace_path(
+            s,
+            Ray {
+                origin,
+                direction: [0.0, 0.0, 1.0],
+            },
+            Travel::SceneToFilm,
+            true,
+            |_, p| path.push((p[2], p[1])),
+        );
+        if let Ok(out) = result {
+            let t = (film_z - out.origin[2]) / out.direction[2];
+            path.push((film_z, out.origin[1] + t * out.direction[1]));
+        }
+        draw_ray(&mut svg, &view, &path, "#1b7f3b", result.is_ok());
+    }
+    let edge = field_edge(system, film_distance, half_film);
+    if let Some((height, _)) = edge {
+        let rear = 1.5 * system.rear_semi_aperture();
+        let from = [0.0, -height, film_z];
+        let towards = |aim: f64| Ray {
+            origin: from,
+            direction: normalize([0.0, aim + height, system.rear_z() - film_z]),
+        };
+        let passing: Vec<f64> = (0..=400)
+            .map(|k| -rear + 2.0 * rear * k as f64 / 400.0)
+            .filter(|&aim| {
+                trace_path(s, towards(aim), Travel::FilmToScene, true, |_, _| {}).is_ok()
+            })
+            .collect();
+        if let (Some(&low), Some(&high)) = (passing.first(), passing.last()) {
+            let margin = 0.1 * (high - low);
+            for k in 0..RAYS_PER_FAN {
+                let aim = low - margin
+                    + (high - low + 2.0 * margin) * k as f64 / (RAYS_PER_FAN - 1) as f64;
+                let mut path = vec![(film_z, -height)];
+                let result = trace_path(s, towards(aim), Travel::FilmToScene, true, |_, p| {
+                    path.push((p[2], p[1]))
+                });
+                if let Ok(out) = result {
+                    let t = (z0 - out.origin[2]) / out.direction[2];
+                    path.push((z0, out.origin[1] + t * out.direction[1]));
                 }
-                Err(_) => r#" stroke-dasharray="4 3" opacity="0.6""#,
-            };
-            let points: Vec<String> = path
-                .iter()
-                .map(|&(z, y)| view.point(z, y.clamp(-view.y_max, view.y_max)))
-                .collect();
-            let _ = writeln!(
-                svg,
-                r#"<polyline points="{}" fill="none" stroke="{colour}" stroke-width="0.8"{dashed}/>"#,
-                points.join(" ")
-            );
+                draw_ray(&mut svg, &view, &path, "#c0392b", result.is_ok());
+            }
         }
     }
+    let field = edge.map_or(0.0, |(_, angle)| angle);
     let _ = writeln!(
         svg,
         r##"<text x="20" y="{:.0}" fill="#444">green: on-axis bundle; red: film-corner bundle ({:.1}° off axis); dashed: blocked</text>"##,
@@ -184,6 +203,24 @@ pub fn draw_diagram(
     );
     svg.push_str("</svg>\n");
     svg
+}
+
+/// A ray path as a polyline, dashed when the ray was blocked.
+fn draw_ray(svg: &mut String, view: &View, path: &[(f64, f64)], colour: &str, passed: bool) {
+    let dashed = if passed {
+        ""
+    } else {
+        r#" stroke-dasharray="4 3" opacity="0.6""#
+    };
+    let points: Vec<String> = path
+        .iter()
+        .map(|&(z, y)| view.point(z, y.clamp(-view.y_max, view.y_max)))
+        .collect();
+    let _ = writeln!(
+        svg,
+        r#"<polyline points="{}" fill="none" stroke="{colour}" stroke-width="0.8"{dashed}/>"#,
+        points.join(" ")
+    );
 }
 
 fn escape(text: &str) -> String {

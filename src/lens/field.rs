@@ -1,6 +1,7 @@
 //! Field of view from real chief rays.
 //!
-//! The chief ray of a film point passes through the centre of the stop. Its angle to the axis
+//! The chief ray of a film point passes through the centre of the stop (and, to count, through
+//! every clear aperture: a vignetted corner sees nothing). Its angle to the axis
 //! in object space is the field angle that point sees: exact for a fisheye, where the paraxial
 //! 2·atan(h/f) is meaningless.
 
@@ -19,7 +20,7 @@ pub fn field_angle(system: &LensSystem, film_distance: f64, height: f64) -> Opti
     };
     // Height at which the ray aimed at `aim_x` on the rear vertex plane crosses the stop plane.
     let stop_height = |aim_x: f64| -> Option<f64> {
-        let out = trace_with(&rear_group, ray_towards(aim_x), Travel::FilmToScene, false).ok()?;
+        let out = trace_with(&rear_group, ray_towards(aim_x), Travel::FilmToScene, true).ok()?;
         let t = (stop_z - out.origin[2]) / out.direction[2];
         Some(out.origin[0] + t * out.direction[0])
     };
@@ -47,8 +48,19 @@ pub fn field_angle(system: &LensSystem, film_distance: f64, height: f64) -> Opti
         }
     }
     let x1 = 0.5 * (lo.0 + hi.0);
-    let out = trace_with(&system.f64s, ray_towards(x1), Travel::FilmToScene, false).ok()?;
+    let out = trace_with(&system.f64s, ray_towards(x1), Travel::FilmToScene, true).ok()?;
     Some((-out.direction[2]).acos())
+}
+
+/// The largest film height up to `film_radius` (mm) that still has a chief ray, and its field
+/// angle: the film corner, or the edge of the image circle of a lens (a fisheye's) whose image
+/// does not cover the corners.
+pub fn field_edge(system: &LensSystem, film_distance: f64, film_radius: f64) -> Option<(f64, f64)> {
+    const STEPS: usize = 64;
+    (1..=STEPS).rev().find_map(|k| {
+        let h = film_radius * k as f64 / STEPS as f64;
+        field_angle(system, film_distance, h).map(|a| (h, a))
+    })
 }
 
 #[cfg(test)]
