@@ -11,23 +11,33 @@ use crate::lens::pupil::PupilSampling;
 #[derive(Args, Debug, Clone, Default)]
 pub struct LensOptions {
     /// Focus on the plane this far from the film, in metres (as pbrt).
-    #[arg(long, value_name = "M", conflicts_with = "film_distance")]
+    #[arg(
+        long,
+        value_name = "M",
+        conflicts_with = "film_distance",
+        allow_negative_numbers = true
+    )]
     pub focus_distance: Option<f64>,
     /// How the film distance is found for --focus-distance: `paraxial` (pbrt's thick-lens
     /// answer) or `best` (smallest real-ray RMS spot of the on-axis point).
     #[arg(long, value_name = "MODE", default_value = "paraxial")]
     pub focus_mode: FocusMode,
     /// Set the film distance (rear vertex → film, mm) directly instead of focusing.
-    #[arg(long, value_name = "MM")]
+    #[arg(long, value_name = "MM", allow_negative_numbers = true)]
     pub film_distance: Option<f64>,
     /// Aperture-stop diameter, mm (clamped to the lens's maximum, with a warning).
-    #[arg(long, value_name = "MM", conflicts_with = "f_number")]
+    #[arg(
+        long,
+        value_name = "MM",
+        conflicts_with = "f_number",
+        allow_negative_numbers = true
+    )]
     pub aperture: Option<f64>,
     /// Open the stop so the real f-number (EFL / entrance-pupil diameter) is N.
-    #[arg(long, value_name = "N")]
+    #[arg(long, value_name = "N", allow_negative_numbers = true)]
     pub f_number: Option<f64>,
     /// Film diagonal, mm [default: 35, or the scene camera's hint].
-    #[arg(long, value_name = "MM")]
+    #[arg(long, value_name = "MM", allow_negative_numbers = true)]
     pub film_diagonal: Option<f64>,
     /// Layout of the lens file's thickness column, when it cannot be detected.
     #[arg(long, value_name = "thickness-after|gap-before")]

@@ -409,12 +409,15 @@ fn parse_number(field: &str, allow_infinite: bool) -> Option<f64> {
     Some(value)
 }
 
+/// A field as it may be shown in a message: at most 60 characters, control characters escaped
+/// (binary garbage must not scramble the user's terminal).
 fn shorten(s: &str) -> String {
     const MAX: usize = 60;
+    let shown: String = s.chars().take(MAX).flat_map(|c| c.escape_debug()).collect();
     if s.chars().count() <= MAX {
-        s.to_string()
+        shown
     } else {
-        format!("{}…", s.chars().take(MAX).collect::<String>())
+        format!("{shown}…")
     }
 }
 
