@@ -12,6 +12,7 @@
 
 use rayon::prelude::*;
 
+use super::first_order::FirstOrder;
 use super::system::LensSystem;
 use super::trace::Travel;
 use super::trace_batch::trace_batch;
@@ -19,10 +20,11 @@ use crate::batch::RayBatch;
 
 /// Number of radial film segments (pbrt uses 64 as well).
 pub const SEGMENTS: usize = 64;
-const COARSE_GRID: usize = 48;
-const FINE_GRID: usize = 64;
-/// When the coarse grid misses a tiny pupil entirely.
-const RESCUE_GRID: usize = 320;
+/// Coarse cells across the paraxial exit pupil, at least: fine enough that no pupil slips
+/// between grid points, however small the stop.
+const COARSE_CELLS_PER_PUPIL: f64 = 6.0;
+const COARSE_GRID: std::ops::RangeInclusive<usize> = 32..=384;
+const FINE_GRID: usize = 48;
 
 /// How camera rays pick their point on the rear element.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default, serde::Serialize)]
@@ -132,12 +134,23 @@ impl ExitPupil {
         let film_radius = film_diagonal / 2.0;
         let rear_z = system.rear_z();
         let rear_radius = system.rear_semi_aperture();
+        let pupil_diameter =
+            FirstOrder::compute(system).map_or(rear_radius, |fo| fo.exit_pupil.diameter_mm);
+        let coarse_grid = ((3.0 * rear_radius / pupil_diameter.max(1e-9)) * COARSE_CELLS_PER_PUPIL)
+            .ceil() as usize;
+        let coarse_grid = coarse_grid.clamp(*COARSE_GRID.start(), *COARSE_GRID.end());
         let results: Vec<(Rect, u64)> = (0..SEGMENTS)
             .into_par_iter()
             .map(|k| {
                 let r0 = film_radius * k as f64 / SEGMENTS as f64;
                 let r1 = film_radius * (k + 1) as f64 / SEGMENTS as f64;
-                segment_bounds(system, rear_z + film_distance, rear_radius, [r0, r1])
+                segment_bounds(
+                    system,
+                    rear_z + film_distance,
+                    rear_radius,
+                    [r0, r1],
+                    coarse_grid,
+                )
             })
             .collect();
         ExitPupil {
@@ -218,6 +231,7 @@ fn segment_bounds(
     film_z: f64,
     rear_radius: f64,
     radii: [f64; 2],
+    coarse_grid: usize,
 ) -> (Rect, u64) {
     // pbrt's margin: rays aimed past the rear vertex plane's aperture can still meet a curved
     // rear surface inside its clear aperture.
@@ -227,21 +241,33 @@ fn segment_bounds(
         max: [half, half],
     };
     let mut traced = 0u64;
-    let mut coarse = passing_bounds(system, film_z, radii, &search, COARSE_GRID, &mut traced);
-    let mut cell = 2.0 * half / COARSE_GRID as f64;
+    // Square cells over the 2:1 half-window.
+    let coarse = passing_bounds(
+        system,
+        film_z,
+        radii,
+        &search,
+        [coarse_grid, coarse_grid / 2],
+        &mut traced,
+    );
+    let cell = 2.0 * half / coarse_grid as f64;
     if coarse.is_empty() {
-        coarse = passing_bounds(system, film_z, radii, &search, RESCUE_GRID, &mut traced);
-        cell = 2.0 * half / RESCUE_GRID as f64;
-        if coarse.is_empty() {
-            return (Rect::EMPTY, traced);
-        }
+        // Beyond the image circle (a fisheye's film corners): no light reaches here.
+        return (Rect::EMPTY, traced);
     }
     let window = coarse.expanded(cell);
     let window = Rect {
         min: [window.min[0], window.min[1].max(0.0)],
         max: window.max,
     };
-    let fine = passing_bounds(system, film_z, radii, &window, FINE_GRID, &mut traced);
+    let fine = passing_bounds(
+        system,
+        film_z,
+        radii,
+        &window,
+        [FINE_GRID, FINE_GRID],
+        &mut traced,
+    );
     let fine_cell =
         ((window.max[0] - window.min[0]).max(window.max[1] - window.min[1])) / FINE_GRID as f64;
     let bounds = if fine.is_empty() {
@@ -260,26 +286,26 @@ fn segment_bounds(
     )
 }
 
-/// Traces a grid × grid lattice of cell centres of `window` from each film point (r, 0) and
-/// returns the bounds of the centres whose rays pass.
+/// Traces a `grid[0]` × `grid[1]` lattice of cell centres of `window` from each film point
+/// (r, 0) and returns the bounds of the centres whose rays pass.
 fn passing_bounds(
     system: &LensSystem,
     film_z: f64,
     radii: [f64; 2],
     window: &Rect,
-    grid: usize,
+    grid: [usize; 2],
     traced: &mut u64,
 ) -> Rect {
     let rear_z = system.rear_z() as f32;
-    let mut batch = RayBatch::with_capacity(grid * grid * radii.len());
+    let mut batch = RayBatch::with_capacity(grid[0] * grid[1] * radii.len());
     let step = [
-        (window.max[0] - window.min[0]) / grid as f64,
-        (window.max[1] - window.min[1]) / grid as f64,
+        (window.max[0] - window.min[0]) / grid[0] as f64,
+        (window.max[1] - window.min[1]) / grid[1] as f64,
     ];
     let centre = |i: usize, axis: usize| window.min[axis] + (i as f64 + 0.5) * step[axis];
     for &r in &radii {
-        for iy in 0..grid {
-            for ix in 0..grid {
+        for iy in 0..grid[1] {
+            for ix in 0..grid[0] {
                 let (x, y) = (centre(ix, 0) as f32, centre(iy, 1) as f32);
                 let d = [x - r as f32, y, rear_z - film_z as f32];
                 let len = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
@@ -295,11 +321,11 @@ fn passing_bounds(
     *traced += batch.len() as u64;
     trace_batch(&system.f32s, &mut batch, Travel::FilmToScene);
     let mut bounds = Rect::EMPTY;
-    let per_film_point = grid * grid;
+    let per_film_point = grid[0] * grid[1];
     for (i, &alive) in batch.alive.iter().enumerate() {
         if alive {
             let cell = i % per_film_point;
-            bounds.include(centre(cell % grid, 0), centre(cell / grid, 1));
+            bounds.include(centre(cell % grid[0], 0), centre(cell / grid[0], 1));
         }
     }
     bounds
