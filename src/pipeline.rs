@@ -467,7 +467,6 @@ pub fn write_film(
         tile.samples += 1;
     });
     pass.pending = false;
-    pass.sample += 1;
     stats.add_time(Stage::WriteFilm, start);
 }
 
@@ -553,30 +552,62 @@ impl Renderer {
         Ok(())
     }
 
-    /// Clears the film and renders `spp` sample passes, calling `progress(done, total)` after
-    /// each; stops early (keeping what was rendered) when `progress` returns false.
+    /// Clears the film and renders samples 0..`spp`, calling `progress(done, total)` after each
+    /// pass; stops early (keeping what was rendered) when `progress` returns false.
     pub fn render(
         &mut self,
         spp: u32,
+        progress: impl FnMut(u32, u32) -> bool,
+    ) -> anyhow::Result<Image> {
+        let samples: Vec<u32> = (0..spp).collect();
+        self.render_samples(None, &samples, progress)
+    }
+
+    /// Renders one pass per sample index in `samples`, in order, onto the film cleared or, with
+    /// `start`, holding `start`'s sums (a resumed checkpoint). Each sample index keys its own
+    /// random streams, so any split of the indices (shards, interruptions) sums to the same
+    /// image. Returns the film and how many passes ran (fewer if `progress` said stop).
+    pub fn render_samples(
+        &mut self,
+        start: Option<&Image>,
+        samples: &[u32],
         mut progress: impl FnMut(u32, u32) -> bool,
     ) -> anyhow::Result<Image> {
         self.update()?;
         self.check_active_lens()?;
+        let (width, height) = {
+            let settings = self.world.resource::<RenderSettings>();
+            (settings.width, settings.height)
+        };
+        if let Some(image) = start
+            && (image.width, image.height) != (width, height)
+        {
+            anyhow::bail!(
+                "film of {}×{} cannot continue an image of {}×{}",
+                width,
+                height,
+                image.width,
+                image.height
+            );
+        }
         for mut tile in self
             .world
             .query::<&mut FilmTile>()
             .iter_mut(&mut self.world)
         {
             tile.clear();
+            if let Some(image) = start {
+                tile.load(image);
+            }
         }
-        self.world.insert_resource(PassState {
-            pending: false,
-            sample: 0,
-        });
-        for done in 0..spp {
-            self.world.resource_mut::<PassState>().pending = true;
+        let total = samples.len() as u32;
+        for (done, &sample) in samples.iter().enumerate() {
+            self.world.insert_resource(PassState {
+                pending: true,
+                sample,
+            });
             self.update()?;
-            if !progress(done + 1, spp) {
+            if !progress(done as u32 + 1, total) {
                 break;
             }
         }

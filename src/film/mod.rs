@@ -4,6 +4,7 @@
 //! parallel without sharing anything. A tile stores *sums* of weighted samples (not means), so
 //! a render can be stopped, saved and resumed, or split and merged, without rounding drift.
 
+pub mod checkpoint;
 pub mod output;
 
 use bevy_ecs::component::Component;
@@ -41,6 +42,18 @@ impl FilmTile {
     /// Image coordinates of the tile's pixels in accumulation order.
     pub fn pixels(&self) -> impl Iterator<Item = (u32, u32)> + '_ {
         (0..self.height).flat_map(move |y| (0..self.width).map(move |x| (self.x0 + x, self.y0 + y)))
+    }
+
+    /// Takes this tile's pixels and sample count from a whole-image `image`.
+    pub fn load(&mut self, image: &Image) {
+        for ty in 0..self.height {
+            for tx in 0..self.width {
+                let t = (ty * self.width + tx) as usize;
+                let s = image.sums[((self.y0 + ty) * image.width + self.x0 + tx) as usize];
+                (self.sum_r[t], self.sum_g[t], self.sum_b[t]) = (s[0], s[1], s[2]);
+            }
+        }
+        self.samples = image.samples;
     }
 
     pub fn clear(&mut self) {
