@@ -13,6 +13,7 @@
 //! entities ([`MeshInstance`], [`PunctualLight`], [`SceneCamera`]) and the [`MaterialLibrary`]
 //! resource.
 
+pub mod default_scene;
 pub mod gltf_loader;
 pub mod texture;
 
