@@ -13,19 +13,19 @@
 //! entities ([`MeshInstance`], [`PunctualLight`], [`SceneCamera`]) and the [`MaterialLibrary`]
 //! resource.
 
+pub mod default_scene;
 pub mod gltf_loader;
 pub mod texture;
-
-pub use gltf_loader::{load_gltf, load_gltf_bytes};
 
 use std::path::PathBuf;
 use std::sync::Arc;
 
 use bevy_ecs::component::Component;
 use bevy_ecs::resource::Resource;
-use glam::{Mat4, Vec2, Vec3, Vec4};
+use glam::{Mat3, Mat4, Vec2, Vec3, Vec4};
 
-pub use texture::{Texture, WrapMode};
+pub use gltf_loader::{load_gltf, load_gltf_bytes};
+pub use texture::{ColorEncoding, Texture, WrapMode};
 
 /// Triangle geometry of one glTF primitive, in the mesh's local frame.
 #[derive(Clone, Debug, Default)]
@@ -43,11 +43,22 @@ pub struct Mesh {
 }
 
 /// One placed copy of a mesh: an entity of the scene.
+///
+/// When `world_from_local` mirrors (negative determinant), the loader gives the instance a copy
+/// of the mesh with reversed winding, so world-space geometric normals still face outwards.
 #[derive(Component, Clone, Debug)]
 pub struct MeshInstance {
     pub mesh: Arc<Mesh>,
     pub world_from_local: Mat4,
     pub node_name: Option<String>,
+}
+
+impl MeshInstance {
+    /// The matrix taking local normals to world normals: the inverse transpose of
+    /// `world_from_local`'s 3×3 part (re-normalise after use; non-uniform scale changes length).
+    pub fn normal_from_local(&self) -> Mat3 {
+        Mat3::from_mat4(self.world_from_local).inverse().transpose()
+    }
 }
 
 /// A reference to a texture with the UV set it reads.

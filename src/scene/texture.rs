@@ -1,5 +1,9 @@
 //! Decoded textures and their sampling.
 
+use std::sync::LazyLock;
+
+use glam::Vec2;
+
 /// glTF sampler wrap modes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 pub enum WrapMode {
@@ -7,6 +11,36 @@ pub enum WrapMode {
     Repeat,
     MirroredRepeat,
     ClampToEdge,
+}
+
+impl WrapMode {
+    /// Maps an integer texel coordinate (any value) onto `0..size`. `size` must not be zero.
+    fn wrap(self, coordinate: i64, size: u32) -> usize {
+        let size = i64::from(size);
+        let wrapped = match self {
+            WrapMode::Repeat => coordinate.rem_euclid(size),
+            WrapMode::ClampToEdge => coordinate.clamp(0, size - 1),
+            WrapMode::MirroredRepeat => {
+                // One period is the image followed by its mirror image.
+                let in_period = coordinate.rem_euclid(2 * size);
+                if in_period < size {
+                    in_period
+                } else {
+                    2 * size - 1 - in_period
+                }
+            }
+        };
+        wrapped as usize
+    }
+}
+
+/// How an image's stored values encode colour.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum ColorEncoding {
+    /// sRGB transfer curve on RGB (glTF base colour and emissive textures); alpha is linear.
+    Srgb,
+    /// Values are used as they are (metallic-roughness and normal textures).
+    Linear,
 }
 
 /// An RGBA texture decoded to linear f32 (sRGB-encoded images are linearised at load).
@@ -20,4 +54,282 @@ pub struct Texture {
     pub wrap_t: WrapMode,
     /// Nearest-texel magnification instead of bilinear.
     pub nearest: bool,
+}
+
+/// What a texture without texels reads: white, so a factor multiplied by it is unchanged.
+const MISSING_TEXEL: [f32; 4] = [1.0; 4];
+
+impl Texture {
+    /// Decodes `image` to linear RGBA, with glTF's default sampler (repeat, bilinear).
+    /// Grey images are expanded to RGB and images without alpha get alpha 1.
+    pub fn from_image(image: &image::DynamicImage, encoding: ColorEncoding) -> Texture {
+        let is_8_bit = matches!(
+            image,
+            image::DynamicImage::ImageLuma8(_)
+                | image::DynamicImage::ImageLumaA8(_)
+                | image::DynamicImage::ImageRgb8(_)
+                | image::DynamicImage::ImageRgba8(_)
+        );
+        let texels = match encoding {
+            ColorEncoding::Srgb if is_8_bit => {
+                // A table: 8-bit sRGB has only 256 values, and powf per texel is slow.
+                let table = &*SRGB8_TO_LINEAR;
+                image
+                    .to_rgba8()
+                    .pixels()
+                    .map(|p| {
+                        let [r, g, b, a] = p.0;
+                        [
+                            table[r as usize],
+                            table[g as usize],
+                            table[b as usize],
+                            f32::from(a) / 255.0,
+                        ]
+                    })
+                    .collect()
+            }
+            ColorEncoding::Srgb => image
+                .to_rgba32f()
+                .pixels()
+                .map(|p| {
+                    let [r, g, b, a] = p.0;
+                    [srgb_to_linear(r), srgb_to_linear(g), srgb_to_linear(b), a]
+                })
+                .collect(),
+            ColorEncoding::Linear => image.to_rgba32f().pixels().map(|p| p.0).collect(),
+        };
+        Texture {
+            width: image.width(),
+            height: image.height(),
+            texels,
+            wrap_s: WrapMode::Repeat,
+            wrap_t: WrapMode::Repeat,
+            nearest: false,
+        }
+    }
+
+    /// The same texture read with the given sampler settings.
+    pub fn with_sampler(self, wrap_s: WrapMode, wrap_t: WrapMode, nearest: bool) -> Texture {
+        Texture {
+            wrap_s,
+            wrap_t,
+            nearest,
+            ..self
+        }
+    }
+
+    /// Linear RGBA at `uv` (glTF convention: (0,0) is the top-left corner of the image, v grows
+    /// downwards), filtered bilinearly or by nearest texel, wrapped by the sampler's modes.
+    /// Non-finite UVs read as (0,0); an empty texture reads as white.
+    pub fn sample(&self, uv: Vec2) -> [f32; 4] {
+        if self.width == 0 || self.height == 0 || self.texels.is_empty() {
+            return MISSING_TEXEL;
+        }
+        // Texel space: texel (i, j) covers [i, i+1) × [j, j+1), its centre is at +0.5.
+        let scaled = uv * Vec2::new(self.width as f32, self.height as f32);
+        let Vec2 { x, y } = if scaled.is_finite() {
+            scaled
+        } else {
+            Vec2::ZERO
+        };
+        if self.nearest {
+            return self.texel(x.floor() as i64, y.floor() as i64);
+        }
+        let (x, y) = (x - 0.5, y - 0.5);
+        let (x0, y0) = (x.floor(), y.floor());
+        let (fx, fy) = (x - x0, y - y0);
+        // `as` saturates for huge coordinates; saturating_add keeps the +1 from overflowing.
+        let (x0, y0) = (x0 as i64, y0 as i64);
+        let (x1, y1) = (x0.saturating_add(1), y0.saturating_add(1));
+        let top = lerp4(self.texel(x0, y0), self.texel(x1, y0), fx);
+        let bottom = lerp4(self.texel(x0, y1), self.texel(x1, y1), fx);
+        lerp4(top, bottom, fy)
+    }
+
+    fn texel(&self, x: i64, y: i64) -> [f32; 4] {
+        let column = self.wrap_s.wrap(x, self.width);
+        let row = self.wrap_t.wrap(y, self.height);
+        self.texels
+            .get(row * self.width as usize + column)
+            .copied()
+            .unwrap_or(MISSING_TEXEL)
+    }
+}
+
+fn lerp4(a: [f32; 4], b: [f32; 4], t: f32) -> [f32; 4] {
+    std::array::from_fn(|i| a[i] + (b[i] - a[i]) * t)
+}
+
+/// The sRGB electro-optical transfer function (IEC 61966-2-1): encoded value in [0, 1] →
+/// linear value in [0, 1].
+pub fn srgb_to_linear(encoded: f32) -> f32 {
+    if encoded <= 0.04045 {
+        encoded / 12.92
+    } else {
+        ((encoded + 0.055) / 1.055).powf(2.4)
+    }
+}
+
+/// The inverse of [`srgb_to_linear`].
+pub fn linear_to_srgb(linear: f32) -> f32 {
+    if linear <= 0.0031308 {
+        linear * 12.92
+    } else {
+        1.055 * linear.powf(1.0 / 2.4) - 0.055
+    }
+}
+
+static SRGB8_TO_LINEAR: LazyLock<[f32; 256]> =
+    LazyLock::new(|| std::array::from_fn(|i| srgb_to_linear(i as f32 / 255.0)));
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use approx::assert_relative_eq;
+
+    /// A texture whose red channel holds the given values, one row per slice.
+    fn red_texture(rows: &[&[f32]]) -> Texture {
+        Texture {
+            width: rows[0].len() as u32,
+            height: rows.len() as u32,
+            texels: rows
+                .iter()
+                .flat_map(|row| row.iter().map(|&r| [r, 0.0, 0.0, 1.0]))
+                .collect(),
+            wrap_s: WrapMode::Repeat,
+            wrap_t: WrapMode::Repeat,
+            nearest: false,
+        }
+    }
+
+    #[test]
+    fn srgb_188_decodes_to_about_half() {
+        let image = image::DynamicImage::ImageRgb8(image::RgbImage::from_pixel(
+            1,
+            1,
+            image::Rgb([188, 188, 188]),
+        ));
+        let texel = Texture::from_image(&image, ColorEncoding::Srgb).texels[0];
+        // ((188/255 + 0.055) / 1.055)^2.4 = 0.5029
+        assert_relative_eq!(texel[0], 0.5029, epsilon = 1e-3);
+        assert_eq!(texel[3], 1.0);
+        let linear = Texture::from_image(&image, ColorEncoding::Linear).texels[0];
+        assert_relative_eq!(linear[0], 188.0 / 255.0, epsilon = 1e-6);
+    }
+
+    #[test]
+    fn srgb_table_matches_formula_and_16_bit_path() {
+        let eight = image::DynamicImage::ImageRgba8(image::RgbaImage::from_pixel(
+            1,
+            1,
+            image::Rgba([10, 100, 250, 128]),
+        ));
+        let sixteen = image::DynamicImage::ImageRgba16(image::ImageBuffer::from_pixel(
+            1,
+            1,
+            image::Rgba([10 * 257, 100 * 257, 250 * 257, 128 * 257]),
+        ));
+        let a = Texture::from_image(&eight, ColorEncoding::Srgb).texels[0];
+        let b = Texture::from_image(&sixteen, ColorEncoding::Srgb).texels[0];
+        for channel in 0..4 {
+            assert_relative_eq!(a[channel], b[channel], epsilon = 1e-6);
+        }
+        assert_relative_eq!(a[3], 128.0 / 255.0, epsilon = 1e-6);
+    }
+
+    #[test]
+    fn srgb_round_trip() {
+        for i in 0..=255 {
+            let encoded = i as f32 / 255.0;
+            assert_relative_eq!(
+                linear_to_srgb(srgb_to_linear(encoded)),
+                encoded,
+                epsilon = 1e-5
+            );
+        }
+    }
+
+    #[test]
+    fn bilinear_midpoint_between_two_texels() {
+        let texture = red_texture(&[&[0.0, 1.0]]);
+        // u = 0.5 is the boundary between the two texel centres at u = 0.25 and 0.75.
+        assert_relative_eq!(texture.sample(Vec2::new(0.5, 0.5))[0], 0.5);
+        assert_relative_eq!(texture.sample(Vec2::new(0.25, 0.5))[0], 0.0);
+        assert_relative_eq!(texture.sample(Vec2::new(0.75, 0.5))[0], 1.0);
+        assert_relative_eq!(texture.sample(Vec2::new(0.375, 0.5))[0], 0.25);
+    }
+
+    #[test]
+    fn v_zero_is_the_top_row() {
+        let texture = red_texture(&[&[1.0], &[0.0]]).with_sampler(
+            WrapMode::ClampToEdge,
+            WrapMode::ClampToEdge,
+            true,
+        );
+        assert_eq!(texture.sample(Vec2::new(0.5, 0.1))[0], 1.0);
+        assert_eq!(texture.sample(Vec2::new(0.5, 0.9))[0], 0.0);
+    }
+
+    #[test]
+    fn wrap_modes() {
+        let texture = red_texture(&[&[0.0, 1.0, 2.0, 3.0]]);
+        let nearest = |wrap: WrapMode, u: f32| {
+            texture
+                .clone()
+                .with_sampler(wrap, WrapMode::Repeat, true)
+                .sample(Vec2::new(u, 0.5))[0]
+        };
+        // u = 1.125 is texel 4.5 → one past the right edge.
+        assert_eq!(nearest(WrapMode::Repeat, 1.125), 0.0);
+        assert_eq!(nearest(WrapMode::Repeat, -0.125), 3.0);
+        assert_eq!(nearest(WrapMode::ClampToEdge, 1.125), 3.0);
+        assert_eq!(nearest(WrapMode::ClampToEdge, -5.0), 0.0);
+        assert_eq!(nearest(WrapMode::MirroredRepeat, 1.125), 3.0);
+        assert_eq!(nearest(WrapMode::MirroredRepeat, 1.375), 2.0);
+        assert_eq!(nearest(WrapMode::MirroredRepeat, -0.125), 0.0);
+        assert_eq!(nearest(WrapMode::MirroredRepeat, 2.125), 0.0);
+
+        // Bilinear across the right edge blends with the texel the wrap mode names.
+        let bilinear = |wrap: WrapMode| {
+            texture
+                .clone()
+                .with_sampler(wrap, WrapMode::Repeat, false)
+                .sample(Vec2::new(1.0, 0.5))[0]
+        };
+        assert_relative_eq!(bilinear(WrapMode::Repeat), 1.5); // (3 + 0) / 2
+        assert_relative_eq!(bilinear(WrapMode::ClampToEdge), 3.0);
+        assert_relative_eq!(bilinear(WrapMode::MirroredRepeat), 3.0);
+    }
+
+    #[test]
+    fn odd_inputs_do_not_panic() {
+        let texture = red_texture(&[&[0.25, 0.5], &[0.75, 1.0]]);
+        for uv in [
+            Vec2::new(f32::NAN, 0.0),
+            Vec2::new(f32::INFINITY, f32::NEG_INFINITY),
+            Vec2::new(1e30, -1e30),
+            Vec2::new(f32::MAX, f32::MIN),
+        ] {
+            for wrap in [
+                WrapMode::Repeat,
+                WrapMode::MirroredRepeat,
+                WrapMode::ClampToEdge,
+            ] {
+                for nearest in [false, true] {
+                    let sampled = texture.clone().with_sampler(wrap, wrap, nearest).sample(uv);
+                    assert!(
+                        sampled.iter().all(|v| v.is_finite()),
+                        "{uv} {wrap:?} {sampled:?}"
+                    );
+                }
+            }
+        }
+        let empty = Texture {
+            width: 0,
+            height: 0,
+            texels: Vec::new(),
+            ..texture
+        };
+        assert_eq!(empty.sample(Vec2::splat(0.5)), MISSING_TEXEL);
+    }
 }
