@@ -2,6 +2,8 @@
 //! sampling over glTF metallic-roughness materials. World frame, photometric units
 //! (see [`crate::scene`]).
 
+pub mod texture_lookup;
+
 use bevy_ecs::resource::Resource;
 use glam::Vec3;
 
