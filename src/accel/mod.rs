@@ -10,7 +10,7 @@
 //! in metres along them.
 
 mod alpha_mask;
-mod spawn;
+pub mod spawn;
 mod surface;
 mod triangles;
 
@@ -64,6 +64,9 @@ pub struct SurfacePoint {
     pub material: Option<usize>,
     /// True when the ray hit the side the geometric normal (winding) points away from.
     pub back_face: bool,
+    /// How far along the geometric normal a ray leaving this point must start to clear its
+    /// own triangle (see [`SurfacePoint::spawn_origin`]), metres.
+    pub spawn_offset: f32,
 }
 
 /// The scene's BVH and the triangle data it indexes, in BVH order.
@@ -80,8 +83,6 @@ pub struct SceneAccel {
     /// World → BVH space scale, an exact power of two (see `triangles::bvh_space_scale`).
     bvh_scale: f32,
     bounds: Bounds,
-    /// Scene-size part of the self-intersection epsilon (see `spawn`).
-    scene_epsilon: f32,
     dropped_triangles: usize,
     build_time: Duration,
 }
@@ -153,7 +154,6 @@ impl SceneAccel {
             alpha_masks: AlphaMasks::new(materials),
             bvh_scale,
             bounds: soup.bounds,
-            scene_epsilon: spawn::scene_epsilon(&soup.bounds),
             dropped_triangles: soup.dropped,
             build_time: start.elapsed(),
         })

@@ -1,56 +1,59 @@
 //! Spawning rays from surfaces without hitting the surface they start on.
 //!
-//! A hit point computed in f32 lies off the true surface by a few ulps of its coordinates (and
-//! of the triangle's vertex coordinates), so a ray leaving it can hit its own triangle again.
-//! Moving the origin along the geometric normal by an epsilon that scales with both the
-//! point's coordinates and the scene's size works from 7 mm scenes to 100 m ones.
+//! A hit point computed in f32 lies off the true surface by a few ulps of its triangle's
+//! vertex coordinates, and the test of a new ray against that triangle errs by as much, so a
+//! ray leaving the point can hit its own triangle again. Starting it a little off the surface,
+//! along the geometric normal, by an amount relative to the triangle's coordinates avoids
+//! that at every scale (7 mm objects, 100 m rooms, a 20 km ground plane) without a fixed
+//! epsilon that would be too small for one and swallow the detail of another.
 
 use glam::Vec3;
 
-use super::SceneAccel;
-use crate::scene::Bounds;
+use super::{SceneAccel, SurfacePoint};
 
-/// Relative to the largest coordinate of the point: 2^-16 ≈ 128 ulps of f32.
+/// Offset relative to the largest vertex coordinate: 2^-16 ≈ 128 ulps of f32.
 const COORDINATE_RELATIVE: f32 = 1.0 / 65536.0;
-/// Relative to the scene's diagonal, for points near the origin (whose own coordinates say
-/// little about the size of the triangles around them): 2^-18 ≈ 4 ppm of the scene.
-const SCENE_RELATIVE: f32 = 1.0 / 262144.0;
 
-/// The scene-size part of the epsilon; a metre-sized scene is assumed when bounds are empty.
-pub(super) fn scene_epsilon(bounds: &Bounds) -> f32 {
-    let diagonal = bounds.diagonal();
-    if bounds.is_empty() || !diagonal.is_finite() || diagonal <= 0.0 {
-        SCENE_RELATIVE
+/// How far off a triangle with these vertices a ray leaving it must start.
+pub(super) fn triangle_spawn_offset(vertices: [Vec3; 3]) -> f32 {
+    let magnitude = vertices
+        .iter()
+        .map(|v| v.abs().max_element())
+        .fold(0.0f32, f32::max);
+    COORDINATE_RELATIVE
+        * if magnitude.is_finite() {
+            magnitude
+        } else {
+            0.0
+        }
+}
+
+/// `position` moved `offset` along `normal`, to the side `direction` points to.
+pub fn offset_along_normal(position: Vec3, normal: Vec3, offset: f32, direction: Vec3) -> Vec3 {
+    let toward = if normal.dot(direction) < 0.0 {
+        -normal
     } else {
-        SCENE_RELATIVE * diagonal
+        normal
+    };
+    position + toward * offset
+}
+
+impl SurfacePoint {
+    /// The origin for a ray leaving this point in `direction` that will not hit its own
+    /// surface: the position moved off the surface to the side `direction` points to.
+    pub fn spawn_origin(&self, direction: Vec3) -> Vec3 {
+        offset_along_normal(
+            self.position,
+            self.geometric_normal,
+            self.spawn_offset,
+            direction,
+        )
     }
 }
 
 impl SceneAccel {
-    /// How far (m) off a surface a ray starting at `position` must begin.
-    pub fn self_intersection_epsilon(&self, position: Vec3) -> f32 {
-        let coordinate_scale = position.abs().max_element();
-        let coordinate_scale = if coordinate_scale.is_finite() {
-            coordinate_scale
-        } else {
-            0.0
-        };
-        COORDINATE_RELATIVE * coordinate_scale + self.scene_epsilon
-    }
-
-    /// `position` moved off its surface along `geometric_normal`, to the side `direction`
-    /// leaves to: the origin for a ray in `direction` that will not hit its own surface.
-    pub fn offset_ray_origin(
-        &self,
-        position: Vec3,
-        geometric_normal: Vec3,
-        direction: Vec3,
-    ) -> Vec3 {
-        let toward = if geometric_normal.dot(direction) < 0.0 {
-            -geometric_normal
-        } else {
-            geometric_normal
-        };
-        position + toward * self.self_intersection_epsilon(position)
+    /// How far off `triangle` a ray leaving it must start (see [`SurfacePoint::spawn_origin`]).
+    pub fn triangle_spawn_offset(&self, triangle: u32) -> f32 {
+        triangle_spawn_offset(self.triangle_vertices(triangle))
     }
 }

@@ -2,6 +2,7 @@
 
 use glam::{Vec2, Vec3, Vec4};
 
+use super::spawn::triangle_spawn_offset;
 use super::triangles::{NO_MATERIAL, attributes};
 use super::{Hit, SceneAccel, SurfacePoint};
 
@@ -31,6 +32,7 @@ impl SceneAccel {
                 uv: Vec2::ZERO,
                 material: None,
                 back_face: false,
+                spawn_offset: 0.0,
             };
         };
         let (u, v) = (hit.u, hit.v);
@@ -82,6 +84,9 @@ impl SceneAccel {
             uv,
             material: (record.material != NO_MATERIAL).then_some(record.material as usize),
             back_face,
+            spawn_offset: triangle_spawn_offset(
+                primitive.vertices().map(|v| Vec3::from(v) / self.bvh_scale),
+            ),
         }
     }
 }

@@ -460,7 +460,7 @@ fn millimetre_scene_sees_geometry_a_few_microns_away() {
         .expect("floor");
     assert_eq!(accel.triangle_material(floor_hit.triangle), None);
     let surface = accel.surface(&floor_hit, incoming);
-    let origin = accel.offset_ray_origin(surface.position, surface.geometric_normal, Vec3::Y);
+    let origin = surface.spawn_origin(Vec3::Y);
     let hit = accel
         .intersect(origin, Vec3::Y, f32::INFINITY)
         .expect("chip");
@@ -474,6 +474,7 @@ fn offset_origins_avoid_self_intersection_at_all_scales() {
         (0.007f32, Vec3::ZERO),
         (1.0, Vec3::new(3.0, -2.0, 1.0)),
         (100.0, Vec3::new(90.0, 40.0, -70.0)),
+        (20_000.0, Vec3::new(0.0, 1.0, 0.0)),
     ] {
         // A tilted, finely tessellated fan so that hits land near shared edges too.
         let mut positions = vec![Vec3::ZERO];
@@ -507,8 +508,7 @@ fn offset_origins_avoid_self_intersection_at_all_scales() {
             let tangent = normal.any_orthonormal_vector();
             let outgoing =
                 (surface.geometric_normal * (0.002 + u) + tangent * (1.0 - u)).normalize();
-            let origin =
-                accel.offset_ray_origin(surface.position, surface.geometric_normal, outgoing);
+            let origin = surface.spawn_origin(outgoing);
             assert!(
                 accel.intersect(origin, outgoing, f32::INFINITY).is_none(),
                 "self-hit at scale {scale}"
