@@ -4,43 +4,20 @@ use std::f64::consts::PI;
 
 use glam::Vec3;
 
-use super::rough_dielectric_normal_view;
+use super::{
+    Tally, integrate_directions, polar_direction as direction, rough_dielectric_normal_view,
+};
 use crate::sampling::Rng;
 use crate::shade::bsdf::MetalRoughBsdf;
 use crate::shade::ggx::Ggx;
-
-fn direction(theta: f64, phi: f64) -> Vec3 {
-    Vec3::new(
-        (theta.sin() * phi.cos()) as f32,
-        (theta.sin() * phi.sin()) as f32,
-        theta.cos() as f32,
-    )
-}
-
-/// ∫ g(ω) dω over the sphere (or the upper hemisphere) by the midpoint rule in (θ, φ).
-fn integrate(upper_hemisphere_only: bool, n_theta: usize, g: impl Fn(Vec3) -> f64) -> f64 {
-    let theta_max = if upper_hemisphere_only { PI / 2.0 } else { PI };
-    let n_phi = 2 * n_theta;
-    let (d_theta, d_phi) = (theta_max / n_theta as f64, 2.0 * PI / n_phi as f64);
-    let mut sum = 0.0;
-    for i in 0..n_theta {
-        let theta = (i as f64 + 0.5) * d_theta;
-        let mut ring = 0.0;
-        for j in 0..n_phi {
-            ring += g(direction(theta, (j as f64 + 0.5) * d_phi));
-        }
-        sum += ring * theta.sin() * d_theta * d_phi;
-    }
-    sum
-}
 
 /// Monte Carlo estimate of the directional albedo ∫ f cos dω by the BSDF's own sampling
 /// (paths the sampler ends count as zero), with its standard error.
 fn sampled_albedo(bsdf: &MetalRoughBsdf, wo: Vec3, n: u32, seed: u64) -> (f64, f64) {
     let mut rng = Rng::new(seed, 7);
-    let (mut sum, mut sum2) = (0.0f64, 0.0f64);
+    let mut tally = Tally::default();
     for _ in 0..n {
-        let x = match bsdf.sample(wo, rng.next_f32(), rng.next_2d()) {
+        tally.add(match bsdf.sample(wo, rng.next_f32(), rng.next_2d()) {
             Some(s) => {
                 assert!(
                     (s.pdf - bsdf.pdf(wo, s.wi)).abs() <= 1e-5 * s.pdf,
@@ -50,15 +27,9 @@ fn sampled_albedo(bsdf: &MetalRoughBsdf, wo: Vec3, n: u32, seed: u64) -> (f64, f
                 (s.value.y * s.wi.z / s.pdf) as f64
             }
             None => 0.0,
-        };
-        sum += x;
-        sum2 += x * x;
+        });
     }
-    let mean = sum / n as f64;
-    (
-        mean,
-        ((sum2 / n as f64 - mean * mean).max(0.0) / n as f64).sqrt(),
-    )
+    (tally.mean(), tally.std_error())
 }
 
 #[test]
@@ -114,13 +85,13 @@ fn ggx_reflection_density_integrates_to_one() {
         for theta_o in [0.0f64, 0.8, 1.4] {
             let wo = direction(theta_o, 0.0);
             // Over the whole sphere: reflection can send some of it below the horizon.
-            let total = integrate(false, 700, |wi| ggx.reflection_pdf(wo, wi) as f64);
+            let total = integrate_directions(false, 700, |wi| ggx.reflection_pdf(wo, wi) as f64);
             assert!(
                 (total - 1.0).abs() < 3e-3,
                 "roughness {roughness}, θo {theta_o}: ∫ pdf = {total}"
             );
             // Visible normals: ∫ D_wo(h) dh = 1 as well.
-            let normals = integrate(true, 700, |h| ggx.visible_normal_pdf(wo, h) as f64);
+            let normals = integrate_directions(true, 700, |h| ggx.visible_normal_pdf(wo, h) as f64);
             assert!((normals - 1.0).abs() < 3e-3, "∫ D_wo = {normals}");
         }
     }
@@ -139,7 +110,8 @@ fn sampling_follows_the_density_it_reports() {
     for (k, bsdf) in materials.iter().enumerate() {
         for theta_o in [0.2f64, 1.0] {
             let wo = direction(theta_o, 1.0);
-            let quadrature = integrate(true, 500, |wi| (bsdf.eval(wo, wi).y * wi.z) as f64);
+            let quadrature =
+                integrate_directions(true, 500, |wi| (bsdf.eval(wo, wi).y * wi.z) as f64);
             let (mean, error) = sampled_albedo(bsdf, wo, 200_000, k as u64);
             assert!(error < 0.005 * quadrature);
             assert!(

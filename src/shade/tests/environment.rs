@@ -6,9 +6,11 @@ use std::sync::Arc;
 use glam::{Vec2, Vec3};
 
 use super::*;
+use crate::shade::bsdf::luminance;
 use crate::shade::environment::{
     EnvironmentMap, direction_to_image, image_to_direction, load_environment,
 };
+use crate::shade::warp::{UNIFORM_SPHERE_PDF, uniform_sphere};
 
 fn image_environment(width: u32, height: u32, pixel: impl Fn(u32, u32) -> Vec3) -> Environment {
     let pixels: Vec<Vec3> = (0..height)
@@ -18,26 +20,6 @@ fn image_environment(width: u32, height: u32, pixel: impl Fn(u32, u32) -> Vec3) 
     Environment::Image(Arc::new(
         EnvironmentMap::new(width, height, &pixels).expect("map"),
     ))
-}
-
-/// ∫ g(ω) dω over the sphere by the midpoint rule in (θ, φ).
-fn integrate_sphere(n_theta: usize, g: impl Fn(Vec3) -> f64) -> f64 {
-    let n_phi = 2 * n_theta;
-    let (d_theta, d_phi) = (PI / n_theta as f64, 2.0 * PI / n_phi as f64);
-    let mut sum = 0.0;
-    for i in 0..n_theta {
-        let theta = (i as f64 + 0.5) * d_theta;
-        for j in 0..n_phi {
-            let phi = (j as f64 + 0.5) * d_phi;
-            let w = Vec3::new(
-                (theta.sin() * phi.cos()) as f32,
-                theta.cos() as f32,
-                (theta.sin() * phi.sin()) as f32,
-            );
-            sum += g(w) * theta.sin() * d_theta * d_phi;
-        }
-    }
-    sum
 }
 
 /// An uneven sky: a gradient, a bright sun-like pixel block, and a black ground whose top
@@ -102,16 +84,14 @@ fn mapping_convention() {
 #[test]
 fn sampling_density_integrates_to_one_and_matches_samples() {
     let env = uneven_sky();
-    let total = integrate_sphere(1000, |w| env.pdf(w) as f64);
+    let total = integrate_directions(false, 1000, |w| env.pdf(w) as f64);
     assert!((total - 1.0).abs() < 5e-3, "∫ pdf dω = {total}");
 
     // Importance-sampled ∫ Y(L) dω against quadrature of the same (bilinear) radiance.
-    let reference = integrate_sphere(1000, |w| {
-        crate::shade::bsdf::luminance(env.radiance(w)) as f64
-    });
+    let reference = integrate_directions(false, 1000, |w| luminance(env.radiance(w)) as f64);
     let mut rng = Rng::new(8, 8);
     let n = 200_000;
-    let (mut sum, mut sum2) = (0.0f64, 0.0f64);
+    let mut importance = Tally::default();
     let mut inconsistent = 0;
     for _ in 0..n {
         let s = env.sample(rng.next_2d()).expect("sample");
@@ -120,36 +100,25 @@ fn sampling_density_integrates_to_one_and_matches_samples() {
             inconsistent += 1;
         }
         assert_eq!(s.radiance, env.radiance(s.direction));
-        let x = (crate::shade::bsdf::luminance(s.radiance) / s.pdf) as f64;
-        sum += x;
-        sum2 += x * x;
+        importance.add((luminance(s.radiance) / s.pdf) as f64);
     }
     assert!(
         inconsistent < n / 10_000,
         "{inconsistent} samples with a density other than pdf()"
     );
-    let mean = sum / n as f64;
-    let error = ((sum2 / n as f64 - mean * mean) / n as f64).sqrt();
-    assert!(
-        (mean - reference).abs() < 4.0 * error + 2e-3 * reference,
-        "{mean} ± {error} vs {reference}"
-    );
+    importance.assert_matches(reference, 4.0, 0.01, "importance-sampled ∫ Y dω");
     // The importance sampling works: far less noise than uniform sphere sampling gives.
-    let uniform_error = {
-        let (mut sum, mut sum2) = (0.0f64, 0.0f64);
-        for _ in 0..n {
-            let w = crate::shade::warp::uniform_sphere(rng.next_2d());
-            let x = (crate::shade::bsdf::luminance(env.radiance(w))
-                / crate::shade::warp::UNIFORM_SPHERE_PDF) as f64;
-            sum += x;
-            sum2 += x * x;
-        }
-        let mean = sum / n as f64;
-        ((sum2 / n as f64 - mean * mean) / n as f64).sqrt()
-    };
+    let mut uniform = Tally::default();
+    for _ in 0..n {
+        uniform.add(
+            (luminance(env.radiance(uniform_sphere(rng.next_2d()))) / UNIFORM_SPHERE_PDF) as f64,
+        );
+    }
     assert!(
-        error < 0.15 * uniform_error,
-        "importance sampling ± {error}, uniform ± {uniform_error}"
+        importance.std_error() < 0.15 * uniform.std_error(),
+        "importance sampling ± {}, uniform ± {}",
+        importance.std_error(),
+        uniform.std_error()
     );
     // Mean luminance over the sphere matches too.
     assert!((env.mean_luminance() as f64 * 4.0 * PI / reference - 1.0).abs() < 2e-3);
@@ -188,14 +157,14 @@ fn constant_image_lights_like_a_uniform_sky() {
             strategy,
             40_000,
         );
-        let tolerance = 4.0 * (e.std_error.powi(2) + expected.std_error.powi(2)).sqrt();
+        let tolerance = 4.0 * (e.std_error().powi(2) + expected.std_error().powi(2)).sqrt();
         assert!(
-            (e.mean - expected.mean).abs() < tolerance,
+            (e.mean() - expected.mean()).abs() < tolerance,
             "{strategy:?}: {} vs uniform {}",
-            e.mean,
-            expected.mean
+            e.mean(),
+            expected.mean()
         );
-        assert!(e.std_error < 0.01 * e.mean);
+        assert!(e.std_error() < 0.01 * e.mean());
     }
     // And the camera sees the sky itself at full value.
     let direct = estimate(
@@ -205,7 +174,7 @@ fn constant_image_lights_like_a_uniform_sky() {
         Strategy::Mis,
         4,
     );
-    assert!((direct.mean - sky as f64).abs() < 1e-5);
+    assert!((direct.mean() - sky as f64).abs() < 1e-5);
 }
 
 #[test]

@@ -31,11 +31,11 @@ fn black() -> Environment {
 fn deterministic_radiance(scene: &TestScene, origin: Vec3, direction: Vec3) -> f64 {
     let estimate = estimate(&scene.shader(1, 1), origin, direction, Strategy::Mis, 16);
     assert!(
-        estimate.std_error <= 1e-6 * estimate.mean.max(1e-12),
+        estimate.std_error() <= 1e-6 * estimate.mean().max(1e-12),
         "not deterministic: ± {}",
-        estimate.std_error
+        estimate.std_error()
     );
-    estimate.mean
+    estimate.mean()
 }
 
 fn assert_close(actual: f64, expected: f64, relative: f64, what: &str) {
@@ -315,7 +315,7 @@ fn emitters_glow_from_the_front_only_unless_double_sided() {
             Strategy::Mis,
             4,
         );
-        assert_eq!(direct.mean, if glows_down { 10.0 } else { 0.0 });
+        assert_eq!(direct.mean(), if glows_down { 10.0 } else { 0.0 });
         // Lighting the floor.
         for strategy in [Strategy::Mis, Strategy::LightOnly, Strategy::BsdfOnly] {
             let lit = estimate(
@@ -326,7 +326,7 @@ fn emitters_glow_from_the_front_only_unless_double_sided() {
                 2000,
             );
             assert_eq!(
-                lit.mean > 0.0,
+                lit.mean() > 0.0,
                 glows_down,
                 "facing up {facing_up}, double-sided {double_sided}, {strategy:?}"
             );
@@ -368,15 +368,15 @@ fn interreflection_between_facing_walls_converges_to_the_geometric_series() {
         );
         let expected = le as f64 * series;
         if depth == 0 {
-            assert_eq!(e.mean, 0.0);
+            assert_eq!(e.mean(), 0.0);
         } else {
             // Only approximately uniform: albedo at oblique views differs slightly from the
             // normal-view value used here, hence the 1.5 % allowance on top of noise.
             assert!(
-                (e.mean - expected).abs() < 4.0 * e.std_error + 0.015 * expected,
+                (e.mean() - expected).abs() < 4.0 * e.std_error() + 0.015 * expected,
                 "depth {depth}: {} ± {} vs {expected}",
-                e.mean,
-                e.std_error
+                e.mean(),
+                e.std_error()
             );
         }
     }

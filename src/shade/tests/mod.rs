@@ -107,42 +107,57 @@ pub(super) fn emitter(radiance: f32, double_sided: bool) -> Material {
     }
 }
 
-/// Mean and standard error of one channel over `n` independent paths along one camera ray.
-pub(super) struct Estimate {
-    pub mean: f64,
-    pub std_error: f64,
+/// Running mean and standard error of independent Monte Carlo samples.
+#[derive(Default)]
+pub(super) struct Tally {
+    n: u64,
+    sum: f64,
+    sum2: f64,
 }
 
-impl Estimate {
+impl Tally {
+    pub fn add(&mut self, x: f64) {
+        self.n += 1;
+        self.sum += x;
+        self.sum2 += x * x;
+    }
+
+    pub fn mean(&self) -> f64 {
+        self.sum / self.n.max(1) as f64
+    }
+
+    pub fn std_error(&self) -> f64 {
+        let n = self.n.max(1) as f64;
+        ((self.sum2 / n - self.mean().powi(2)).max(0.0) / n).sqrt()
+    }
+
     /// Asserts agreement with `expected` within `sigmas` standard errors, and that the
     /// estimate is precise enough (relative standard error below `max_relative_error`) for
     /// the comparison to mean something.
     pub fn assert_matches(&self, expected: f64, sigmas: f64, max_relative_error: f64, what: &str) {
+        let (mean, error) = (self.mean(), self.std_error());
         assert!(
-            self.std_error <= max_relative_error * expected.abs(),
-            "{what}: too noisy to judge, {} ± {} (expected {expected})",
-            self.mean,
-            self.std_error
+            error <= max_relative_error * expected.abs(),
+            "{what}: too noisy to judge, {mean} ± {error} (expected {expected})"
         );
         assert!(
-            (self.mean - expected).abs() <= sigmas * self.std_error + 1e-6 * expected.abs(),
-            "{what}: {} ± {} but expected {expected} ({:+.3}%)",
-            self.mean,
-            self.std_error,
-            100.0 * (self.mean / expected - 1.0)
+            (mean - expected).abs() <= sigmas * error + 1e-6 * expected.abs(),
+            "{what}: {mean} ± {error} but expected {expected} ({:+.3}%)",
+            100.0 * (mean / expected - 1.0)
         );
     }
 }
 
+/// The luminance-channel (green) radiance of `n` independent paths along one camera ray.
 pub(super) fn estimate(
     shader: &Shader,
     origin: Vec3,
     direction: Vec3,
     strategy: Strategy,
     n: u32,
-) -> Estimate {
+) -> Tally {
     let first_hit = shader.accel.intersect(origin, direction, f32::INFINITY);
-    let (mut sum, mut sum2) = (0.0f64, 0.0f64);
+    let mut tally = Tally::default();
     for sample in 0..n {
         let mut rng = Rng::for_sample(shader.seed, 0, sample);
         let radiance =
@@ -151,16 +166,39 @@ pub(super) fn estimate(
             radiance.is_finite() && radiance.min_element() >= 0.0,
             "radiance {radiance}"
         );
-        let x = radiance.y as f64;
-        sum += x;
-        sum2 += x * x;
+        tally.add(radiance.y as f64);
     }
-    let mean = sum / n as f64;
-    let variance = (sum2 / n as f64 - mean * mean).max(0.0);
-    Estimate {
-        mean,
-        std_error: (variance / n as f64).sqrt(),
+    tally
+}
+
+/// The unit direction at polar angle θ from +z and azimuth φ.
+pub(super) fn polar_direction(theta: f64, phi: f64) -> Vec3 {
+    Vec3::new(
+        (theta.sin() * phi.cos()) as f32,
+        (theta.sin() * phi.sin()) as f32,
+        theta.cos() as f32,
+    )
+}
+
+/// ∫ g(ω) dω over the sphere (or the hemisphere around +z) by the midpoint rule in (θ, φ).
+pub(super) fn integrate_directions(
+    upper_hemisphere_only: bool,
+    n_theta: usize,
+    g: impl Fn(Vec3) -> f64,
+) -> f64 {
+    use std::f64::consts::PI;
+    let theta_max = if upper_hemisphere_only { PI / 2.0 } else { PI };
+    let n_phi = 2 * n_theta;
+    let (d_theta, d_phi) = (theta_max / n_theta as f64, 2.0 * PI / n_phi as f64);
+    let mut sum = 0.0;
+    for i in 0..n_theta {
+        let theta = (i as f64 + 0.5) * d_theta;
+        let ring: f64 = (0..n_phi)
+            .map(|j| g(polar_direction(theta, (j as f64 + 0.5) * d_phi)))
+            .sum();
+        sum += ring * theta.sin() * d_theta * d_phi;
     }
+    sum
 }
 
 /// The glTF BRDF of a roughness-1, non-metallic material of albedo ρ for a viewer along the
@@ -173,3 +211,4 @@ pub(super) fn rough_dielectric_normal_view(albedo: f64, cos_light: f64) -> f64 {
     let fresnel = 0.04 + 0.96 * (1.0 - v_dot_h).powi(5);
     (1.0 - fresnel) * albedo / PI + fresnel / (2.0 * PI * (1.0 + cos_light))
 }
+mod gltf_smoke;
