@@ -516,3 +516,38 @@ fn offset_origins_avoid_self_intersection_at_all_scales() {
         }
     }
 }
+
+#[test]
+fn rays_leaving_a_wall_next_to_a_corner_hit_the_adjacent_wall() {
+    // Floor y = 0 and wall x = 0 meeting in a corner. A ray leaving the floor 20 µm from the
+    // wall, towards it, must hit it after ~28 µm (obvhs's 1e-4 box epsilon would skip the
+    // wall's flat leaf box without the BVH-space scaling).
+    let floor = mesh(
+        vec![
+            Vec3::new(0.0, 0.0, -1.0),
+            Vec3::new(0.0, 0.0, 1.0),
+            Vec3::new(2.0, 0.0, 0.0),
+        ],
+        vec![[0, 1, 2]],
+        None,
+    );
+    let wall = mesh(
+        vec![
+            Vec3::new(0.0, 0.0, -1.0),
+            Vec3::new(0.0, 2.0, 0.0),
+            Vec3::new(0.0, 0.0, 1.0),
+        ],
+        vec![[0, 1, 2]],
+        Some(1),
+    );
+    let accel = build(&[
+        instance(floor, Mat4::IDENTITY),
+        instance(wall, Mat4::IDENTITY),
+    ]);
+    let direction = Vec3::new(-1.0, 1.0, 0.0).normalize();
+    let hit = accel
+        .intersect(Vec3::new(2e-5, 1e-9, 0.0), direction, f32::INFINITY)
+        .expect("wall");
+    assert_eq!(accel.triangle_material(hit.triangle), Some(1));
+    assert!((hit.t - 2e-5 * 2f32.sqrt()).abs() < 1e-7, "t = {}", hit.t);
+}

@@ -228,20 +228,24 @@ fn finite_or_zero(v: Vec3) -> Vec3 {
     if v.is_finite() { v } else { Vec3::ZERO }
 }
 
-/// The exact power of two that scales world space into BVH space.
+/// log2 of the size BVH space gives the scene's diagonal.
+const BVH_SPACE_DIAGONAL_EXPONENT: i32 = 20;
+
+/// The exact power of two that scales world space into BVH space, where the scene's
+/// diagonal is about 2^20.
 ///
-/// obvhs's wide-node test clamps each child box's entry distance to an absolute 1e-4, so any box
-/// lying entirely within 1e-4 of a ray origin is skipped. That is 0.1 mm in a metre-scaled world:
-/// harmless for a room, fatal for a 7 mm scene. Scaling small scenes up until their diagonal is
-/// at least 1 keeps the blind zone below 1e-4 of the scene size; a power of two makes the scaling
-/// (and the mapping of hit distances back) exact. Large scenes keep scale 1: their blind zone
-/// stays at 0.1 mm.
+/// obvhs's wide-node test clamps each child box's entry distance to an absolute 1e-4, so a box
+/// lying entirely within 1e-4 of a ray origin is skipped: in metres, a ray leaving a wall 50 µm
+/// from the adjacent wall escapes through the corner, and in a 7 mm scene whole features
+/// vanish. At a diagonal of 2^20 that blind zone is 1e-10 of the scene, far below the f32
+/// resolution of positions. A power of two keeps the scaling, and the mapping of hit
+/// distances back, exact; coordinates stay far from f32's range (a 7 mm object 1 km from the
+/// origin lands near 1e11).
 pub fn bvh_space_scale(bounds: &Bounds) -> f32 {
     let diagonal = bounds.diagonal();
-    if bounds.is_empty() || !(diagonal > 0.0 && diagonal < 1.0) {
+    if bounds.is_empty() || !(diagonal > 0.0 && diagonal.is_finite()) {
         return 1.0;
     }
-    // diagonal × 2^e lands in [1, 2); the cap only guards absurd inputs against overflow.
-    let exponent = (-diagonal.log2()).ceil().min(64.0);
-    2f32.powi(exponent as i32)
+    let exponent = BVH_SPACE_DIAGONAL_EXPONENT - diagonal.log2().ceil() as i32;
+    2f32.powi(exponent.clamp(-60, 60))
 }
