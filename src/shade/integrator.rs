@@ -9,7 +9,9 @@
 //!   lighting (one light sample plus one BSDF sample at the first hit), each further unit adds
 //!   one indirect bounce.
 //! - After [`RUSSIAN_ROULETTE_START`] bounces a path survives with probability equal to its
-//!   throughput's largest component (at most 1) and is reweighted by its inverse: unbiased.
+//!   throughput's largest component, at most [`MAX_SURVIVAL`], and is reweighted by its
+//!   inverse: unbiased, and every path ends even without a depth limit (a white mirror box
+//!   would otherwise keep a throughput of 1 forever).
 //! - Surfaces scatter into the hemisphere of their geometric normal only (no transmission);
 //!   single-sided materials shade on both sides, only their emission is one-sided.
 
@@ -24,6 +26,9 @@ use crate::sampling::Rng;
 
 /// Bounces after which Russian roulette may end a path.
 pub const RUSSIAN_ROULETTE_START: u32 = 3;
+
+/// Largest probability with which Russian roulette lets a path continue.
+pub const MAX_SURVIVAL: f32 = 0.95;
 
 /// How emission reached by BSDF samples and by light samples is combined. Only [`Strategy::Mis`]
 /// is used for rendering; the single strategies exist to validate it (each alone is unbiased
@@ -154,7 +159,7 @@ impl Shader<'_> {
                 break;
             }
             if bounces >= RUSSIAN_ROULETTE_START {
-                let survival = throughput.max_element().min(1.0);
+                let survival = throughput.max_element().min(MAX_SURVIVAL);
                 if !(survival > 0.0) || rng.next_f32() >= survival {
                     break;
                 }

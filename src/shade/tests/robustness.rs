@@ -298,3 +298,63 @@ fn dead_rays_are_dark_and_rays_are_counted() {
     // Direct lighting: one shadow ray and one bounce ray per alive ray.
     assert_eq!(stats.rays_traced, 2 * 9);
 }
+
+#[test]
+fn paths_end_in_a_closed_mirror_box_without_a_depth_limit() {
+    // A closed box of white, nearly smooth metal keeps a path's throughput near 1 at every
+    // bounce; only the capped Russian roulette can end it.
+    let corners: Vec<Vec3> = (0..8)
+        .map(|i| {
+            Vec3::new((i & 1) as f32, ((i >> 1) & 1) as f32, ((i >> 2) & 1) as f32) * 2.0 - 1.0
+        })
+        .collect();
+    let faces = [
+        [0, 1, 3, 2],
+        [4, 6, 7, 5],
+        [0, 4, 5, 1],
+        [2, 3, 7, 6],
+        [0, 2, 6, 4],
+        [1, 5, 7, 3],
+    ];
+    let triangles = faces
+        .iter()
+        .flat_map(|&[a, b, c, d]| [[a, b, c], [a, c, d]])
+        .collect();
+    let mesh = Mesh {
+        positions: corners,
+        triangles,
+        material: Some(0),
+        ..Default::default()
+    };
+    let instance = MeshInstance {
+        mesh: Arc::new(mesh),
+        world_from_local: Mat4::IDENTITY,
+        node_name: None,
+    };
+    let mirror = Material {
+        base_color: Vec4::ONE,
+        metallic: 1.0,
+        roughness: 0.05,
+        ..Default::default()
+    };
+    let scene = TestScene::new(
+        &[instance],
+        vec![mirror],
+        &[],
+        Environment::Uniform(Vec3::ONE),
+    );
+    // No light reaches the inside of the box: neither along shadow rays nor by paths slipping
+    // out through the corners a mirror box sends them into.
+    for strategy in [Strategy::Mis, Strategy::LightOnly, Strategy::BsdfOnly] {
+        let origin = Vec3::new(0.1, 0.2, 0.3);
+        let direction = Vec3::new(0.3, -0.5, 0.8).normalize();
+        let e = estimate(
+            &scene.shader(u32::MAX, 1),
+            origin,
+            direction,
+            strategy,
+            2000,
+        );
+        assert_eq!(e.mean(), 0.0, "{strategy:?}");
+    }
+}
