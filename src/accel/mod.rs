@@ -2,14 +2,39 @@
 //!
 //! Built once per scene in the BuildBvh stage; read by Trace (camera rays, in batches) and by
 //! Shade (bounce and shadow rays). World frame, metres (see [`crate::scene`]).
+//!
+//! The BVH is an 8-wide compressed CWBVH built with PLOC (obvhs `medium_build`: no spatial
+//! pre-splits, which would list a triangle in several leaves and break the one-to-one triangle
+//! order). Triangle data is stored in BVH order, so the index obvhs reports *is* the triangle
+//! index ([`Hit::triangle`]). Ray directions are expected to be unit vectors; hit distances are
+//! in metres along them.
 
-use std::time::Duration;
+mod alpha_mask;
+pub mod spawn;
+mod surface;
+mod triangles;
+
+#[cfg(test)]
+mod tests;
+
+use std::time::{Duration, Instant};
 
 use bevy_ecs::resource::Resource;
-use glam::{Vec2, Vec3};
+use glam::{Vec2, Vec3, Vec3A};
+use obvhs::BvhBuildParams;
+use obvhs::cwbvh::CwBvh;
+use obvhs::cwbvh::builder::build_cwbvh_from_tris;
+use obvhs::ray::{Ray, RayHit};
+use obvhs::triangle::Triangle;
+use rayon::prelude::*;
 
 use crate::batch::{HitBatch, RayBatch};
-use crate::scene::{MaterialLibrary, MeshInstance};
+use crate::scene::{Bounds, MaterialLibrary, MeshInstance};
+
+use alpha_mask::AlphaMasks;
+use triangles::{
+    NO_MATERIAL, TriangleHit, TrianglePrimitive, TriangleRecord, WorldVertices, attributes,
+};
 
 /// A ray–triangle hit.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -31,56 +56,255 @@ pub struct SurfacePoint {
     /// Unit interpolated vertex normal (before normal mapping), same hemisphere as the geometric one.
     pub shading_normal: Vec3,
     /// Unit tangent along +u for normal mapping (w = bitangent sign), zero if unavailable.
+    /// On a back face the whole tangent frame is mirrored with the normal (xyz and w negated),
+    /// so a normal map perturbs the back face as the mirror image of the front.
     pub tangent: glam::Vec4,
     pub uv: Vec2,
     /// Index into the material library (`None` = default material).
     pub material: Option<usize>,
     /// True when the ray hit the side the geometric normal (winding) points away from.
     pub back_face: bool,
+    /// How far along the geometric normal a ray leaving this point must start to clear its
+    /// own triangle (see [`SurfacePoint::spawn_origin`]), metres.
+    pub spawn_offset: f32,
 }
 
 /// The scene's BVH and the triangle data it indexes, in BVH order.
 #[derive(Resource)]
 pub struct SceneAccel {
-    _private: (),
+    /// `None` when the scene has no usable triangle.
+    bvh: Option<CwBvh>,
+    /// Positions in BVH space (world × `bvh_scale`), BVH order.
+    primitives: Vec<TrianglePrimitive>,
+    /// Vertex indices, material and attribute flags, BVH order.
+    records: Vec<TriangleRecord>,
+    vertices: WorldVertices,
+    alpha_masks: AlphaMasks,
+    /// World → BVH space scale, an exact power of two (see `triangles::bvh_space_scale`).
+    bvh_scale: f32,
+    bounds: Bounds,
+    dropped_triangles: usize,
+    build_time: Duration,
 }
 
 impl SceneAccel {
+    /// Builds the BVH over every instance's triangles. Degenerate and non-finite triangles are
+    /// dropped (see [`SceneAccel::dropped_triangle_count`]). An empty scene gives an
+    /// accelerator every ray misses.
     pub fn build<'a>(
-        _instances: impl IntoIterator<Item = &'a MeshInstance>,
-        _materials: &MaterialLibrary,
+        instances: impl IntoIterator<Item = &'a MeshInstance>,
+        materials: &MaterialLibrary,
     ) -> anyhow::Result<SceneAccel> {
-        unimplemented!("accel: build")
+        let start = Instant::now();
+        let soup = triangles::flatten_instances(instances);
+        if soup.positions.len() >= u32::MAX as usize {
+            anyhow::bail!(
+                "the scene has {} triangles; at most {} are supported",
+                soup.positions.len(),
+                u32::MAX - 1
+            );
+        }
+        let bvh_scale = triangles::bvh_space_scale(&soup.bounds);
+        let obvhs_triangles: Vec<Triangle> = soup
+            .positions
+            .par_iter()
+            .map(|&[a, b, c]| Triangle {
+                v0: Vec3A::from(a * bvh_scale),
+                v1: Vec3A::from(b * bvh_scale),
+                v2: Vec3A::from(c * bvh_scale),
+            })
+            .collect();
+
+        let (bvh, primitives, records) = if obvhs_triangles.is_empty() {
+            (None, Vec::new(), Vec::new())
+        } else {
+            let bvh = build_cwbvh_from_tris(
+                &obvhs_triangles,
+                BvhBuildParams::medium_build(),
+                &mut Duration::default(),
+            );
+            if bvh.primitive_indices.len() != obvhs_triangles.len() {
+                anyhow::bail!(
+                    "BVH build listed {} primitives for {} triangles",
+                    bvh.primitive_indices.len(),
+                    obvhs_triangles.len()
+                );
+            }
+            let primitives = bvh
+                .primitive_indices
+                .par_iter()
+                .map(|&i| {
+                    let t = &obvhs_triangles[i as usize];
+                    TrianglePrimitive::new(t.v0, t.v1, t.v2)
+                })
+                .collect();
+            let records = bvh
+                .primitive_indices
+                .par_iter()
+                .map(|&i| soup.records[i as usize])
+                .collect();
+            (Some(bvh), primitives, records)
+        };
+
+        Ok(SceneAccel {
+            bvh,
+            primitives,
+            records,
+            vertices: soup.vertices,
+            alpha_masks: AlphaMasks::new(materials),
+            bvh_scale,
+            bounds: soup.bounds,
+            dropped_triangles: soup.dropped,
+            build_time: start.elapsed(),
+        })
     }
 
     pub fn triangle_count(&self) -> usize {
-        unimplemented!()
+        self.primitives.len()
     }
 
     pub fn node_count(&self) -> usize {
-        unimplemented!()
+        self.bvh.as_ref().map_or(0, |bvh| bvh.nodes.len())
     }
 
+    /// Wall time of [`SceneAccel::build`]: world transform, BVH build and reordering.
     pub fn build_time(&self) -> Duration {
-        unimplemented!()
+        self.build_time
+    }
+
+    /// Input triangles left out as degenerate (zero area) or non-finite.
+    pub fn dropped_triangle_count(&self) -> usize {
+        self.dropped_triangles
+    }
+
+    /// World-space bounds of all kept triangles (empty for an empty scene).
+    pub fn bounds(&self) -> Bounds {
+        self.bounds
     }
 
     /// Closest hit in (t_min, t_max), skipping alpha-masked holes.
-    pub fn intersect(&self, _origin: Vec3, _direction: Vec3, _t_max: f32) -> Option<Hit> {
-        unimplemented!()
+    pub fn intersect(&self, origin: Vec3, direction: Vec3, t_max: f32) -> Option<Hit> {
+        let bvh = self.bvh.as_ref()?;
+        let ray = self.bvh_ray(origin, direction, t_max)?;
+        let mut closest: Option<(usize, TriangleHit)> = None;
+        let mut ray_hit = RayHit::none();
+        bvh.ray_traverse(ray, &mut ray_hit, |ray, index| {
+            match self.hit_triangle(ray, index) {
+                // obvhs accepts t < tmax only; the triangle test is inclusive, so check here too.
+                Some(hit) if hit.t < ray.tmax => {
+                    closest = Some((index, hit));
+                    hit.t
+                }
+                _ => f32::INFINITY,
+            }
+        });
+        closest.map(|(index, hit)| Hit {
+            t: hit.t / self.bvh_scale,
+            triangle: index as u32,
+            u: hit.u,
+            v: hit.v,
+        })
     }
 
     /// Any hit in (t_min, t_max), skipping alpha-masked holes (shadow rays).
-    pub fn occluded(&self, _origin: Vec3, _direction: Vec3, _t_max: f32) -> bool {
-        unimplemented!()
+    ///
+    /// Stops at the first opaque hit found (obvhs `ray_traverse_miss`; its `ray_traverse_anyhit`
+    /// visits every hit without stopping).
+    pub fn occluded(&self, origin: Vec3, direction: Vec3, t_max: f32) -> bool {
+        let (Some(bvh), Some(ray)) = (self.bvh.as_ref(), self.bvh_ray(origin, direction, t_max))
+        else {
+            return false;
+        };
+        !bvh.ray_traverse_miss(ray, |ray, index| {
+            self.hit_triangle(ray, index)
+                .map_or(f32::INFINITY, |hit| hit.t)
+        })
     }
 
     /// Closest hits of every alive ray of the batch (dead rays get a miss).
-    pub fn intersect_batch(&self, _rays: &RayBatch, _hits: &mut HitBatch) {
-        unimplemented!()
+    pub fn intersect_batch(&self, rays: &RayBatch, hits: &mut HitBatch) {
+        let n = rays.len();
+        let mut found: Vec<Option<Hit>> = Vec::with_capacity(n);
+        (0..n)
+            .into_par_iter()
+            .with_min_len(64)
+            .map(|i| {
+                if !rays.alive[i] {
+                    return None;
+                }
+                self.intersect(
+                    Vec3::from(rays.origin(i)),
+                    Vec3::from(rays.direction(i)),
+                    f32::INFINITY,
+                )
+            })
+            .collect_into_vec(&mut found);
+        hits.resize(n);
+        for (i, hit) in found.into_iter().enumerate() {
+            if let Some(hit) = hit {
+                hits.t[i] = hit.t;
+                hits.triangle[i] = hit.triangle;
+                hits.u[i] = hit.u;
+                hits.v[i] = hit.v;
+            }
+        }
     }
 
-    pub fn surface(&self, _hit: &Hit, _ray_direction: Vec3) -> SurfacePoint {
-        unimplemented!()
+    /// World-space vertices of a triangle (zeros for an index out of range).
+    pub fn triangle_vertices(&self, triangle: u32) -> [Vec3; 3] {
+        self.primitives
+            .get(triangle as usize)
+            .map_or([Vec3::ZERO; 3], |p| {
+                p.vertices().map(|v| Vec3::from(v) / self.bvh_scale)
+            })
+    }
+
+    /// The material of a triangle (`None` = the library's default material).
+    pub fn triangle_material(&self, triangle: u32) -> Option<usize> {
+        self.records
+            .get(triangle as usize)
+            .and_then(|r| (r.material != NO_MATERIAL).then_some(r.material as usize))
+    }
+
+    /// Texture coordinates at barycentrics (u, v) of a triangle; zero without UVs.
+    pub fn uv_at(&self, triangle: u32, u: f32, v: f32) -> Vec2 {
+        match self.records.get(triangle as usize) {
+            Some(record) if record.attributes & attributes::UVS != 0 => {
+                let [a, b, c] = record.vertices.map(|i| self.vertices.uvs[i as usize]);
+                a * (1.0 - u - v) + b * u + c * v
+            }
+            _ => Vec2::ZERO,
+        }
+    }
+
+    /// True when the point at barycentrics (u, v) of a triangle lies in an alpha-mask hole.
+    pub fn is_alpha_hole(&self, triangle: u32, u: f32, v: f32) -> bool {
+        self.alpha_masks.any()
+            && self.records.get(triangle as usize).is_some_and(|record| {
+                self.alpha_masks
+                    .is_hole(record.material, self.uv_at(triangle, u, v))
+            })
+    }
+
+    /// The ray in BVH space, or `None` for input no ray can be made of.
+    fn bvh_ray(&self, origin: Vec3, direction: Vec3, t_max: f32) -> Option<Ray> {
+        if !(origin.is_finite() && direction.is_finite() && direction != Vec3::ZERO && t_max > 0.0)
+        {
+            return None;
+        }
+        Some(Ray::new(
+            Vec3A::from(origin * self.bvh_scale),
+            Vec3A::from(direction),
+            0.0,
+            t_max * self.bvh_scale,
+        ))
+    }
+
+    /// The triangle test traversal calls: geometry, then the alpha mask.
+    #[inline(always)]
+    fn hit_triangle(&self, ray: &Ray, index: usize) -> Option<TriangleHit> {
+        let hit =
+            self.primitives[index].intersect(ray.origin, ray.direction, ray.tmin, ray.tmax)?;
+        (!self.is_alpha_hole(index as u32, hit.u, hit.v)).then_some(hit)
     }
 }

@@ -1,0 +1,553 @@
+//! Intersection checked against hand-computed hits and a brute-force reference.
+
+use std::sync::Arc;
+
+use glam::{Mat4, Quat, Vec2, Vec3, Vec4};
+
+use super::*;
+use crate::sampling::Rng;
+use crate::scene::{AlphaMode, Material, Mesh, Texture, TextureRef, WrapMode};
+
+fn mesh(positions: Vec<Vec3>, triangles: Vec<[u32; 3]>, material: Option<usize>) -> Mesh {
+    Mesh {
+        positions,
+        triangles,
+        material,
+        ..Default::default()
+    }
+}
+
+fn instance(mesh: Mesh, world_from_local: Mat4) -> MeshInstance {
+    MeshInstance {
+        mesh: Arc::new(mesh),
+        world_from_local,
+        node_name: None,
+    }
+}
+
+/// The unit right triangle (0,0,z) (1,0,z) (0,1,z), front face towards +z.
+fn right_triangle(z: f32, material: Option<usize>) -> Mesh {
+    mesh(
+        vec![
+            Vec3::new(0.0, 0.0, z),
+            Vec3::new(1.0, 0.0, z),
+            Vec3::new(0.0, 1.0, z),
+        ],
+        vec![[0, 1, 2]],
+        material,
+    )
+}
+
+fn build(instances: &[MeshInstance]) -> SceneAccel {
+    SceneAccel::build(instances, &MaterialLibrary::default()).expect("build")
+}
+
+#[test]
+fn hit_distance_and_barycentrics_match_hand_computation() {
+    let accel = build(&[instance(right_triangle(0.0, None), Mat4::IDENTITY)]);
+    assert_eq!(accel.triangle_count(), 1);
+    assert!(accel.node_count() >= 1);
+    // The point (0.25, 0.5, 0) = 0.25·v0 + 0.25·v1 + 0.5·v2, reached after 2 m.
+    let hit = accel
+        .intersect(Vec3::new(0.25, 0.5, 2.0), Vec3::NEG_Z, f32::INFINITY)
+        .expect("hit");
+    assert_eq!(hit.triangle, 0);
+    assert!((hit.t - 2.0).abs() < 1e-6, "t = {}", hit.t);
+    assert!((hit.u - 0.25).abs() < 1e-6, "u = {}", hit.u);
+    assert!((hit.v - 0.5).abs() < 1e-6, "v = {}", hit.v);
+
+    // Oblique ray to the same point: direction (0.6, 0, -0.8) from (0.25 - 0.6·5, 0.5, 4).
+    let direction = Vec3::new(0.6, 0.0, -0.8);
+    let hit = accel
+        .intersect(Vec3::new(0.25 - 3.0, 0.5, 4.0), direction, f32::INFINITY)
+        .expect("hit");
+    assert!((hit.t - 5.0).abs() < 1e-5);
+    assert!((hit.u - 0.25).abs() < 1e-5 && (hit.v - 0.5).abs() < 1e-5);
+
+    let surface = accel.surface(&hit, direction);
+    assert!((surface.position - Vec3::new(0.25, 0.5, 0.0)).length() < 1e-6);
+    assert_eq!(surface.geometric_normal, Vec3::Z);
+    assert!(!surface.back_face);
+}
+
+#[test]
+fn misses_outside_behind_and_beyond_t_max() {
+    let accel = build(&[instance(right_triangle(0.0, None), Mat4::IDENTITY)]);
+    // Outside the hypotenuse (u + v = 1.2).
+    assert!(
+        accel
+            .intersect(Vec3::new(0.6, 0.6, 1.0), Vec3::NEG_Z, f32::INFINITY)
+            .is_none()
+    );
+    // Pointing away.
+    assert!(
+        accel
+            .intersect(Vec3::new(0.2, 0.2, 1.0), Vec3::Z, f32::INFINITY)
+            .is_none()
+    );
+    // Too short: the triangle is 1 m away.
+    assert!(
+        accel
+            .intersect(Vec3::new(0.2, 0.2, 1.0), Vec3::NEG_Z, 0.99)
+            .is_none()
+    );
+    assert!(!accel.occluded(Vec3::new(0.2, 0.2, 1.0), Vec3::NEG_Z, 0.99));
+    assert!(accel.occluded(Vec3::new(0.2, 0.2, 1.0), Vec3::NEG_Z, 1.01));
+    // Parallel to the plane, and degenerate input.
+    assert!(
+        accel
+            .intersect(Vec3::new(-1.0, 0.2, 0.0), Vec3::X, f32::INFINITY)
+            .is_none()
+    );
+    assert!(
+        accel
+            .intersect(Vec3::new(0.2, 0.2, 1.0), Vec3::ZERO, f32::INFINITY)
+            .is_none()
+    );
+    assert!(
+        accel
+            .intersect(Vec3::new(f32::NAN, 0.2, 1.0), Vec3::NEG_Z, f32::INFINITY)
+            .is_none()
+    );
+    assert!(
+        accel
+            .intersect(Vec3::new(0.2, 0.2, 1.0), Vec3::NEG_Z, f32::NAN)
+            .is_none()
+    );
+}
+
+#[test]
+fn closest_of_two_and_back_faces() {
+    let accel = build(&[
+        instance(right_triangle(-1.0, Some(7)), Mat4::IDENTITY),
+        instance(right_triangle(0.0, Some(3)), Mat4::IDENTITY),
+    ]);
+    let from_above = accel
+        .intersect(Vec3::new(0.2, 0.2, 2.0), Vec3::NEG_Z, f32::INFINITY)
+        .expect("hit");
+    assert!((from_above.t - 2.0).abs() < 1e-6);
+    assert_eq!(accel.triangle_material(from_above.triangle), Some(3));
+    let from_below = accel
+        .intersect(Vec3::new(0.2, 0.2, -3.0), Vec3::Z, f32::INFINITY)
+        .expect("hit");
+    assert!((from_below.t - 2.0).abs() < 1e-6);
+    assert_eq!(accel.triangle_material(from_below.triangle), Some(7));
+    let surface = accel.surface(&from_below, Vec3::Z);
+    assert!(surface.back_face);
+    assert_eq!(surface.geometric_normal, Vec3::NEG_Z, "faces the ray");
+    assert_eq!(surface.shading_normal, Vec3::NEG_Z);
+    assert_eq!(surface.material, Some(7));
+}
+
+/// A 2×2 quad in the z = 0 plane with UVs (0,0)…(1,1), two triangles.
+fn textured_quad(material: Option<usize>) -> Mesh {
+    Mesh {
+        positions: vec![
+            Vec3::new(-1.0, -1.0, 0.0),
+            Vec3::new(1.0, -1.0, 0.0),
+            Vec3::new(1.0, 1.0, 0.0),
+            Vec3::new(-1.0, 1.0, 0.0),
+        ],
+        uvs: vec![
+            Vec2::new(0.0, 1.0),
+            Vec2::new(1.0, 1.0),
+            Vec2::new(1.0, 0.0),
+            Vec2::new(0.0, 0.0),
+        ],
+        triangles: vec![[0, 1, 2], [0, 2, 3]],
+        material,
+        ..Default::default()
+    }
+}
+
+#[test]
+fn alpha_mask_cuts_a_hole() {
+    // Left half of the texture opaque, right half transparent; cutoff 0.5 × factor 1.
+    let texels = (0..8)
+        .map(|i| [1.0, 1.0, 1.0, if i < 4 { 1.0 } else { 0.0 }])
+        .collect();
+    let texture = Texture {
+        width: 8,
+        height: 1,
+        texels,
+        wrap_s: WrapMode::ClampToEdge,
+        wrap_t: WrapMode::ClampToEdge,
+        nearest: false,
+    };
+    let masked = Material {
+        base_color_texture: Some(TextureRef {
+            texture: 0,
+            tex_coord: 0,
+        }),
+        alpha_mode: AlphaMode::Mask(0.5),
+        ..Material::matte(Vec3::ONE)
+    };
+    let library = MaterialLibrary {
+        materials: vec![masked, Material::matte(Vec3::ONE)],
+        textures: vec![Arc::new(texture)],
+        ..Default::default()
+    };
+    let instances = [
+        instance(textured_quad(Some(0)), Mat4::IDENTITY),
+        instance(
+            textured_quad(Some(1)),
+            Mat4::from_translation(Vec3::new(0.0, 0.0, -1.0)),
+        ),
+    ];
+    let accel = SceneAccel::build(&instances, &library).expect("build");
+
+    // x = -0.5 is u = 0.25 (opaque): the masked quad is hit at t = 1.
+    let opaque = accel
+        .intersect(Vec3::new(-0.5, 0.3, 1.0), Vec3::NEG_Z, f32::INFINITY)
+        .expect("hit");
+    assert!((opaque.t - 1.0).abs() < 1e-6);
+    assert_eq!(accel.triangle_material(opaque.triangle), Some(0));
+    // x = 0.5 is u = 0.75 (transparent): the ray goes through to the quad behind, t = 2.
+    let through = accel
+        .intersect(Vec3::new(0.5, 0.3, 1.0), Vec3::NEG_Z, f32::INFINITY)
+        .expect("hit");
+    assert!((through.t - 2.0).abs() < 1e-6);
+    assert_eq!(accel.triangle_material(through.triangle), Some(1));
+    // Shadow rays agree.
+    assert!(accel.occluded(Vec3::new(-0.5, 0.3, 1.0), Vec3::NEG_Z, 1.5));
+    assert!(!accel.occluded(Vec3::new(0.5, 0.3, 1.0), Vec3::NEG_Z, 1.5));
+    assert!(!accel.is_alpha_hole(through.triangle, 0.5, 0.0));
+}
+
+#[test]
+fn transformed_and_mirrored_instances() {
+    let mut tilted = right_triangle(0.0, None);
+    tilted.normals = vec![Vec3::new(1.0, 0.0, 1.0).normalize(); 3];
+    let rotation = Quat::from_rotation_x(-std::f32::consts::FRAC_PI_2); // local +z → world +y
+    let transform = Mat4::from_scale_rotation_translation(
+        Vec3::new(2.0, 3.0, 1.0),
+        rotation,
+        Vec3::new(10.0, 1.0, 0.0),
+    );
+    let accel = build(&[instance(tilted, transform)]);
+    // World triangle: (10,1,0) (12,1,0) (10,1,-3), front towards +y.
+    let hit = accel
+        .intersect(Vec3::new(10.5, 5.0, -1.5), Vec3::NEG_Y, f32::INFINITY)
+        .expect("hit");
+    assert!((hit.t - 4.0).abs() < 1e-5);
+    assert!((hit.u - 0.25).abs() < 1e-5 && (hit.v - 0.5).abs() < 1e-5);
+    let surface = accel.surface(&hit, Vec3::NEG_Y);
+    assert!(!surface.back_face);
+    assert!((surface.geometric_normal - Vec3::Y).length() < 1e-6);
+    // Inverse transpose: local normal (1,0,1) scaled by (1/2, 1/3, 1) → (1/2, 0, 1) → rotated.
+    let expected = rotation * Vec3::new(0.5, 0.0, 1.0).normalize();
+    assert!(
+        (surface.shading_normal - expected).length() < 1e-5,
+        "{:?} vs {expected:?}",
+        surface.shading_normal
+    );
+
+    // A mirror (x → −x) reverses the winding, so the front face still points to +z.
+    let accel = build(&[instance(
+        right_triangle(0.0, None),
+        Mat4::from_scale(Vec3::new(-1.0, 1.0, 1.0)),
+    )]);
+    let hit = accel
+        .intersect(Vec3::new(-0.25, 0.5, 1.0), Vec3::NEG_Z, f32::INFINITY)
+        .expect("hit");
+    let surface = accel.surface(&hit, Vec3::NEG_Z);
+    assert!(!surface.back_face);
+    assert_eq!(surface.geometric_normal, Vec3::Z);
+}
+
+#[test]
+fn surface_uv_and_tangent_from_uv_layout() {
+    let accel = build(&[instance(textured_quad(None), Mat4::IDENTITY)]);
+    let hit = accel
+        .intersect(Vec3::new(0.5, -0.5, 1.0), Vec3::NEG_Z, f32::INFINITY)
+        .expect("hit");
+    let surface = accel.surface(&hit, Vec3::NEG_Z);
+    // u grows with x, v grows with −y.
+    assert!(
+        (surface.uv - Vec2::new(0.75, 0.75)).length() < 1e-6,
+        "{:?}",
+        surface.uv
+    );
+    // Tangent = dp/du = +x; bitangent = cross(n, t)·w must point to −v = +y, so w = +1.
+    assert!(
+        (surface.tangent - Vec4::new(1.0, 0.0, 0.0, 1.0)).length() < 1e-6,
+        "{:?}",
+        surface.tangent
+    );
+    // Seen from behind the whole frame is mirrored.
+    let hit = accel
+        .intersect(Vec3::new(0.5, -0.5, -1.0), Vec3::Z, f32::INFINITY)
+        .expect("hit");
+    let surface = accel.surface(&hit, Vec3::Z);
+    assert!(surface.back_face);
+    assert!((surface.tangent - Vec4::new(-1.0, 0.0, 0.0, -1.0)).length() < 1e-6);
+}
+
+#[test]
+fn degenerate_and_non_finite_triangles_are_dropped() {
+    let bad = mesh(
+        vec![
+            Vec3::ZERO,
+            Vec3::X,
+            Vec3::X * 2.0,
+            Vec3::new(f32::NAN, 0.0, 0.0),
+            Vec3::Y,
+        ],
+        vec![[0, 1, 2], [0, 3, 4], [0, 1, 9], [0, 1, 4]],
+        None,
+    );
+    let accel = build(&[instance(bad, Mat4::IDENTITY)]);
+    assert_eq!(accel.triangle_count(), 1);
+    assert_eq!(accel.dropped_triangle_count(), 3);
+
+    let empty = build(&[]);
+    assert_eq!(empty.triangle_count(), 0);
+    assert_eq!(empty.node_count(), 0);
+    assert!(
+        empty
+            .intersect(Vec3::ZERO, Vec3::X, f32::INFINITY)
+            .is_none()
+    );
+    assert!(!empty.occluded(Vec3::ZERO, Vec3::X, f32::INFINITY));
+}
+
+/// A random triangle soup of `count` triangles in the unit cube, split over a few instances.
+fn random_soup(count: usize, rng: &mut Rng) -> Vec<MeshInstance> {
+    let point = |rng: &mut Rng| Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32());
+    (0..4)
+        .map(|k| {
+            let mut positions = Vec::new();
+            let mut triangles = Vec::new();
+            for i in 0..count / 4 {
+                let centre = point(rng) * 4.0 - 2.0;
+                for _ in 0..3 {
+                    positions.push(centre + (point(rng) - 0.5) * 0.3);
+                }
+                let base = 3 * i as u32;
+                triangles.push([base, base + 1, base + 2]);
+            }
+            let transform = Mat4::from_rotation_translation(
+                Quat::from_rotation_y(k as f32),
+                Vec3::new(0.0, k as f32 * 0.1, 0.0),
+            );
+            instance(mesh(positions, triangles, Some(k)), transform)
+        })
+        .collect()
+}
+
+/// The closest hit by testing every triangle: the reference the BVH must reproduce.
+fn brute_force(accel: &SceneAccel, origin: Vec3, direction: Vec3) -> Option<(f32, u32)> {
+    let scale = accel.bvh_scale;
+    let mut best: Option<(f32, u32)> = None;
+    for (i, primitive) in accel.primitives.iter().enumerate() {
+        let hit = primitive.intersect(
+            (origin * scale).into(),
+            direction.into(),
+            0.0,
+            f32::INFINITY,
+        );
+        if let Some(hit) = hit {
+            if best.is_none_or(|(t, _)| hit.t / scale < t) {
+                best = Some((hit.t / scale, i as u32));
+            }
+        }
+    }
+    best
+}
+
+#[test]
+fn bvh_matches_brute_force_on_random_rays() {
+    let mut rng = Rng::new(11, 5);
+    let accel = build(&random_soup(4000, &mut rng));
+    assert_eq!(accel.triangle_count(), 4000);
+    let mut hits = 0;
+    for _ in 0..2000 {
+        let origin = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 6.0 - 3.0;
+        let direction =
+            (Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) - 0.5).normalize_or(Vec3::X);
+        let expected = brute_force(&accel, origin, direction);
+        let found = accel.intersect(origin, direction, f32::INFINITY);
+        match (expected, found) {
+            (None, None) => {}
+            (Some((t, triangle)), Some(hit)) => {
+                hits += 1;
+                // Same distance; the same triangle unless two share it to within rounding.
+                assert!((hit.t - t).abs() <= 1e-5 * t.max(1.0), "t {} vs {t}", hit.t);
+                assert!(hit.triangle == triangle || (hit.t - t).abs() < 1e-6);
+                assert!(accel.occluded(origin, direction, t * 1.001));
+                assert!(!accel.occluded(origin, direction, t * 0.999));
+            }
+            other => panic!("BVH and brute force disagree: {other:?}"),
+        }
+    }
+    assert!(hits > 500, "the test should exercise hits, got {hits}");
+}
+
+#[test]
+fn batch_equals_scalar() {
+    let mut rng = Rng::new(3, 9);
+    let accel = build(&random_soup(1000, &mut rng));
+    let mut rays = RayBatch::with_capacity(500);
+    for i in 0..500u32 {
+        let origin = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 6.0 - 3.0;
+        let direction =
+            (Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) - 0.5).normalize_or(Vec3::X);
+        rays.push(origin.into(), direction.into(), i, 0);
+    }
+    for i in (0..500).step_by(7) {
+        rays.alive[i] = false;
+    }
+    let mut hits = HitBatch::default();
+    accel.intersect_batch(&rays, &mut hits);
+    assert_eq!(hits.len(), 500);
+    for i in 0..500 {
+        let scalar = rays.alive[i]
+            .then(|| {
+                accel.intersect(
+                    Vec3::from(rays.origin(i)),
+                    Vec3::from(rays.direction(i)),
+                    f32::INFINITY,
+                )
+            })
+            .flatten();
+        match scalar {
+            Some(hit) => {
+                assert_eq!(
+                    (hits.t[i], hits.triangle[i], hits.u[i], hits.v[i]),
+                    (hit.t, hit.triangle, hit.u, hit.v)
+                );
+            }
+            None => {
+                assert_eq!(hits.triangle[i], HitBatch::MISS);
+                assert_eq!(hits.t[i], f32::INFINITY);
+            }
+        }
+    }
+}
+
+#[test]
+fn millimetre_scene_sees_geometry_a_few_microns_away() {
+    // A 7 mm scene: a floor and a chip 20 µm above it. A ray leaving the floor upwards must
+    // hit the chip's underside at t = 20 µm (obvhs alone would skip boxes within 0.1 mm).
+    let floor = mesh(
+        vec![
+            Vec3::new(-0.0035, 0.0, -0.0035),
+            Vec3::new(0.0035, 0.0, -0.0035),
+            Vec3::new(0.0, 0.0, 0.0035),
+        ],
+        vec![[0, 2, 1]],
+        None,
+    );
+    let chip = mesh(
+        vec![
+            Vec3::new(0.0, 2e-5, 0.0),
+            Vec3::new(1e-5, 2e-5, 0.0),
+            Vec3::new(0.0, 2e-5, 1e-5),
+        ],
+        vec![[0, 1, 2]],
+        Some(1),
+    );
+    let accel = build(&[
+        instance(floor, Mat4::IDENTITY),
+        instance(chip, Mat4::IDENTITY),
+    ]);
+    // Reach the floor point under the chip obliquely, passing beside the chip.
+    let floor_point = Vec3::new(2e-6, 0.0, 2e-6);
+    let from = Vec3::new(2e-6, 0.001, 0.003);
+    let incoming = (floor_point - from).normalize();
+    let floor_hit = accel
+        .intersect(from, incoming, f32::INFINITY)
+        .expect("floor");
+    assert_eq!(accel.triangle_material(floor_hit.triangle), None);
+    let surface = accel.surface(&floor_hit, incoming);
+    let origin = surface.spawn_origin(Vec3::Y);
+    let hit = accel
+        .intersect(origin, Vec3::Y, f32::INFINITY)
+        .expect("chip");
+    assert_eq!(accel.triangle_material(hit.triangle), Some(1));
+    assert!((hit.t - 2e-5).abs() < 1e-7, "t = {}", hit.t);
+}
+
+#[test]
+fn offset_origins_avoid_self_intersection_at_all_scales() {
+    for (scale, offset) in [
+        (0.007f32, Vec3::ZERO),
+        (1.0, Vec3::new(3.0, -2.0, 1.0)),
+        (100.0, Vec3::new(90.0, 40.0, -70.0)),
+        (20_000.0, Vec3::new(0.0, 1.0, 0.0)),
+    ] {
+        // A tilted, finely tessellated fan so that hits land near shared edges too.
+        let mut positions = vec![Vec3::ZERO];
+        let mut triangles = Vec::new();
+        for i in 0..64u32 {
+            let angle = i as f32 / 64.0 * std::f32::consts::TAU;
+            positions.push(Vec3::new(angle.cos(), 0.0, -angle.sin()));
+            triangles.push([0, i + 1, (i + 1) % 64 + 1]);
+        }
+        let transform = Mat4::from_scale_rotation_translation(
+            Vec3::splat(scale),
+            Quat::from_euler(glam::EulerRot::XYZ, 0.3, 0.2, 0.1),
+            offset,
+        );
+        let accel = build(&[instance(mesh(positions, triangles, None), transform)]);
+        let mut rng = Rng::new(scale.to_bits() as u64, 1);
+        let normal = (transform.transform_vector3(Vec3::Y)).normalize();
+        for _ in 0..2000 {
+            let target = transform
+                .transform_point3(Vec3::new(rng.next_f32() - 0.5, 0.0, rng.next_f32() - 0.5) * 1.2);
+            let from = target
+                + normal * scale
+                + (Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) - 0.5) * scale;
+            let incoming = (target - from).normalize();
+            let Some(hit) = accel.intersect(from, incoming, f32::INFINITY) else {
+                continue;
+            };
+            let surface = accel.surface(&hit, incoming);
+            // Leave at a grazing or steep angle on the viewer's side.
+            let u = rng.next_f32();
+            let tangent = normal.any_orthonormal_vector();
+            let outgoing =
+                (surface.geometric_normal * (0.002 + u) + tangent * (1.0 - u)).normalize();
+            let origin = surface.spawn_origin(outgoing);
+            assert!(
+                accel.intersect(origin, outgoing, f32::INFINITY).is_none(),
+                "self-hit at scale {scale}"
+            );
+        }
+    }
+}
+
+#[test]
+fn rays_leaving_a_wall_next_to_a_corner_hit_the_adjacent_wall() {
+    // Floor y = 0 and wall x = 0 meeting in a corner. A ray leaving the floor 20 µm from the
+    // wall, towards it, must hit it after ~28 µm (obvhs's 1e-4 box epsilon would skip the
+    // wall's flat leaf box without the BVH-space scaling).
+    let floor = mesh(
+        vec![
+            Vec3::new(0.0, 0.0, -1.0),
+            Vec3::new(0.0, 0.0, 1.0),
+            Vec3::new(2.0, 0.0, 0.0),
+        ],
+        vec![[0, 1, 2]],
+        None,
+    );
+    let wall = mesh(
+        vec![
+            Vec3::new(0.0, 0.0, -1.0),
+            Vec3::new(0.0, 2.0, 0.0),
+            Vec3::new(0.0, 0.0, 1.0),
+        ],
+        vec![[0, 1, 2]],
+        Some(1),
+    );
+    let accel = build(&[
+        instance(floor, Mat4::IDENTITY),
+        instance(wall, Mat4::IDENTITY),
+    ]);
+    let direction = Vec3::new(-1.0, 1.0, 0.0).normalize();
+    let hit = accel
+        .intersect(Vec3::new(2e-5, 1e-9, 0.0), direction, f32::INFINITY)
+        .expect("wall");
+    assert_eq!(accel.triangle_material(hit.triangle), Some(1));
+    assert!((hit.t - 2e-5 * 2f32.sqrt()).abs() < 1e-7, "t = {}", hit.t);
+}
