@@ -26,8 +26,8 @@ pub(super) fn read_uri(uri: &str, base_dir: Option<&Path>) -> Result<Vec<u8>> {
 /// A short form of a URI for messages: data URIs can be megabytes long.
 pub(super) fn describe(uri: &str) -> String {
     const SHOWN: usize = 40;
-    if uri.starts_with("data:") {
-        let media_type = uri["data:".len()..].split([';', ',']).next().unwrap_or("");
+    if let Some(data) = uri.strip_prefix("data:") {
+        let media_type = data.split([';', ',']).next().unwrap_or("");
         format!("embedded data URI ({media_type}, {} bytes)", uri.len())
     } else if uri.chars().count() > SHOWN {
         format!("'{}…'", uri.chars().take(SHOWN).collect::<String>())
