@@ -17,9 +17,12 @@ enum UriTarget<'a> {
 pub(super) fn read_uri(uri: &str, base_dir: Option<&Path>) -> Result<Vec<u8>> {
     match parse(uri, base_dir)? {
         UriTarget::Base64(payload) => decode_base64(payload).context("corrupt data URI"),
-        UriTarget::File(path) => {
-            std::fs::read(&path).with_context(|| format!("cannot read {}", path.display()))
-        }
+        UriTarget::File(path) => std::fs::read(&path).with_context(|| {
+            format!(
+                "cannot read {} (files a glTF refers to must be at that path relative to it)",
+                path.display()
+            )
+        }),
     }
 }
 
