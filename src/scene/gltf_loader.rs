@@ -13,6 +13,7 @@ mod nodes;
 mod uri;
 
 use std::collections::HashMap;
+use std::collections::hash_map::Entry;
 use std::path::Path;
 use std::sync::Arc;
 
@@ -250,14 +251,12 @@ fn check_size_budget(root: &Root, contents: &SceneContents) -> Result<()> {
             bail!("mesh {} does not exist", placement.mesh);
         };
         for (index, primitive) in mesh.primitives.iter().enumerate() {
-            let size = match sizes.get(&(placement.mesh, index)) {
-                Some(&size) => size,
-                None => {
-                    let size = geometry::estimated_size(root, primitive)
-                        .with_context(|| geometry::primitive_label(root, placement.mesh, index))?;
-                    sizes.insert((placement.mesh, index), size);
-                    size
-                }
+            let size = match sizes.entry((placement.mesh, index)) {
+                Entry::Occupied(entry) => *entry.get(),
+                Entry::Vacant(entry) => *entry.insert(
+                    geometry::estimated_size(root, primitive)
+                        .with_context(|| geometry::primitive_label(root, placement.mesh, index))?,
+                ),
             };
             triangles = triangles.saturating_add(size.0);
         }
@@ -297,27 +296,35 @@ fn build_instances(
         let mirrors = placement.world_from_local.determinant() < 0.0;
         for primitive in 0..primitive_count {
             let key = (placement.mesh, primitive);
-            if !read.contains_key(&key) {
-                let mesh =
-                    geometry::read_primitive(root, buffers, placement.mesh, primitive, warnings)?
-                        .map(Arc::new);
-                meshes.extend(mesh.clone());
-                read.insert(key, mesh);
-            }
-            let Some(Some(mesh)) = read.get(&key) else {
+            let mesh = match read.entry(key) {
+                Entry::Occupied(entry) => entry.get().clone(),
+                Entry::Vacant(entry) => {
+                    let mesh = geometry::read_primitive(
+                        root,
+                        buffers,
+                        placement.mesh,
+                        primitive,
+                        warnings,
+                    )?
+                    .map(Arc::new);
+                    meshes.extend(mesh.clone());
+                    entry.insert(mesh).clone()
+                }
+            };
+            let Some(mesh) = mesh else {
                 continue;
             };
             let mesh = if mirrors {
                 mirrored
                     .entry(key)
                     .or_insert_with(|| {
-                        let copy = Arc::new(geometry::with_reversed_winding(mesh));
+                        let copy = Arc::new(geometry::with_reversed_winding(&mesh));
                         meshes.push(copy.clone());
                         copy
                     })
                     .clone()
             } else {
-                mesh.clone()
+                mesh
             };
             instances.push(MeshInstance {
                 mesh,

@@ -36,9 +36,7 @@ impl GltfBuilder {
 
     /// Appends bytes as a buffer view (4-byte aligned) and returns its index.
     pub fn view(&mut self, bytes: &[u8]) -> usize {
-        while self.bin.len() % 4 != 0 {
-            self.bin.push(0);
-        }
+        self.bin.resize(self.bin.len().next_multiple_of(4), 0);
         let offset = self.bin.len();
         self.bin.extend_from_slice(bytes);
         self.push(
@@ -154,13 +152,9 @@ impl GltfBuilder {
     /// The document as a .glb.
     pub fn glb(&self) -> Vec<u8> {
         let mut json = self.json_with_buffer(None);
-        while json.len() % 4 != 0 {
-            json.push(b' ');
-        }
+        json.resize(json.len().next_multiple_of(4), b' ');
         let mut bin = self.bin.clone();
-        while bin.len() % 4 != 0 {
-            bin.push(0);
-        }
+        bin.resize(bin.len().next_multiple_of(4), 0);
         let length = 12 + 8 + json.len() + 8 + bin.len();
         let mut glb = Vec::new();
         glb.extend_from_slice(b"glTF");

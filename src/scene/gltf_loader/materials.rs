@@ -79,6 +79,26 @@ pub(super) fn load_materials(
     }
 }
 
+/// A material's texture uses, in a fixed order (base colour, metallic-roughness, normal,
+/// emissive): (glTF texture, texCoord) when present, and the encoding the texture is read with.
+fn texture_uses(json: &gltf::json::Material) -> [(Option<(usize, u32)>, ColorEncoding); 4] {
+    let pbr = &json.pbr_metallic_roughness;
+    let info = |info: &Option<gltf::json::texture::Info>| {
+        info.as_ref()
+            .map(|info| (info.index.value(), info.tex_coord))
+    };
+    let normal = json.normal_texture.as_ref();
+    [
+        (info(&pbr.base_color_texture), ColorEncoding::Srgb),
+        (info(&pbr.metallic_roughness_texture), ColorEncoding::Linear),
+        (
+            normal.map(|normal| (normal.index.value(), normal.tex_coord)),
+            ColorEncoding::Linear,
+        ),
+        (info(&json.emissive_texture), ColorEncoding::Srgb),
+    ]
+}
+
 /// The (glTF texture, colour encoding) pairs the materials use, in first-use order. The same
 /// glTF texture read as sRGB colour and as linear data becomes two library textures.
 struct TextureSlots {
@@ -93,33 +113,14 @@ impl TextureSlots {
             index: HashMap::new(),
         };
         for json in &root.materials {
-            let pbr = &json.pbr_metallic_roughness;
-            let uses = [
-                (
-                    pbr.base_color_texture.as_ref().map(|i| i.index),
-                    ColorEncoding::Srgb,
-                ),
-                (
-                    pbr.metallic_roughness_texture.as_ref().map(|i| i.index),
-                    ColorEncoding::Linear,
-                ),
-                (
-                    json.normal_texture.as_ref().map(|i| i.index),
-                    ColorEncoding::Linear,
-                ),
-                (
-                    json.emissive_texture.as_ref().map(|i| i.index),
-                    ColorEncoding::Srgb,
-                ),
-            ];
-            for (texture, encoding) in uses {
-                if let Some(texture) = texture {
-                    let key = (texture.value(), encoding);
-                    if !slots.index.contains_key(&key) {
-                        slots.index.insert(key, slots.slots.len());
-                        slots.slots.push(key);
-                    }
-                }
+            for (texture, encoding) in texture_uses(json) {
+                let Some((texture, _)) = texture else {
+                    continue;
+                };
+                slots.index.entry((texture, encoding)).or_insert_with(|| {
+                    slots.slots.push((texture, encoding));
+                    slots.slots.len() - 1
+                });
             }
         }
         slots
@@ -228,13 +229,7 @@ fn warn_about_unsupported_uv_sets(
     json: &gltf::json::Material,
     warnings: &mut Vec<String>,
 ) {
-    let pbr = &json.pbr_metallic_roughness;
-    let tex_coords = [
-        pbr.base_color_texture.as_ref().map(|i| i.tex_coord),
-        pbr.metallic_roughness_texture.as_ref().map(|i| i.tex_coord),
-        json.normal_texture.as_ref().map(|i| i.tex_coord),
-        json.emissive_texture.as_ref().map(|i| i.tex_coord),
-    ];
+    let tex_coords = texture_uses(json).map(|(texture, _)| texture.map(|(_, set)| set));
     if let Some(set) = tex_coords.into_iter().flatten().find(|&set| set != 0) {
         let name = json
             .name
@@ -251,10 +246,14 @@ fn convert_material(
     texture_ref: &impl Fn(usize, u32, ColorEncoding) -> Option<TextureRef>,
 ) -> Material {
     let pbr = &json.pbr_metallic_roughness;
-    let info = |info: &Option<gltf::json::texture::Info>, encoding| {
-        info.as_ref()
-            .and_then(|info| texture_ref(info.index.value(), info.tex_coord, encoding))
-    };
+    let [
+        base_color_texture,
+        metallic_roughness_texture,
+        normal_texture,
+        emissive_texture,
+    ] = texture_uses(json).map(|(texture, encoding)| {
+        texture.and_then(|(texture, tex_coord)| texture_ref(texture, tex_coord, encoding))
+    });
     let emissive_strength = json
         .extensions
         .as_ref()
@@ -263,23 +262,17 @@ fn convert_material(
     Material {
         name: json.name.clone(),
         base_color: Vec4::from(pbr.base_color_factor.0),
-        base_color_texture: info(&pbr.base_color_texture, ColorEncoding::Srgb),
+        base_color_texture,
         metallic: pbr.metallic_factor.0,
         roughness: pbr.roughness_factor.0,
-        metallic_roughness_texture: info(&pbr.metallic_roughness_texture, ColorEncoding::Linear),
-        normal_texture: json.normal_texture.as_ref().and_then(|normal| {
-            texture_ref(
-                normal.index.value(),
-                normal.tex_coord,
-                ColorEncoding::Linear,
-            )
-        }),
+        metallic_roughness_texture,
+        normal_texture,
         normal_scale: json
             .normal_texture
             .as_ref()
             .map_or(1.0, |normal| normal.scale),
         emissive: Vec3::from(json.emissive_factor.0) * emissive_strength,
-        emissive_texture: info(&json.emissive_texture, ColorEncoding::Srgb),
+        emissive_texture,
         alpha_mode: match json.alpha_mode {
             Checked::Valid(JsonAlphaMode::Mask) => AlphaMode::Mask(
                 json.alpha_cutoff

@@ -17,17 +17,20 @@ enum UriTarget<'a> {
 pub(super) fn read_uri(uri: &str, base_dir: Option<&Path>) -> Result<Vec<u8>> {
     match parse(uri, base_dir)? {
         UriTarget::Base64(payload) => decode_base64(payload).context("corrupt data URI"),
-        UriTarget::File(path) => {
-            std::fs::read(&path).with_context(|| format!("cannot read {}", path.display()))
-        }
+        UriTarget::File(path) => std::fs::read(&path).with_context(|| {
+            format!(
+                "cannot read {} (files a glTF refers to must be at that path relative to it)",
+                path.display()
+            )
+        }),
     }
 }
 
 /// A short form of a URI for messages: data URIs can be megabytes long.
 pub(super) fn describe(uri: &str) -> String {
     const SHOWN: usize = 40;
-    if uri.starts_with("data:") {
-        let media_type = uri["data:".len()..].split([';', ',']).next().unwrap_or("");
+    if let Some(data) = uri.strip_prefix("data:") {
+        let media_type = data.split([';', ',']).next().unwrap_or("");
         format!("embedded data URI ({media_type}, {} bytes)", uri.len())
     } else if uri.chars().count() > SHOWN {
         format!("'{}…'", uri.chars().take(SHOWN).collect::<String>())
