@@ -150,6 +150,24 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<ExitCode> {
         .or(placement.hints.lens.clone())
         .unwrap_or_else(|| DEFAULT_LENS.to_string());
     let prescription = load_lens(&lens_spec, args.lens_options.lens_format)?;
+    // A scene's film distance and stop were chosen for its own lens: with another lens they
+    // mean nothing, so that lens autofocuses and opens fully unless told otherwise.
+    let hints_fit_lens =
+        placement.hints.lens.as_deref().is_none_or(|hinted| {
+            load_lens(hinted, None).is_ok_and(|h| h.rows == prescription.rows)
+        });
+    let placement = if hints_fit_lens {
+        placement
+    } else {
+        Placement {
+            hints: CameraHints {
+                film_distance_mm: None,
+                aperture_mm: None,
+                ..placement.hints
+            },
+            ..placement
+        }
+    };
     let aperture = args.lens_options.aperture(
         placement
             .hints

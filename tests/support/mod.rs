@@ -200,16 +200,16 @@ pub fn png_2x1(left: [u8; 3], right: [u8; 3]) -> Vec<u8> {
     bytes.into_inner()
 }
 
-/// The public sample scenes, shared read-only at `../shared/scenes` beside the project root
+/// The public sample scenes copied into `tests/data` (with their licences)
 /// (see `../shared/README.md`; their READMEs ask that they not be committed into the project).
 pub fn sample_scene(relative: &str) -> PathBuf {
     let root = std::env::var_os("REALCAM_SAMPLE_SCENES")
         .map(PathBuf::from)
-        .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/scenes"));
+        .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data"));
     let path = root.join(relative);
     assert!(
         path.exists(),
-        "sample scene {} not found: the tests read the shared sample scenes from ../shared/scenes (or $REALCAM_SAMPLE_SCENES)",
+        "sample scene {} not found: the tests read the sample scenes in tests/data (or $REALCAM_SAMPLE_SCENES)",
         path.display()
     );
     path
