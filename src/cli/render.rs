@@ -42,7 +42,7 @@ pub struct RenderArgs {
     #[arg(long, value_name = "FILE")]
     pub lens: Option<String>,
     /// Samples per pixel.
-    #[arg(long, default_value_t = 32, value_name = "N")]
+    #[arg(long, default_value_t = 64, value_name = "N")]
     pub spp: u32,
     /// Image width in pixels [default: 512].
     #[arg(long, value_name = "W")]
