@@ -346,10 +346,10 @@ fn brute_force(accel: &SceneAccel, origin: Vec3, direction: Vec3) -> Option<(f32
             0.0,
             f32::INFINITY,
         );
-        if let Some(hit) = hit {
-            if best.is_none_or(|(t, _)| hit.t / scale < t) {
-                best = Some((hit.t / scale, i as u32));
-            }
+        if let Some(hit) = hit
+            && best.is_none_or(|(t, _)| hit.t / scale < t)
+        {
+            best = Some((hit.t / scale, i as u32));
         }
     }
     best

@@ -21,7 +21,7 @@ impl Frame {
         }
     }
 
-    pub fn to_local(&self, world: Vec3) -> Vec3 {
+    pub fn to_local(self, world: Vec3) -> Vec3 {
         Vec3::new(
             world.dot(self.tangent),
             world.dot(self.bitangent),
@@ -29,7 +29,7 @@ impl Frame {
         )
     }
 
-    pub fn to_world(&self, local: Vec3) -> Vec3 {
+    pub fn to_world(self, local: Vec3) -> Vec3 {
         self.tangent * local.x + self.bitangent * local.y + self.normal * local.z
     }
 }

@@ -9,6 +9,9 @@
 //! - [`environment`]: uniform sky or equirectangular image ([`load_environment`]).
 //! - [`integrator`]: the path loop, MIS, Russian roulette.
 
+// `!(x > 0.0)` is how this module rejects NaN together with non-positive values.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
 pub mod bsdf;
 pub(crate) mod distribution;
 pub mod environment;

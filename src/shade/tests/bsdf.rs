@@ -65,11 +65,11 @@ fn brdf_is_reciprocal_and_zero_below_the_surface() {
     for _ in 0..1000 {
         let a = direction(
             (rng.next_f32() * 1.5) as f64,
-            (rng.next_f32() * 6.28) as f64,
+            (rng.next_f32() * std::f32::consts::TAU) as f64,
         );
         let b = direction(
             (rng.next_f32() * 1.5) as f64,
-            (rng.next_f32() * 6.28) as f64,
+            (rng.next_f32() * std::f32::consts::TAU) as f64,
         );
         let (ab, ba) = (bsdf.eval(a, b), bsdf.eval(b, a));
         assert!((ab - ba).abs().max_element() <= 1e-5 * ab.max_element().max(1.0));

@@ -88,12 +88,7 @@ fn point_light_inverse_square_with_cosine_cubed_falloff() {
         intensity: Vec3::splat(intensity),
         range: None,
     };
-    let scene = TestScene::new(
-        &[horizontal_square(Vec3::ZERO, 100.0, true, 0)],
-        vec![rough_floor(albedo as f32)],
-        &[light],
-        black(),
-    );
+    let scene = floor_under(albedo as f32, light);
     for x in [0.0f64, 0.5, 1.0, 2.0, 4.0] {
         let radiance = deterministic_radiance(&scene, Vec3::new(x as f32, 1.0, 0.0), Vec3::NEG_Y);
         let cos = height / (height * height + x * x).sqrt();
@@ -118,12 +113,7 @@ fn point_light_range_window() {
         intensity: Vec3::splat(10.0),
         range: Some(3.0),
     };
-    let scene = TestScene::new(
-        &[horizontal_square(Vec3::ZERO, 100.0, true, 0)],
-        vec![rough_floor(0.5)],
-        &[light],
-        black(),
-    );
+    let scene = floor_under(0.5, light);
     let radiance = deterministic_radiance(&scene, Vec3::new(0.0, 1.0, 0.0), Vec3::NEG_Y);
     let window = 1.0 - (2.0f64 / 3.0).powi(4);
     assert_close(
@@ -145,12 +135,7 @@ fn spot_light_smooth_cone() {
         inner_cone_angle: inner,
         outer_cone_angle: outer,
     };
-    let scene = TestScene::new(
-        &[horizontal_square(Vec3::ZERO, 100.0, true, 0)],
-        vec![rough_floor(0.5)],
-        &[light],
-        black(),
-    );
+    let scene = floor_under(0.5, light);
     for angle in [0.1f64, 0.25, 0.3, 0.35, 0.5] {
         let x = 2.0 * angle.tan();
         let radiance = deterministic_radiance(&scene, Vec3::new(x as f32, 1.0, 0.0), Vec3::NEG_Y);
@@ -178,12 +163,7 @@ fn directional_light_lambert_cosine() {
             direction: travel,
             illuminance: Vec3::splat(illuminance),
         };
-        let scene = TestScene::new(
-            &[horizontal_square(Vec3::ZERO, 100.0, true, 0)],
-            vec![rough_floor(0.5)],
-            &[sun],
-            black(),
-        );
+        let scene = floor_under(0.5, sun);
         let radiance = deterministic_radiance(&scene, Vec3::new(0.0, 1.0, 0.0), Vec3::NEG_Y);
         let expected =
             rough_dielectric_normal_view(0.5, theta.cos()) * illuminance as f64 * theta.cos();

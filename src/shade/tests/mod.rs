@@ -83,11 +83,26 @@ pub(super) fn horizontal_square(
         material: Some(material),
         ..Default::default()
     };
+    placed(mesh, Mat4::from_translation(centre))
+}
+
+/// One placed copy of a mesh.
+pub(super) fn placed(mesh: Mesh, world_from_local: Mat4) -> MeshInstance {
     MeshInstance {
         mesh: Arc::new(mesh),
-        world_from_local: Mat4::from_translation(centre),
+        world_from_local,
         node_name: None,
     }
+}
+
+/// A 100 m rough floor of albedo ρ at y = 0 under one punctual light and a black sky.
+pub(super) fn floor_under(albedo: f32, light: PunctualLight) -> TestScene {
+    TestScene::new(
+        &[horizontal_square(Vec3::ZERO, 100.0, true, 0)],
+        vec![rough_floor(albedo)],
+        &[light],
+        Environment::Uniform(Vec3::ZERO),
+    )
 }
 
 /// A rough (roughness 1) dielectric of the given albedo: the floor of most tests.

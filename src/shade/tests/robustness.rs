@@ -27,11 +27,7 @@ fn busy_scene() -> TestScene {
         material: Some(1),
         ..Default::default()
     };
-    let degenerate = MeshInstance {
-        mesh: Arc::new(degenerate),
-        world_from_local: Mat4::IDENTITY,
-        node_name: None,
-    };
+    let degenerate = placed(degenerate, Mat4::IDENTITY);
     let lights = [
         PunctualLight::Point {
             position: Vec3::new(1.0, 0.0, 1.0),
@@ -169,11 +165,7 @@ fn normal_maps_bending_away_from_the_viewer_stay_finite() {
         triangles: vec![[0, 1, 2]],
         material: Some(0),
     };
-    let instance = MeshInstance {
-        mesh: Arc::new(mesh),
-        world_from_local: Mat4::IDENTITY,
-        node_name: None,
-    };
+    let instance = placed(mesh, Mat4::IDENTITY);
     for normal_scale in [1.0, 5.0, -3.0] {
         let material = Material {
             normal_texture: Some(TextureRef {
@@ -275,12 +267,7 @@ fn dead_rays_are_dark_and_rays_are_counted() {
         intensity: Vec3::splat(10.0),
         range: None,
     };
-    let scene = TestScene::new(
-        &[horizontal_square(Vec3::ZERO, 100.0, true, 0)],
-        vec![rough_floor(0.5)],
-        &[light],
-        Environment::Uniform(Vec3::ZERO),
-    );
+    let scene = floor_under(0.5, light);
     let mut rays = RayBatch::with_capacity(10);
     for i in 0..10 {
         rays.push([i as f32 * 0.1, 1.0, 0.0], [0.0, -1.0, 0.0], i, 0);
@@ -326,11 +313,7 @@ fn paths_end_in_a_closed_mirror_box_without_a_depth_limit() {
         material: Some(0),
         ..Default::default()
     };
-    let instance = MeshInstance {
-        mesh: Arc::new(mesh),
-        world_from_local: Mat4::IDENTITY,
-        node_name: None,
-    };
+    let instance = placed(mesh, Mat4::IDENTITY);
     let mirror = Material {
         base_color: Vec4::ONE,
         metallic: 1.0,
