@@ -6,7 +6,6 @@ use std::sync::Arc;
 use glam::Vec2;
 
 use crate::scene::{AlphaMode, MaterialLibrary, Texture};
-use crate::shade::texture_lookup::sample_texture;
 
 /// What the alpha test of one masked material reads.
 #[derive(Clone, Debug)]
@@ -59,10 +58,7 @@ impl AlphaMasks {
         let Some(Some(mask)) = self.by_material.get(slot) else {
             return false;
         };
-        let texture_alpha = mask
-            .texture
-            .as_deref()
-            .map_or(1.0, |t| sample_texture(t, uv).w);
+        let texture_alpha = mask.texture.as_deref().map_or(1.0, |t| t.sample(uv)[3]);
         mask.factor * texture_alpha < mask.cutoff
     }
 }

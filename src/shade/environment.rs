@@ -18,7 +18,6 @@ use glam::{Vec2, Vec3};
 
 use super::bsdf::luminance;
 use super::distribution::Distribution2D;
-use super::texture_lookup::sample_texture;
 use super::warp::{UNIFORM_SPHERE_PDF, uniform_sphere};
 use crate::scene::{Texture, WrapMode};
 
@@ -152,7 +151,7 @@ impl EnvironmentMap {
 
     /// Bilinearly filtered radiance seen looking towards `direction`.
     pub fn radiance(&self, direction: Vec3) -> Vec3 {
-        sample_texture(&self.image, direction_to_image(direction)).truncate()
+        Vec3::from_slice(&self.image.sample(direction_to_image(direction))[..3])
     }
 
     fn sample(&self, u: [f32; 2]) -> Option<EnvironmentSample> {

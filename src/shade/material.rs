@@ -9,7 +9,6 @@ use glam::{Vec2, Vec3, Vec4};
 
 use super::bsdf::MetalRoughBsdf;
 use super::frame::Frame;
-use super::texture_lookup::sample_texture;
 use crate::accel::SurfacePoint;
 use crate::scene::{Material, Texture, TextureRef};
 
@@ -25,7 +24,7 @@ pub struct ShadingPoint {
 
 fn texture_value(textures: &[Arc<Texture>], slot: Option<TextureRef>, uv: Vec2) -> Vec4 {
     slot.and_then(|r| textures.get(r.texture))
-        .map_or(Vec4::ONE, |t| sample_texture(t, uv))
+        .map_or(Vec4::ONE, |t| Vec4::from_array(t.sample(uv)))
 }
 
 /// Radiance a material emits from its front face at `uv`: emissive factor (strength applied)
@@ -104,7 +103,7 @@ fn normal_mapped(material: &Material, textures: &[Arc<Texture>], surface: &Surfa
     let t = surface.tangent.truncate();
     let b = n.cross(t) * surface.tangent.w;
     // Texels store (x, y, z) × 0.5 + 0.5; normalScale scales x and y (glTF 2.0 §3.9.3).
-    let texel = sample_texture(texture, surface.uv).truncate() * 2.0 - Vec3::ONE;
+    let texel = Vec4::from_array(texture.sample(surface.uv)).truncate() * 2.0 - Vec3::ONE;
     let local = Vec3::new(
         texel.x * material.normal_scale,
         texel.y * material.normal_scale,

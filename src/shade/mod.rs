@@ -20,7 +20,6 @@ pub mod ggx;
 pub mod integrator;
 pub mod lights;
 pub mod material;
-pub(crate) mod texture_lookup;
 pub(crate) mod warp;
 
 #[cfg(test)]

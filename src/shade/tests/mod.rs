@@ -226,4 +226,3 @@ pub(super) fn rough_dielectric_normal_view(albedo: f64, cos_light: f64) -> f64 {
     let fresnel = 0.04 + 0.96 * (1.0 - v_dot_h).powi(5);
     (1.0 - fresnel) * albedo / PI + fresnel / (2.0 * PI * (1.0 + cos_light))
 }
-mod gltf_smoke;
