@@ -28,12 +28,14 @@ use rayon::prelude::*;
 use crate::accel::SceneAccel;
 use crate::batch::HitBatch;
 use crate::film::{FilmTile, Image, tiles};
+use crate::lens::Prescription;
+use crate::lens::aperture::ApertureSetting;
 use crate::lens::camera::{CameraRays, FilmGeometry, LensCamera};
 use crate::lens::elements::{
-    ActiveLens, FilmFormat, FilmPlacement, LensDerivation, LensDerivationStats, LensFault,
-    LensGeometry, add_lens_systems,
+    ActiveLens, FilmFormat, FilmPlacement, FocusSetting, LensDerivation, LensDerivationStats,
+    LensFault, LensGeometry, activate_lens, add_lens_systems, spawn_lens,
 };
-use crate::lens::pupil::ExitPupil;
+use crate::lens::pupil::{ExitPupil, PupilSampling};
 use crate::scene::{
     Bounds, LoadedScene, MaterialLibrary, MeshInstance, PunctualLight, SceneCamera,
 };
@@ -508,6 +510,46 @@ impl Renderer {
     /// Sets the scene; it loads (and its BVH builds) on the next update.
     pub fn set_scene(&mut self, source: SceneSource) {
         self.world.insert_resource(source);
+    }
+
+    /// Loads a glTF file now (scene and BVH), reporting any error.
+    pub fn load_scene(&mut self, path: impl Into<PathBuf>) -> anyhow::Result<()> {
+        self.set_scene(SceneSource {
+            path: path.into(),
+            embedded: None,
+        });
+        self.update()
+    }
+
+    /// Adds a lens (one entity per surface, under a lens entity) without activating it.
+    pub fn add_lens(
+        &mut self,
+        prescription: &Prescription,
+        focus: FocusSetting,
+        aperture: ApertureSetting,
+    ) -> Entity {
+        spawn_lens(&mut self.world, prescription, focus, aperture)
+    }
+
+    /// Makes `lens` the lens the next render uses.
+    pub fn set_active_lens(&mut self, lens: Entity) {
+        activate_lens(&mut self.world, lens);
+    }
+
+    /// Places the camera: `world_from_camera` is rigid, the camera looks down its −Z.
+    pub fn set_camera(&mut self, world_from_camera: Mat4) {
+        self.world.insert_resource(CameraPose(world_from_camera));
+    }
+
+    /// Sets the film diagonal (mm) and how camera rays sample the pupil.
+    pub fn set_film(&mut self, diagonal_mm: f64, pupil_sampling: PupilSampling) {
+        let film = FilmFormat {
+            diagonal_mm,
+            pupil_sampling,
+        };
+        if *self.world.resource::<FilmFormat>() != film {
+            self.world.insert_resource(film);
+        }
     }
 
     pub fn set_environment(&mut self, environment: Environment) {

@@ -18,13 +18,12 @@ use crate::lens::Prescription;
 use crate::lens::aperture::ApertureSetting;
 use crate::lens::bundled::{DEFAULT_LENS, load_lens};
 use crate::lens::elements::{
-    ActiveLens, FilmFormat, FilmPlacement, FocusSetting, Lens, LensDerivationStats, LensGeometry,
-    activate_lens, build_geometry, spawn_lens,
+    ActiveLens, FilmPlacement, FocusSetting, Lens, LensDerivationStats, LensGeometry,
+    build_geometry,
 };
 use crate::lens::focus::closest_focus_mm;
 use crate::pipeline::{
-    CameraPose, RenderSettings, RenderStats, Renderer, SceneBounds, SceneSource, SceneWarnings,
-    Stage,
+    RenderSettings, RenderStats, Renderer, SceneBounds, SceneSource, SceneWarnings, Stage,
 };
 use crate::scene::{CameraHints, MaterialLibrary, PunctualLight, SceneCamera, look_at};
 use crate::shade::Environment;
@@ -199,13 +198,8 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<ExitCode> {
 
     let width = args.width.or(placement.hints.width).unwrap_or(512);
     let height = args.height.or(placement.hints.height).unwrap_or(512);
-    renderer
-        .world
-        .insert_resource(CameraPose(world_from_camera));
-    renderer.world.insert_resource(FilmFormat {
-        diagonal_mm: film_diagonal,
-        pupil_sampling: args.lens_options.pupil_sampling,
-    });
+    renderer.set_camera(world_from_camera);
+    renderer.set_film(film_diagonal, args.lens_options.pupil_sampling);
     renderer.set_settings(RenderSettings {
         width,
         height,
@@ -213,8 +207,8 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<ExitCode> {
         max_depth: args.max_depth,
         tile_size: 32,
     });
-    let lens = spawn_lens(&mut renderer.world, &prescription, focus, aperture);
-    activate_lens(&mut renderer.world, lens);
+    let lens = renderer.add_lens(&prescription, focus, aperture);
+    renderer.set_active_lens(lens);
     renderer.update()?;
     renderer.check_active_lens()?;
     report_lens(&mut renderer);
