@@ -42,7 +42,7 @@ const SUPPORTED_REQUIRED_EXTENSIONS: &[&str] =
 
 /// Loads a `.gltf` or `.glb` file; external buffers and images are found relative to it.
 pub fn load_gltf(path: &Path) -> Result<LoadedScene> {
-    let bytes = std::fs::read(path).map_err(|error| {
+    let bytes = uri::read_file(path, None).map_err(|error| {
         anyhow!(
             "cannot read glTF file {}: {error}; check the path",
             path.display()
