@@ -11,6 +11,7 @@ mod geometry;
 mod materials;
 mod nodes;
 mod uri;
+mod world;
 
 use std::collections::HashMap;
 use std::collections::hash_map::Entry;
@@ -24,7 +25,7 @@ use gltf::json::validation::Checked;
 
 use self::buffers::Buffers;
 use self::nodes::SceneContents;
-use crate::scene::{Bounds, LoadedScene, Mesh, MeshInstance};
+use crate::scene::{LoadedScene, Mesh, MeshInstance};
 
 /// Scenes with more (instanced) triangles than this are refused before their buffers are read.
 pub const MAX_TRIANGLES: u64 = 50_000_000;
@@ -59,8 +60,13 @@ pub fn load_gltf_bytes(
     source: &Path,
 ) -> Result<LoadedScene> {
     // One message holding the file name and the whole cause chain, however it is printed.
-    load(bytes, base_dir, source)
-        .map_err(|error| anyhow!("cannot load glTF scene {}: {error:#}", source.display()))
+    let mut scene = load(bytes, base_dir, source)
+        .map_err(|error| anyhow!("cannot load glTF scene {}: {error:#}", source.display()))?;
+    // Warnings name the file too: the user may not know which file a "mesh 3" is in.
+    for warning in &mut scene.warnings {
+        *warning = format!("{}: {warning}", source.display());
+    }
+    Ok(scene)
 }
 
 fn load(bytes: &[u8], base_dir: Option<&Path>, source: &Path) -> Result<LoadedScene> {
@@ -90,7 +96,7 @@ fn load(bytes: &[u8], base_dir: Option<&Path>, source: &Path) -> Result<LoadedSc
     } = contents;
     Ok(LoadedScene {
         source: source.to_path_buf(),
-        bounds: world_bounds(&instances),
+        bounds: world::world_bounds(&instances),
         meshes,
         instances,
         materials,
@@ -326,27 +332,13 @@ fn build_instances(
             } else {
                 mesh
             };
-            instances.push(MeshInstance {
+            let instance = MeshInstance {
                 mesh,
                 world_from_local: placement.world_from_local,
                 node_name: placement.node_name.clone(),
-            });
+            };
+            instances.extend(world::usable_in_world(instance, &mut meshes, warnings));
         }
     }
     Ok((meshes, instances))
-}
-
-/// World bounds of every vertex of every instanced triangle.
-fn world_bounds(instances: &[MeshInstance]) -> Bounds {
-    let mut bounds = Bounds::EMPTY;
-    for instance in instances {
-        for triangle in &instance.mesh.triangles {
-            for &index in triangle {
-                if let Some(&position) = instance.mesh.positions.get(index as usize) {
-                    bounds.include(instance.world_from_local.transform_point3(position));
-                }
-            }
-        }
-    }
-    bounds
 }
