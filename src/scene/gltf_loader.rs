@@ -6,6 +6,7 @@
 //! file, however corrupt, can make the loader panic: it returns an error naming the file.
 
 mod accessor;
+mod budget;
 mod buffers;
 mod geometry;
 mod materials;
@@ -27,10 +28,7 @@ use self::buffers::Buffers;
 use self::nodes::SceneContents;
 use crate::scene::{LoadedScene, Mesh, MeshInstance};
 
-/// Scenes with more (instanced) triangles than this are refused before their buffers are read.
-pub const MAX_TRIANGLES: u64 = 50_000_000;
-/// Vertices over all distinct primitives, likewise.
-pub const MAX_VERTICES: u64 = 3 * MAX_TRIANGLES;
+pub use budget::{MAX_TRIANGLES, MAX_VERTICES};
 /// Deeper node hierarchies are taken as corrupt (real files stay far below).
 pub const MAX_NODE_DEPTH: usize = 256;
 /// Node visits in one scene walk. A node shared by several parents is visited once per path,
@@ -270,16 +268,7 @@ fn check_size_budget(root: &Root, contents: &SceneContents) -> Result<()> {
     let vertices = sizes
         .values()
         .fold(0u64, |sum, &(_, vertices)| sum.saturating_add(vertices));
-    if triangles > MAX_TRIANGLES || vertices > MAX_VERTICES {
-        bail!(
-            "the scene would have about {} M triangles ({} M vertices), more than realcam's limit of {} M triangles ({} M vertices); decimate the scene or remove instances",
-            triangles / 1_000_000,
-            vertices / 1_000_000,
-            MAX_TRIANGLES / 1_000_000,
-            MAX_VERTICES / 1_000_000
-        );
-    }
-    Ok(())
+    budget::check(triangles, vertices, budget::available_memory())
 }
 
 /// One [`MeshInstance`] per (placed mesh, primitive), sharing one [`Mesh`] per primitive.
