@@ -1,8 +1,11 @@
 //! The `realcam` command line.
 
+pub mod interrupt;
 pub mod lens;
 pub mod options;
+pub mod plan;
 pub mod render;
+pub mod setup;
 
 use std::process::ExitCode;
 
