@@ -606,7 +606,7 @@ fn settings_fingerprint(
         "spp": args.spp,
         "seed": settings.seed.to_string(),
         "max_depth": settings.max_depth,
-        "camera": context.world_from_camera.to_cols_array(),
+        "camera": context.world_from_camera.to_cols_array().map(f64::from),
         "environment": args.env,
     })
 }
