@@ -31,10 +31,7 @@ use crate::lens::bundled::{DEFAULT_LENS, load_lens};
 use crate::lens::elements::{FilmPlacement, FocusSetting, LensDerivationStats, LensGeometry};
 use crate::pipeline::{RenderSettings, RenderStats, Renderer, SceneSource, SceneWarnings, Stage};
 use crate::scene::CameraHints;
-
-/// The bundled default scene ("dof dragons" of the CS348b course, cones for dragons).
-pub const DEFAULT_SCENE: &[u8] = include_bytes!("../../assets/dof-dragons.glb");
-pub const DEFAULT_SCENE_NAME: &str = "assets/dof-dragons.glb";
+use crate::scene::default_scene::{DEFAULT_SCENE_GLB, DEFAULT_SCENE_PATH};
 
 #[derive(Args, Debug, Clone)]
 pub struct RenderArgs {
@@ -205,8 +202,8 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<ExitCode> {
             embedded: None,
         },
         None => SceneSource {
-            path: PathBuf::from(DEFAULT_SCENE_NAME),
-            embedded: Some(DEFAULT_SCENE),
+            path: PathBuf::from(DEFAULT_SCENE_PATH),
+            embedded: Some(DEFAULT_SCENE_GLB),
         },
     };
     renderer.set_scene(source);
@@ -594,7 +591,7 @@ fn settings_fingerprint(
         .map(|r| [r.radius, r.thickness, r.index, r.aperture])
         .collect();
     json!({
-        "scene": args.scene.as_ref().map_or(DEFAULT_SCENE_NAME.to_string(), |p| p.display().to_string()),
+        "scene": args.scene.as_ref().map_or(DEFAULT_SCENE_PATH.to_string(), |p| p.display().to_string()),
         "lens": lens.prescription.name,
         "lens_rows": rows,
         "focus": format!("{:?}", frame.focus),
