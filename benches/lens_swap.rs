@@ -14,7 +14,12 @@ use realcam::scene::default_scene::{DEFAULT_SCENE_GLB, DEFAULT_SCENE_PATH};
 use realcam::scene::look_at;
 use realcam::shade::Environment;
 
-const LENSES: &[&str] = &["dgauss.50mm", "wide.22mm", "telephoto.250mm", "fisheye.10mm"];
+const LENSES: &[&str] = &[
+    "dgauss.50mm",
+    "wide.22mm",
+    "telephoto.250mm",
+    "fisheye.10mm",
+];
 
 fn main() {
     divan::main();
@@ -22,17 +27,33 @@ fn main() {
 
 fn default_scene(width: u32, height: u32) -> Renderer {
     let mut renderer = Renderer::new();
-    renderer.set_scene(SceneSource { path: DEFAULT_SCENE_PATH.into(), embedded: Some(DEFAULT_SCENE_GLB) });
+    renderer.set_scene(SceneSource {
+        path: DEFAULT_SCENE_PATH.into(),
+        embedded: Some(DEFAULT_SCENE_GLB),
+    });
     renderer.set_environment(Environment::Uniform(Vec3::ZERO));
     renderer.update().unwrap();
-    renderer.set_camera(look_at(Vec3::new(11.5, 0.25, 2.5), Vec3::new(10.713, 0.198, 1.885), Vec3::Y));
+    renderer.set_camera(look_at(
+        Vec3::new(11.5, 0.25, 2.5),
+        Vec3::new(10.713, 0.198, 1.885),
+        Vec3::Y,
+    ));
     renderer.set_film(70.0, PupilSampling::Bounds);
-    renderer.set_settings(RenderSettings { width, height, seed: 0, max_depth: 8, tile_size: 32 });
+    renderer.set_settings(RenderSettings {
+        width,
+        height,
+        seed: 0,
+        max_depth: 8,
+        tile_size: 32,
+    });
     renderer
 }
 
 fn focus() -> FocusSetting {
-    FocusSetting::Distance { metres: 3.9, mode: FocusMode::Paraxial }
+    FocusSetting::Distance {
+        metres: 3.9,
+        mode: FocusMode::Paraxial,
+    }
 }
 
 /// Despawn the active lens set, spawn another, derive everything the renderer needs from it.
@@ -55,13 +76,20 @@ fn swap_lens(bencher: Bencher, lens: &str) {
 #[divan::bench(sample_count = 20)]
 fn refocus(bencher: Bencher) {
     let mut renderer = default_scene(512, 512);
-    let lens = renderer.add_lens(&load_lens("dgauss.50mm", None).unwrap(), focus(), ApertureSetting::Full);
+    let lens = renderer.add_lens(
+        &load_lens("dgauss.50mm", None).unwrap(),
+        focus(),
+        ApertureSetting::Full,
+    );
     renderer.set_active_lens(lens);
     renderer.update().unwrap();
     let mut metres = 3.0;
     bencher.bench_local(|| {
         metres = if metres == 3.0 { 5.0 } else { 3.0 };
-        *renderer.world.get_mut::<FocusSetting>(lens).unwrap() = FocusSetting::Distance { metres, mode: FocusMode::Paraxial };
+        *renderer.world.get_mut::<FocusSetting>(lens).unwrap() = FocusSetting::Distance {
+            metres,
+            mode: FocusMode::Paraxial,
+        };
         renderer.update().unwrap();
     });
 }
@@ -70,7 +98,11 @@ fn refocus(bencher: Bencher) {
 #[divan::bench(sample_count = 2, sample_size = 1)]
 fn frame_64spp_512(bencher: Bencher) {
     let mut renderer = default_scene(512, 512);
-    let lens = renderer.add_lens(&load_lens("dgauss.50mm", None).unwrap(), focus(), ApertureSetting::Full);
+    let lens = renderer.add_lens(
+        &load_lens("dgauss.50mm", None).unwrap(),
+        focus(),
+        ApertureSetting::Full,
+    );
     renderer.set_active_lens(lens);
     renderer.update().unwrap();
     bencher.bench_local(|| renderer.render(64, |_, _| true).unwrap());

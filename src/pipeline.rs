@@ -177,19 +177,10 @@ pub struct TileBatch {
 /// Builds the schedule with every stage.
 pub fn render_schedule() -> Schedule {
     let mut schedule = Schedule::new(RenderSchedule);
-    schedule.configure_sets(
-        (
-            Stage::LoadScene,
-            Stage::BuildBvh,
-            Stage::DeriveLens,
-            Stage::GenerateRays,
-            Stage::Trace,
-            Stage::Shade,
-            Stage::Weight,
-            Stage::WriteFilm,
-        )
-            .chain(),
-    );
+    // Stage::ALL is the order: each stage runs before the next.
+    for pair in Stage::ALL.windows(2) {
+        schedule.configure_sets(pair[0].before(pair[1]));
+    }
     add_lens_systems(&mut schedule);
     schedule.configure_sets(
         (
