@@ -55,13 +55,16 @@ pub fn choose_environment(
         .iter(&renderer.world)
         .next()
         .is_some();
-    let has_emitters = renderer
+    // A light fixture glows uniformly (an emissive factor, like a Cornell box's ceiling panel);
+    // an emissive *texture* marks glowing details of an object (a helmet's visor), which
+    // light nothing else, so such a scene still gets a sky.
+    let has_fixtures = renderer
         .world
         .resource::<MaterialLibrary>()
         .materials
         .iter()
-        .any(|m| m.is_emissive());
-    if has_lights || has_emitters {
+        .any(|m| m.is_emissive() && m.emissive_texture.is_none());
+    if has_lights || has_fixtures {
         Ok(Environment::Uniform(Vec3::ZERO))
     } else {
         eprintln!(
