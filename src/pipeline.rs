@@ -177,19 +177,10 @@ pub struct TileBatch {
 /// Builds the schedule with every stage.
 pub fn render_schedule() -> Schedule {
     let mut schedule = Schedule::new(RenderSchedule);
-    schedule.configure_sets(
-        (
-            Stage::LoadScene,
-            Stage::BuildBvh,
-            Stage::DeriveLens,
-            Stage::GenerateRays,
-            Stage::Trace,
-            Stage::Shade,
-            Stage::Weight,
-            Stage::WriteFilm,
-        )
-            .chain(),
-    );
+    // Stage::ALL is the order: each stage runs before the next.
+    for pair in Stage::ALL.windows(2) {
+        schedule.configure_sets(pair[0].before(pair[1]));
+    }
     add_lens_systems(&mut schedule);
     schedule.configure_sets(
         (
@@ -608,13 +599,27 @@ impl Renderer {
     /// Renders one pass per sample index in `samples`, in order, onto the film cleared or, with
     /// `start`, holding `start`'s sums (a resumed checkpoint). Each sample index keys its own
     /// random streams, so any split of the indices (shards, interruptions) sums to the same
-    /// image. Returns the film and how many passes ran (fewer if `progress` said stop).
+    /// image. Stops early, keeping what was rendered, when `progress(done, total)` says false.
     pub fn render_samples(
         &mut self,
         start: Option<&Image>,
         samples: &[u32],
         mut progress: impl FnMut(u32, u32) -> bool,
     ) -> anyhow::Result<Image> {
+        self.begin_film(start)?;
+        let total = samples.len() as u32;
+        for (done, &sample) in samples.iter().enumerate() {
+            self.render_pass(sample)?;
+            if !progress(done as u32 + 1, total) {
+                break;
+            }
+        }
+        Ok(self.image())
+    }
+
+    /// Prepares a render: brings everything up to date, checks the active lens, and clears the
+    /// film (or loads `start`'s sums into it).
+    pub fn begin_film(&mut self, start: Option<&Image>) -> anyhow::Result<()> {
         self.update()?;
         self.check_active_lens()?;
         let (width, height) = {
@@ -642,18 +647,16 @@ impl Renderer {
                 tile.load(image);
             }
         }
-        let total = samples.len() as u32;
-        for (done, &sample) in samples.iter().enumerate() {
-            self.world.insert_resource(PassState {
-                pending: true,
-                sample,
-            });
-            self.update()?;
-            if !progress(done as u32 + 1, total) {
-                break;
-            }
-        }
-        Ok(self.image())
+        Ok(())
+    }
+
+    /// Renders sample index `sample` into every pixel: one run of the pass stages.
+    pub fn render_pass(&mut self, sample: u32) -> anyhow::Result<()> {
+        self.world.insert_resource(PassState {
+            pending: true,
+            sample,
+        });
+        self.update()
     }
 
     /// The film's current contents.

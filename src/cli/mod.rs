@@ -1,9 +1,12 @@
 //! The `realcam` command line.
 
+pub mod interrupt;
 pub mod lens;
 pub mod merge;
 pub mod options;
+pub mod plan;
 pub mod render;
+pub mod setup;
 
 use std::process::ExitCode;
 

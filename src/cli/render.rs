@@ -1,4 +1,5 @@
-//! `realcam render`: a glTF scene through a lens, to PNG/EXR.
+//! `realcam render`: a glTF scene through one or more lenses, to PNG/EXR; with focus and
+//! stop sweeps, contact sheets, checkpoints, resume and render-farm shards.
 
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
@@ -6,48 +7,54 @@ use std::process::ExitCode;
 use std::time::Instant;
 
 use anyhow::{Context, bail};
-use bevy_ecs::query::With;
+use bevy_ecs::entity::Entity;
 use clap::Args;
 use glam::{Mat4, Vec3};
 use indicatif::{ProgressBar, ProgressStyle};
-use serde_json::json;
+use serde_json::{Value, json};
 
+use super::interrupt::Interrupt;
 use super::options::LensOptions;
-use crate::film::output::{auto_exposure, check_writable, write_exr, write_png};
+use super::plan::{Frame, FrameRequest, Shard, Sweep, plan_frames, sidecar};
+use super::setup::{
+    Placement, autofocus, choose_environment, frame_scene, parse_vec3, place_camera,
+};
+use crate::film::Image;
+use crate::film::checkpoint::{CheckpointInfo, FORMAT_VERSION, read_checkpoint, write_checkpoint};
+use crate::film::contact_sheet::{Thumbnail, contact_sheet};
+use crate::film::output::{
+    auto_exposure, check_writable, to_srgb8, write_atomically, write_exr, write_png,
+};
 use crate::lens::Prescription;
 use crate::lens::aperture::ApertureSetting;
 use crate::lens::bundled::{DEFAULT_LENS, load_lens};
-use crate::lens::elements::{
-    ActiveLens, FilmPlacement, FocusSetting, Lens, LensDerivationStats, LensGeometry,
-    build_geometry,
-};
-use crate::lens::focus::closest_focus_mm;
-use crate::pipeline::{
-    RenderSettings, RenderStats, Renderer, SceneBounds, SceneSource, SceneWarnings, Stage,
-};
-use crate::scene::{CameraHints, MaterialLibrary, PunctualLight, SceneCamera, look_at};
-use crate::shade::Environment;
-
-/// The bundled default scene ("dof dragons" of the CS348b course, cones for dragons).
-pub const DEFAULT_SCENE: &[u8] = include_bytes!("../../assets/dof-dragons.glb");
-pub const DEFAULT_SCENE_NAME: &str = "assets/dof-dragons.glb";
+use crate::lens::elements::{FilmPlacement, FocusSetting, LensDerivationStats, LensGeometry};
+use crate::pipeline::{RenderSettings, RenderStats, Renderer, SceneSource, SceneWarnings, Stage};
+use crate::scene::CameraHints;
+use crate::scene::default_scene::{DEFAULT_SCENE_GLB, DEFAULT_SCENE_PATH};
 
 #[derive(Args, Debug, Clone)]
 pub struct RenderArgs {
     /// glTF 2.0 scene (.gltf or .glb) [default: the built-in dof-dragons scene].
     pub scene: Option<PathBuf>,
-    /// Lens prescription file or bundled lens name [default: the scene camera's hint, else
+    /// Lens prescription file or bundled lens name; repeat it to render through several lenses
+    /// in one run (scene loaded and BVH built once) [default: the scene camera's hint, else
     /// dgauss.50mm].
     #[arg(long, value_name = "FILE")]
-    pub lens: Option<String>,
+    pub lens: Vec<String>,
     /// Samples per pixel.
-    #[arg(long, default_value_t = 64, value_name = "N")]
+    #[arg(
+        long,
+        default_value_t = 64,
+        value_name = "N",
+        allow_negative_numbers = true
+    )]
     pub spp: u32,
     /// Image width in pixels [default: 512].
-    #[arg(long, value_name = "W")]
+    #[arg(long, value_name = "W", allow_negative_numbers = true)]
     pub width: Option<u32>,
     /// Image height in pixels [default: 512].
-    #[arg(long, value_name = "H")]
+    #[arg(long, value_name = "H", allow_negative_numbers = true)]
     pub height: Option<u32>,
     #[command(flatten)]
     pub lens_options: LensOptions,
@@ -72,10 +79,15 @@ pub struct RenderArgs {
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
     /// Worker threads [default: all cores].
-    #[arg(long, value_name = "N")]
+    #[arg(long, value_name = "N", allow_negative_numbers = true)]
     pub threads: Option<usize>,
     /// Path length: 1 = direct lighting only.
-    #[arg(long, default_value_t = 8, value_name = "D")]
+    #[arg(
+        long,
+        default_value_t = 8,
+        value_name = "D",
+        allow_negative_numbers = true
+    )]
     pub max_depth: u32,
     /// Output PNG (sRGB).
     #[arg(long, default_value = "render.png", value_name = "FILE.png")]
@@ -90,28 +102,87 @@ pub struct RenderArgs {
     /// Write render statistics as JSON.
     #[arg(long, value_name = "FILE.json")]
     pub stats: Option<PathBuf>,
+    /// Rack focus: render FRAMES frames focused from NEAR to FAR metres (evenly in dioptres),
+    /// numbered `<out>-000.png`, … ; with several lenses, each lens gets its sequence.
+    #[arg(long, value_name = "NEAR:FAR:FRAMES", conflicts_with_all = ["focus_distance", "film_distance"])]
+    pub focus_sweep: Option<Sweep>,
+    /// Stop sweep: FRAMES frames with the stop diameter from A to B mm (evenly in stops).
+    #[arg(long, value_name = "A:B:FRAMES", conflicts_with_all = ["aperture", "f_number"])]
+    pub aperture_sweep: Option<Sweep>,
+    /// Also write one picture of every render of the run, in a labelled grid.
+    #[arg(long, value_name = "FILE.png")]
+    pub contact_sheet: Option<PathBuf>,
+    /// Where Ctrl-C, SIGTERM and --checkpoint-every save the render so far [default:
+    /// `<out stem>.checkpoint.exr`].
+    #[arg(long, value_name = "FILE.exr")]
+    pub checkpoint: Option<PathBuf>,
+    /// Also save a checkpoint every SECONDS of rendering.
+    #[arg(long, value_name = "SECONDS")]
+    pub checkpoint_every: Option<f64>,
+    /// Continue the render saved in CHECKPOINT (same scene and settings) to the target --spp.
+    #[arg(long, value_name = "CHECKPOINT", conflicts_with_all = ["shard", "focus_sweep", "aperture_sweep"])]
+    pub resume: Option<PathBuf>,
+    /// Render only the I-th (0-based) of N disjoint sample subsets, to a partial EXR that
+    /// `realcam merge` combines (one shard per render-farm task).
+    #[arg(long, value_name = "I/N", conflicts_with_all = ["focus_sweep", "aperture_sweep"])]
+    pub shard: Option<Shard>,
+    /// Where a shard's partial goes [default: `<out stem>.shard-I-of-N.exr`].
+    #[arg(long, value_name = "FILE.exr", requires = "shard")]
+    pub partial: Option<PathBuf>,
 }
 
-fn parse_vec3(s: &str) -> Result<Vec3, String> {
-    let parts: Vec<f32> = s
-        .split(',')
-        .map(|p| p.trim().parse::<f32>())
-        .collect::<Result<_, _>>()
-        .map_err(|_| format!("'{s}' is not X,Y,Z"))?;
-    match parts[..] {
-        [x, y, z] if parts.iter().all(|v| v.is_finite()) => Ok(Vec3::new(x, y, z)),
-        _ => Err(format!("'{s}' is not three finite numbers X,Y,Z")),
+/// A lens of the run: its prescription, entity and the defaults its frames start from.
+struct RunLens {
+    prescription: Prescription,
+    entity: Entity,
+    focus: FocusSetting,
+    aperture: ApertureSetting,
+}
+
+/// What one frame reported.
+struct FrameReport {
+    out: PathBuf,
+    lens: String,
+    focal_length_mm: f64,
+    f_number: f64,
+    focus: FocusSetting,
+    film_distance_mm: f64,
+    lens_derivation_seconds: f64,
+    render_seconds: f64,
+    samples: u32,
+}
+
+impl FrameReport {
+    fn caption(&self) -> String {
+        let focus = match self.focus {
+            FocusSetting::Distance { metres, .. } => format!("focus {metres:.2} m"),
+            FocusSetting::FilmDistance(mm) => format!("film at {mm:.2} mm"),
+        };
+        format!(
+            "{}\nf={:.1}mm f/{:.1}\n{focus}",
+            self.lens, self.focal_length_mm, self.f_number
+        )
+    }
+
+    fn to_json(&self) -> Value {
+        json!({
+            "out": self.out.display().to_string(),
+            "lens": self.lens,
+            "focal_length_mm": self.focal_length_mm,
+            "f_number": self.f_number,
+            "focus_distance_m": match self.focus { FocusSetting::Distance { metres, .. } => json!(metres), FocusSetting::FilmDistance(_) => Value::Null },
+            "film_distance_mm": self.film_distance_mm,
+            "lens_derivation_seconds": self.lens_derivation_seconds,
+            "render_seconds": self.render_seconds,
+            "samples": self.samples,
+        })
     }
 }
 
-/// The camera placement chosen for a render.
-struct Placement {
-    world_from_camera: Mat4,
-    hints: CameraHints,
-    /// Focus distance (m) implied by the placement when the user gave none.
-    default_focus_m: Option<f64>,
-    /// No camera in the scene: frame the bounds once the lens is known.
-    frame_bounds: bool,
+/// How a frame ended.
+enum Outcome {
+    Finished(FrameReport, Image),
+    Interrupted(u8),
 }
 
 pub fn run(args: &RenderArgs) -> anyhow::Result<ExitCode> {
@@ -122,6 +193,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<ExitCode> {
             .build_global()
             .context("cannot start worker threads")?;
     }
+    let interrupt = Interrupt::install()?;
     let start = Instant::now();
     let mut renderer = Renderer::new();
     let source = match &args.scene {
@@ -130,8 +202,8 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<ExitCode> {
             embedded: None,
         },
         None => SceneSource {
-            path: PathBuf::from(DEFAULT_SCENE_NAME),
-            embedded: Some(DEFAULT_SCENE),
+            path: PathBuf::from(DEFAULT_SCENE_PATH),
+            embedded: Some(DEFAULT_SCENE_GLB),
         },
     };
     renderer.set_scene(source);
@@ -143,58 +215,52 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<ExitCode> {
     renderer.set_environment(environment);
 
     let placement = place_camera(args, &mut renderer)?;
-    let lens_spec = args
-        .lens
-        .clone()
-        .or(placement.hints.lens.clone())
-        .unwrap_or_else(|| DEFAULT_LENS.to_string());
-    let prescription = load_lens(&lens_spec, args.lens_options.lens_format)?;
-    // A scene's film distance and stop were chosen for its own lens: with another lens they
-    // mean nothing, so that lens autofocuses and opens fully unless told otherwise.
-    let hints_fit_lens =
-        placement.hints.lens.as_deref().is_none_or(|hinted| {
-            load_lens(hinted, None).is_ok_and(|h| h.rows == prescription.rows)
-        });
-    let placement = if hints_fit_lens {
-        placement
-    } else {
-        Placement {
-            hints: CameraHints {
-                film_distance_mm: None,
-                aperture_mm: None,
-                ..placement.hints
-            },
-            ..placement
-        }
-    };
-    let aperture = args.lens_options.aperture(
-        placement
-            .hints
-            .aperture_mm
-            .map_or(ApertureSetting::Full, ApertureSetting::Diameter),
-    );
     let film_diagonal = args
         .lens_options
         .film_diagonal
         .or(placement.hints.film_diagonal_mm)
         .unwrap_or(35.0);
+    let specs: Vec<String> = if args.lens.is_empty() {
+        vec![
+            placement
+                .hints
+                .lens
+                .clone()
+                .unwrap_or_else(|| DEFAULT_LENS.to_string()),
+        ]
+    } else {
+        args.lens.clone()
+    };
+    let prescriptions = specs
+        .iter()
+        .map(|spec| load_lens(spec, args.lens_options.lens_format))
+        .collect::<Result<Vec<_>, _>>()?;
     let (world_from_camera, framed_focus) = if placement.frame_bounds {
-        frame_scene(&mut renderer, &prescription, aperture, film_diagonal)?
+        let aperture = args.lens_options.aperture(ApertureSetting::Full);
+        frame_scene(&mut renderer, &prescriptions[0], aperture, film_diagonal)?
     } else {
         (placement.world_from_camera, placement.default_focus_m)
     };
-    let fallback_focus = match (
-        placement.hints.film_distance_mm,
-        placement.hints.focus_distance_m.or(framed_focus),
-    ) {
-        (Some(mm), _) => FocusSetting::FilmDistance(mm),
-        (None, Some(metres)) => FocusSetting::Distance {
-            metres,
-            mode: Default::default(),
-        },
-        (None, None) => autofocus(&mut renderer, world_from_camera),
-    };
-    let focus = args.lens_options.focus(fallback_focus);
+    let lenses: Vec<RunLens> = prescriptions
+        .into_iter()
+        .map(|prescription| {
+            let (focus, aperture) = lens_defaults(
+                args,
+                &placement,
+                &prescription,
+                framed_focus,
+                &mut renderer,
+                world_from_camera,
+            );
+            let entity = renderer.add_lens(&prescription, focus, aperture);
+            RunLens {
+                prescription,
+                entity,
+                focus,
+                aperture,
+            }
+        })
+        .collect();
 
     let width = args.width.or(placement.hints.width).unwrap_or(512);
     let height = args.height.or(placement.hints.height).unwrap_or(512);
@@ -207,43 +273,386 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<ExitCode> {
         max_depth: args.max_depth,
         tile_size: 32,
     });
-    let lens = renderer.add_lens(&prescription, focus, aperture);
-    renderer.set_active_lens(lens);
-    renderer.update()?;
-    renderer.check_active_lens()?;
-    report_lens(&mut renderer);
 
-    let progress = progress_bar(args.spp, width * height);
-    let image = renderer.render(args.spp, |done, _| {
-        progress.set_position(done as u64);
-        true
-    })?;
-    progress.finish_and_clear();
-
-    let exposure = args
-        .exposure
-        .map_or_else(|| auto_exposure(&image.mean()), |ev| 2f32.powf(ev));
-    write_png(&args.out, &image, exposure)?;
-    eprintln!(
-        "wrote {} ({}×{}, {} spp, {:.1} s)",
-        args.out.display(),
-        width,
-        height,
-        image.samples,
-        start.elapsed().as_secs_f64()
-    );
-    if let Some(exr) = &args.exr {
-        write_exr(exr, &image)?;
-        eprintln!("wrote {}", exr.display());
+    let names: Vec<String> = lenses.iter().map(|l| l.prescription.name.clone()).collect();
+    let focus: Vec<FocusSetting> = lenses.iter().map(|l| l.focus).collect();
+    let aperture: Vec<ApertureSetting> = lenses.iter().map(|l| l.aperture).collect();
+    let frames = plan_frames(&FrameRequest {
+        lens_names: &names,
+        focus: &focus,
+        aperture: &aperture,
+        focus_sweep: args.focus_sweep,
+        focus_mode: args.lens_options.focus_mode,
+        aperture_sweep: args.aperture_sweep,
+        out: &args.out,
+        exr: args.exr.as_deref(),
+    });
+    let context = RunContext {
+        args,
+        world_from_camera,
+        film_diagonal,
+        interrupt: &interrupt,
+    };
+    let mut reports = Vec::new();
+    let mut thumbnails = Vec::new();
+    let mut exposures: Vec<Option<f32>> = vec![None; lenses.len()];
+    for frame in &frames {
+        let lens = &lenses[frame.lens];
+        match render_frame(&context, &mut renderer, lens, frame)? {
+            Outcome::Interrupted(code) => return Ok(ExitCode::from(code)),
+            Outcome::Finished(report, image) => {
+                if args.shard.is_none() {
+                    // One exposure per lens sequence, so a focus pull does not flicker.
+                    let exposure =
+                        *exposures[frame.lens].get_or_insert_with(|| choose_exposure(args, &image));
+                    write_png(&frame.out, &image, exposure)?;
+                    eprintln!(
+                        "wrote {} ({}×{}, {} spp)",
+                        frame.out.display(),
+                        width,
+                        height,
+                        image.samples
+                    );
+                    if let Some(exr) = &frame.exr {
+                        write_exr(exr, &image)?;
+                        eprintln!("wrote {}", exr.display());
+                    }
+                    if args.contact_sheet.is_some() {
+                        let pixels = image::RgbImage::from_raw(
+                            width,
+                            height,
+                            to_srgb8(&image.mean(), exposure),
+                        )
+                        .context("image size mismatch")?;
+                        thumbnails.push(Thumbnail {
+                            image: pixels,
+                            caption: report.caption(),
+                        });
+                    }
+                }
+                reports.push(report);
+            }
+        }
+    }
+    if let Some(path) = &args.contact_sheet {
+        let sheet = contact_sheet(&thumbnails);
+        write_atomically(path, |w| {
+            sheet.write_to(&mut std::io::Cursor::new(&mut *w), image::ImageFormat::Png)?;
+            Ok(())
+        })?;
+        eprintln!("wrote {} ({} renders)", path.display(), thumbnails.len());
     }
     if let Some(path) = &args.stats {
-        let stats = stats_json(&mut renderer, start.elapsed().as_secs_f64());
-        crate::film::output::write_atomically(path, |w| {
+        let stats = stats_json(&mut renderer, &reports, start.elapsed().as_secs_f64());
+        write_atomically(path, |w| {
             serde_json::to_writer_pretty(&mut *w, &stats)?;
             Ok(())
         })?;
     }
+    if frames.len() > 1 {
+        eprintln!(
+            "{} frames in {:.1} s",
+            frames.len(),
+            start.elapsed().as_secs_f64()
+        );
+    }
     Ok(ExitCode::SUCCESS)
+}
+
+/// Run-wide settings every frame needs.
+struct RunContext<'a> {
+    args: &'a RenderArgs,
+    world_from_camera: Mat4,
+    film_diagonal: f64,
+    interrupt: &'a Interrupt,
+}
+
+/// Focus and aperture a lens starts from when the flags don't set them. A scene's film
+/// distance and stop hints were chosen for its own lens: with another lens they mean nothing,
+/// so that lens autofocuses and opens fully instead.
+fn lens_defaults(
+    args: &RenderArgs,
+    placement: &Placement,
+    prescription: &Prescription,
+    framed_focus: Option<f64>,
+    renderer: &mut Renderer,
+    world_from_camera: Mat4,
+) -> (FocusSetting, ApertureSetting) {
+    let hints_fit =
+        placement.hints.lens.as_deref().is_none_or(|hinted| {
+            load_lens(hinted, None).is_ok_and(|h| h.rows == prescription.rows)
+        });
+    let hints = if hints_fit {
+        placement.hints.clone()
+    } else {
+        CameraHints {
+            film_distance_mm: None,
+            aperture_mm: None,
+            ..placement.hints.clone()
+        }
+    };
+    let aperture = args.lens_options.aperture(
+        hints
+            .aperture_mm
+            .map_or(ApertureSetting::Full, ApertureSetting::Diameter),
+    );
+    let fallback = match (
+        hints.film_distance_mm,
+        hints.focus_distance_m.or(framed_focus),
+    ) {
+        (Some(mm), _) => FocusSetting::FilmDistance(mm),
+        (None, Some(metres)) => FocusSetting::Distance {
+            metres,
+            mode: Default::default(),
+        },
+        (None, None) => autofocus(renderer, world_from_camera),
+    };
+    (args.lens_options.focus(fallback), aperture)
+}
+
+fn choose_exposure(args: &RenderArgs, image: &Image) -> f32 {
+    args.exposure
+        .map_or_else(|| auto_exposure(&image.mean()), |ev| 2f32.powf(ev))
+}
+
+/// Renders one frame: sets the lens up, runs its sample passes with progress, checkpoints and
+/// interruption, and returns the film (or the exit code of an interruption, after saving).
+fn render_frame(
+    context: &RunContext,
+    renderer: &mut Renderer,
+    lens: &RunLens,
+    frame: &Frame,
+) -> anyhow::Result<Outcome> {
+    let args = context.args;
+    renderer.set_active_lens(lens.entity);
+    set_if_changed(renderer, lens.entity, frame.focus);
+    set_if_changed(renderer, lens.entity, frame.aperture);
+    let derivation_before = renderer.world.resource::<LensDerivationStats>().total_time;
+    renderer.update()?;
+    renderer
+        .check_active_lens()
+        .with_context(|| format!("{}: cannot render this frame", frame.out.display()))?;
+    let lens_derivation_seconds = (renderer.world.resource::<LensDerivationStats>().total_time
+        - derivation_before)
+        .as_secs_f64();
+    let (focal_length_mm, f_number, film_distance_mm) = {
+        let entity = renderer.world.entity(lens.entity);
+        let geometry = entity
+            .get::<LensGeometry>()
+            .context("lens geometry missing")?;
+        for warning in &geometry.warnings {
+            eprintln!("warning: {warning}");
+        }
+        let film = entity
+            .get::<FilmPlacement>()
+            .context("film placement missing")?
+            .film_distance;
+        (
+            geometry.first_order.focal_length,
+            geometry.first_order.f_number,
+            film,
+        )
+    };
+    eprintln!(
+        "lens {}: f = {focal_length_mm:.2} mm, f/{f_number:.2}, film distance {film_distance_mm:.3} mm",
+        lens.prescription.name
+    );
+
+    let settings = settings_fingerprint(context, renderer, lens, frame);
+    let checkpoint_path = args
+        .checkpoint
+        .clone()
+        .unwrap_or_else(|| sidecar(&frame.out, "checkpoint"));
+    let planned: Vec<u32> = match args.shard {
+        Some(shard) => shard.samples(args.spp),
+        None => (0..args.spp).collect(),
+    };
+    let (start_image, samples) = match &args.resume {
+        Some(path) => resume_from(path, &settings, args.spp)?,
+        None => (None, planned.clone()),
+    };
+    renderer.begin_film(start_image.as_ref())?;
+    let checkpoint_info = |remaining: &[u32], samples: u32| CheckpointInfo {
+        version: FORMAT_VERSION,
+        samples,
+        remaining: remaining.to_vec(),
+        planned: args.spp,
+        shard: args.shard.map(|s| (s.index, s.count)),
+        settings: settings.clone(),
+    };
+    let (width, height) = {
+        let s = renderer.world.resource::<RenderSettings>();
+        (s.width, s.height)
+    };
+    let progress = progress_bar(samples.len() as u32, width * height);
+    let render_start = Instant::now();
+    let mut last_checkpoint = Instant::now();
+    for (done, &sample) in samples.iter().enumerate() {
+        renderer.render_pass(sample)?;
+        progress.set_position(done as u64 + 1);
+        let remaining = &samples[done + 1..];
+        if let Some(code) = context.interrupt.requested() {
+            progress.finish_and_clear();
+            let image = renderer.image();
+            write_checkpoint(
+                &checkpoint_path,
+                &image,
+                &checkpoint_info(remaining, image.samples),
+            )?;
+            if args.shard.is_none() {
+                write_png(&frame.out, &image, choose_exposure(args, &image))?;
+                eprintln!(
+                    "interrupted: wrote the image so far ({} spp) to {}",
+                    image.samples,
+                    frame.out.display()
+                );
+            }
+            eprintln!(
+                "interrupted: saved {}; continue with --resume {}",
+                checkpoint_path.display(),
+                checkpoint_path.display()
+            );
+            return Ok(Outcome::Interrupted(code));
+        }
+        if let Some(every) = args.checkpoint_every
+            && !remaining.is_empty()
+            && last_checkpoint.elapsed().as_secs_f64() >= every
+        {
+            let image = renderer.image();
+            write_checkpoint(
+                &checkpoint_path,
+                &image,
+                &checkpoint_info(remaining, image.samples),
+            )?;
+            last_checkpoint = Instant::now();
+        }
+    }
+    progress.finish_and_clear();
+    let image = renderer.image();
+    if let Some(shard) = args.shard {
+        let partial = args.partial.clone().unwrap_or_else(|| {
+            sidecar(
+                &frame.out,
+                &format!("shard-{}-of-{}", shard.index, shard.count),
+            )
+        });
+        write_checkpoint(&partial, &image, &checkpoint_info(&[], image.samples))?;
+        eprintln!(
+            "wrote {} (shard {}/{}, {} of {} spp)",
+            partial.display(),
+            shard.index,
+            shard.count,
+            image.samples,
+            args.spp
+        );
+    }
+    let report = FrameReport {
+        out: frame.out.clone(),
+        lens: lens.prescription.name.clone(),
+        focal_length_mm,
+        f_number,
+        focus: frame.focus,
+        film_distance_mm,
+        lens_derivation_seconds,
+        render_seconds: render_start.elapsed().as_secs_f64(),
+        samples: image.samples,
+    };
+    Ok(Outcome::Finished(report, image))
+}
+
+/// Writes a lens setting only when it differs, so change detection re-derives nothing needlessly.
+fn set_if_changed<
+    T: bevy_ecs::component::Component<Mutability = bevy_ecs::component::Mutable> + PartialEq + Copy,
+>(
+    renderer: &mut Renderer,
+    lens: Entity,
+    value: T,
+) {
+    if let Some(mut current) = renderer.world.get_mut::<T>(lens)
+        && *current != value
+    {
+        *current = value;
+    }
+}
+
+/// Everything that must match for a checkpoint to be continued or shards to be merged.
+fn settings_fingerprint(
+    context: &RunContext,
+    renderer: &Renderer,
+    lens: &RunLens,
+    frame: &Frame,
+) -> Value {
+    let args = context.args;
+    let settings = renderer.world.resource::<RenderSettings>();
+    let rows: Vec<[f64; 4]> = lens
+        .prescription
+        .rows
+        .iter()
+        .map(|r| [r.radius, r.thickness, r.index, r.aperture])
+        .collect();
+    json!({
+        "scene": args.scene.as_ref().map_or(DEFAULT_SCENE_PATH.to_string(), |p| p.display().to_string()),
+        "lens": lens.prescription.name,
+        "lens_rows": rows,
+        "focus": format!("{:?}", frame.focus),
+        "aperture": format!("{:?}", frame.aperture),
+        "film_diagonal_mm": context.film_diagonal,
+        "pupil_sampling": args.lens_options.pupil_sampling,
+        "width": settings.width,
+        "height": settings.height,
+        "spp": args.spp,
+        "seed": settings.seed.to_string(),
+        "max_depth": settings.max_depth,
+        "camera": context.world_from_camera.to_cols_array().map(f64::from),
+        "environment": args.env,
+    })
+}
+
+/// The film and the samples still to render from a checkpoint, after checking it belongs to
+/// this render.
+fn resume_from(
+    path: &Path,
+    settings: &Value,
+    spp: u32,
+) -> anyhow::Result<(Option<Image>, Vec<u32>)> {
+    let (image, info) = read_checkpoint(path)?;
+    if info.shard.is_some() {
+        bail!(
+            "{}: is a shard partial, not a checkpoint; combine partials with `realcam merge`",
+            path.display()
+        );
+    }
+    if &info.settings != settings {
+        let differing: Vec<String> = match (&info.settings, settings) {
+            (Value::Object(a), Value::Object(b)) => b
+                .keys()
+                .filter(|k| a.get(*k) != b.get(*k))
+                .cloned()
+                .collect(),
+            _ => vec!["all".into()],
+        };
+        bail!(
+            "{}: the checkpoint was rendered with different settings ({}); resume with the same scene, lens and options",
+            path.display(),
+            differing.join(", ")
+        );
+    }
+    if info.planned != spp {
+        bail!(
+            "{}: the checkpoint targets {} spp, not {}",
+            path.display(),
+            info.planned,
+            spp
+        );
+    }
+    if info.remaining.is_empty() {
+        eprintln!(
+            "note: {} is already complete ({} spp)",
+            path.display(),
+            info.samples
+        );
+    }
+    Ok((Some(image), info.remaining))
 }
 
 fn validate(args: &RenderArgs) -> anyhow::Result<()> {
@@ -269,23 +678,38 @@ fn validate(args: &RenderArgs) -> anyhow::Result<()> {
     {
         bail!("--exposure must be a finite number of stops");
     }
+    if let Some(every) = args.checkpoint_every
+        && !(every.is_finite() && every > 0.0)
+    {
+        bail!("--checkpoint-every must be a positive number of seconds");
+    }
     let outputs: Vec<&Path> = [
         Some(args.out.as_path()),
         args.exr.as_deref(),
         args.stats.as_deref(),
+        args.contact_sheet.as_deref(),
+        args.checkpoint.as_deref(),
+        args.partial.as_deref(),
     ]
     .into_iter()
     .flatten()
     .collect();
-    let inputs: Vec<&Path> = [args.scene.as_deref(), args.lens.as_deref().map(Path::new)]
-        .into_iter()
-        .flatten()
+    let inputs: Vec<&Path> = args
+        .scene
+        .iter()
+        .map(PathBuf::as_path)
+        .chain(args.lens.iter().map(Path::new))
+        .chain(
+            args.resume
+                .as_deref()
+                .filter(|r| Some(*r) != args.checkpoint.as_deref()),
+        )
         .collect();
     for output in &outputs {
         for input in &inputs {
             if same_file(output, input) {
                 bail!(
-                    "{}: the output would overwrite an input file; choose another --out/--exr/--stats path",
+                    "{}: the output would overwrite an input file; choose another output path",
                     output.display()
                 );
             }
@@ -299,175 +723,6 @@ fn same_file(a: &Path, b: &Path) -> bool {
     match (a.canonicalize(), b.canonicalize()) {
         (Ok(a), Ok(b)) => a == b,
         _ => false,
-    }
-}
-
-fn choose_environment(args: &RenderArgs, renderer: &mut Renderer) -> anyhow::Result<Environment> {
-    if let Some(spec) = &args.env {
-        if let Ok(rgb) = parse_vec3(spec) {
-            if rgb.min_element() < 0.0 {
-                bail!("--env {spec}: radiance must not be negative");
-            }
-            return Ok(Environment::Uniform(rgb));
-        }
-        return crate::shade::load_environment(Path::new(spec));
-    }
-    let has_lights = renderer
-        .world
-        .query::<&PunctualLight>()
-        .iter(&renderer.world)
-        .next()
-        .is_some();
-    let has_emitters = renderer
-        .world
-        .resource::<MaterialLibrary>()
-        .materials
-        .iter()
-        .any(|m| m.is_emissive());
-    if has_lights || has_emitters {
-        Ok(Environment::Uniform(Vec3::ZERO))
-    } else {
-        eprintln!(
-            "note: the scene has no lights; lighting it with a white sky of 1 nit (set one with --env)"
-        );
-        Ok(Environment::Uniform(Vec3::ONE))
-    }
-}
-
-fn place_camera(args: &RenderArgs, renderer: &mut Renderer) -> anyhow::Result<Placement> {
-    if let (Some(from), Some(at)) = (args.look_from, args.look_at) {
-        if (at - from).length() < 1e-6
-            || (at - from)
-                .normalize()
-                .cross(args.up.normalize_or_zero())
-                .length()
-                < 1e-6
-        {
-            bail!(
-                "--look-from and --look-at must differ, and --up must not be parallel to the view direction"
-            );
-        }
-        return Ok(Placement {
-            world_from_camera: look_at(from, at, args.up),
-            hints: CameraHints::default(),
-            default_focus_m: Some((at - from).length() as f64),
-            frame_bounds: false,
-        });
-    }
-    let cameras = renderer.scene_cameras();
-    let chosen: Option<&SceneCamera> = match &args.camera {
-        Some(wanted) => {
-            let found = cameras
-                .iter()
-                .find(|c| c.name.as_deref() == Some(wanted.as_str()))
-                .or_else(|| {
-                    wanted
-                        .parse::<usize>()
-                        .ok()
-                        .and_then(|i| cameras.iter().find(|c| c.index == i))
-                });
-            if found.is_none() {
-                let names: Vec<String> = cameras
-                    .iter()
-                    .map(|c| format!("{} ({})", c.index, c.name.as_deref().unwrap_or("unnamed")))
-                    .collect();
-                bail!(
-                    "--camera {wanted}: no such camera in the scene; it has {}",
-                    if names.is_empty() {
-                        "no cameras".to_string()
-                    } else {
-                        names.join(", ")
-                    }
-                );
-            }
-            found
-        }
-        None => cameras.first(),
-    };
-    Ok(match chosen {
-        Some(camera) => Placement {
-            world_from_camera: camera.world_from_camera,
-            hints: camera.hints.clone(),
-            default_focus_m: None,
-            frame_bounds: false,
-        },
-        None => Placement {
-            world_from_camera: Mat4::IDENTITY,
-            hints: CameraHints::default(),
-            default_focus_m: None,
-            frame_bounds: true,
-        },
-    })
-}
-
-/// Looks at the scene's bounds from +z (front), far enough back for the lens to fit them in
-/// the frame and no closer than it can focus; focused on the bounds' centre.
-fn frame_scene(
-    renderer: &mut Renderer,
-    prescription: &Prescription,
-    aperture: ApertureSetting,
-    film_diagonal: f64,
-) -> anyhow::Result<(Mat4, Option<f64>)> {
-    let bounds = renderer.world.resource::<SceneBounds>().0;
-    if bounds.is_empty() {
-        bail!("the scene has no geometry to look at");
-    }
-    let lens = Lens {
-        name: prescription.name.clone(),
-        source: prescription.source.clone(),
-        format: prescription.format,
-    };
-    let geometry =
-        build_geometry(&lens, &prescription.rows, aperture).map_err(anyhow::Error::msg)?;
-    let efl = geometry.first_order.focal_length;
-    // Half the film's short side for a square image: diagonal / (2√2).
-    let half_field = ((film_diagonal / (2.0 * 2f64.sqrt())) / efl).atan();
-    let radius = (bounds.diagonal() / 2.0) as f64;
-    let fit = radius / half_field.sin() * 1.05;
-    let closest = closest_focus_mm(&geometry.system, &geometry.first_order) / 1000.0 * 1.02;
-    if fit < closest {
-        eprintln!(
-            "note: the scene ({:.3} m across) is smaller than {} can fill the frame with; it will look small (closest focus {:.3} m)",
-            2.0 * radius,
-            prescription.name,
-            closest
-        );
-    }
-    let distance = fit.max(closest);
-    let center = bounds.center();
-    let eye = center + Vec3::Z * distance as f32;
-    Ok((look_at(eye, center, Vec3::Y), Some(distance)))
-}
-
-/// Focus on whatever the image centre sees, like a camera's autofocus; 10 m on a miss.
-fn autofocus(renderer: &mut Renderer, world_from_camera: Mat4) -> FocusSetting {
-    let origin = world_from_camera.transform_point3(Vec3::ZERO);
-    let forward = world_from_camera
-        .transform_vector3(-Vec3::Z)
-        .normalize_or_zero();
-    let accel = renderer.world.get_resource::<crate::accel::SceneAccel>();
-    let metres = accel
-        .and_then(|a| a.intersect(origin, forward, f32::INFINITY))
-        .map_or(10.0, |hit| hit.t as f64);
-    FocusSetting::Distance {
-        metres,
-        mode: Default::default(),
-    }
-}
-
-fn report_lens(renderer: &mut Renderer) {
-    let mut query = renderer
-        .world
-        .query_filtered::<(&Lens, &LensGeometry, &FilmPlacement), With<ActiveLens>>();
-    if let Some((lens, geometry, placement)) = query.iter(&renderer.world).next() {
-        for warning in &geometry.warnings {
-            eprintln!("warning: {warning}");
-        }
-        let fo = &geometry.first_order;
-        eprintln!(
-            "lens {}: f = {:.2} mm, f/{:.2}, film distance {:.3} mm",
-            lens.name, fo.focal_length, fo.f_number, placement.film_distance
-        );
     }
 }
 
@@ -492,7 +747,7 @@ fn progress_bar(spp: u32, pixels: u32) -> ProgressBar {
     bar
 }
 
-fn stats_json(renderer: &mut Renderer, wall_seconds: f64) -> serde_json::Value {
+fn stats_json(renderer: &mut Renderer, frames: &[FrameReport], wall_seconds: f64) -> Value {
     let stats = renderer.world.resource::<RenderStats>().clone();
     let lens_stats = *renderer.world.resource::<LensDerivationStats>();
     let stages: serde_json::Map<String, serde_json::Value> = Stage::ALL
@@ -520,6 +775,7 @@ fn stats_json(renderer: &mut Renderer, wall_seconds: f64) -> serde_json::Value {
         "rays_traced": stats.rays_traced,
         "rejected_samples": stats.rejected_samples,
         "samples_per_second": if pass_seconds > 0.0 { stats.camera_samples as f64 / pass_seconds } else { 0.0 },
+        "frames": frames.iter().map(FrameReport::to_json).collect::<Vec<_>>(),
         "lens_derivation": {
             "geometry_runs": lens_stats.geometry_runs,
             "placement_runs": lens_stats.placement_runs,

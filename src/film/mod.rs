@@ -5,6 +5,7 @@
 //! a render can be stopped, saved and resumed, or split and merged, without rounding drift.
 
 pub mod checkpoint;
+pub mod contact_sheet;
 pub mod output;
 
 use bevy_ecs::component::Component;

@@ -291,17 +291,8 @@ mod tests {
 
     #[test]
     fn batch_agrees_with_scalar_reference_on_every_bundled_lens() {
-        for name in [
-            "dgauss.50mm.dat",
-            "wide.22mm.dat",
-            "telephoto.250mm.dat",
-            "fisheye.10mm.dat",
-            "dgauss.dat",
-            "wide.dat",
-            "telephoto.dat",
-            "fisheye.dat",
-        ] {
-            let system = bundled(name);
+        for (name, _) in crate::lens::bundled::BUNDLED {
+            let system = bundled(&format!("{name}.dat"));
             let rays = film_rays(&system, system.rear_z() * 0.6, 4000);
             let mut batch = RayBatch::with_capacity(rays.len());
             for r in &rays {

@@ -1,0 +1,274 @@
+//! Planning a render run: which frames (lens × focus × aperture), and where each one goes.
+
+use std::path::{Path, PathBuf};
+use std::str::FromStr;
+
+use crate::lens::aperture::ApertureSetting;
+use crate::lens::elements::FocusSetting;
+use crate::lens::focus::FocusMode;
+
+/// `NEAR:FAR:FRAMES`, e.g. a rack focus from 1 m to 10 m in 24 frames.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Sweep {
+    pub from: f64,
+    pub to: f64,
+    pub frames: u32,
+}
+
+impl FromStr for Sweep {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        let parts: Vec<&str> = s.split(':').collect();
+        let bad =
+            || format!("'{s}' is not FROM:TO:FRAMES (two positive numbers and a frame count ≥ 1)");
+        let [from, to, frames] = parts[..] else {
+            return Err(bad());
+        };
+        let (from, to): (f64, f64) = (
+            from.trim().parse().map_err(|_| bad())?,
+            to.trim().parse().map_err(|_| bad())?,
+        );
+        let frames: u32 = frames.trim().parse().map_err(|_| bad())?;
+        if !(from.is_finite() && to.is_finite() && from > 0.0 && to > 0.0)
+            || frames == 0
+            || frames > 10_000
+        {
+            return Err(bad());
+        }
+        Ok(Sweep { from, to, frames })
+    }
+}
+
+impl Sweep {
+    /// Values spaced evenly in 1/value (focus: evenly in dioptres, so a rack focus moves the
+    /// film at a steady pace) or geometrically (apertures: evenly in stops). The ends are
+    /// exactly `from` and `to`, so frame 0 equals a single render at `from`.
+    pub fn values(&self, spacing: Spacing) -> Vec<f64> {
+        let n = self.frames;
+        (0..n)
+            .map(|k| {
+                if k == 0 {
+                    return self.from;
+                }
+                if k == n - 1 {
+                    return self.to;
+                }
+                let t = k as f64 / (n - 1) as f64;
+                match spacing {
+                    Spacing::Reciprocal => {
+                        1.0 / (1.0 / self.from + t * (1.0 / self.to - 1.0 / self.from))
+                    }
+                    Spacing::Geometric => self.from * (self.to / self.from).powf(t),
+                }
+            })
+            .collect()
+    }
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Spacing {
+    Reciprocal,
+    Geometric,
+}
+
+/// `I/N`: the I-th (0-based) of N disjoint sample subsets.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Shard {
+    pub index: u32,
+    pub count: u32,
+}
+
+impl FromStr for Shard {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        let bad = || {
+            format!(
+                "'{s}' is not I/N with 0 ≤ I < N (shards count from 0, as Slurm array and Kubernetes indices do)"
+            )
+        };
+        let (i, n) = s.split_once('/').ok_or_else(bad)?;
+        let (index, count): (u32, u32) = (
+            i.trim().parse().map_err(|_| bad())?,
+            n.trim().parse().map_err(|_| bad())?,
+        );
+        if count == 0 || index >= count {
+            return Err(bad());
+        }
+        Ok(Shard { index, count })
+    }
+}
+
+impl Shard {
+    /// This shard's sample indices of 0..spp: those ≡ index (mod count).
+    pub fn samples(&self, spp: u32) -> Vec<u32> {
+        (self.index..spp).step_by(self.count as usize).collect()
+    }
+}
+
+/// One image the run renders.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Frame {
+    /// Index into the run's lenses.
+    pub lens: usize,
+    /// Frame number within its lens's sequence.
+    pub number: usize,
+    pub focus: FocusSetting,
+    pub aperture: ApertureSetting,
+    pub out: PathBuf,
+    pub exr: Option<PathBuf>,
+}
+
+/// Per-lens defaults (from the scene's hints or autofocus) and the run's sweeps.
+pub struct FrameRequest<'a> {
+    pub lens_names: &'a [String],
+    pub focus: &'a [FocusSetting],
+    pub aperture: &'a [ApertureSetting],
+    pub focus_sweep: Option<Sweep>,
+    pub focus_mode: FocusMode,
+    pub aperture_sweep: Option<Sweep>,
+    pub out: &'a Path,
+    pub exr: Option<&'a Path>,
+}
+
+/// Every frame of the run: for each lens, its focus sweep × aperture sweep (or the single
+/// setting). Outputs are named `<stem>[-<lens>][-<NNN>].<ext>`: the lens part when there are
+/// several lenses, the number when a lens has several frames.
+pub fn plan_frames(request: &FrameRequest) -> Vec<Frame> {
+    let mut frames = Vec::new();
+    let several_lenses = request.lens_names.len() > 1;
+    for (lens, name) in request.lens_names.iter().enumerate() {
+        let focuses: Vec<FocusSetting> = match request.focus_sweep {
+            Some(sweep) => sweep
+                .values(Spacing::Reciprocal)
+                .into_iter()
+                .map(|metres| FocusSetting::Distance {
+                    metres,
+                    mode: request.focus_mode,
+                })
+                .collect(),
+            None => vec![request.focus[lens]],
+        };
+        let apertures: Vec<ApertureSetting> = match request.aperture_sweep {
+            Some(sweep) => sweep
+                .values(Spacing::Geometric)
+                .into_iter()
+                .map(ApertureSetting::Diameter)
+                .collect(),
+            None => vec![request.aperture[lens]],
+        };
+        let sequence = focuses.len() * apertures.len() > 1;
+        for (number, (focus, aperture)) in focuses
+            .iter()
+            .flat_map(|f| apertures.iter().map(move |a| (*f, *a)))
+            .enumerate()
+        {
+            let suffix = format!(
+                "{}{}",
+                if several_lenses {
+                    format!("-{name}")
+                } else {
+                    String::new()
+                },
+                if sequence {
+                    format!("-{number:03}")
+                } else {
+                    String::new()
+                }
+            );
+            frames.push(Frame {
+                lens,
+                number,
+                focus,
+                aperture,
+                out: with_suffix(request.out, &suffix),
+                exr: request.exr.map(|p| with_suffix(p, &suffix)),
+            });
+        }
+    }
+    frames
+}
+
+/// `dir/stem.ext` → `dir/stem<suffix>.ext`.
+pub fn with_suffix(path: &Path, suffix: &str) -> PathBuf {
+    let stem = path
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let name = match path.extension() {
+        Some(ext) => format!("{stem}{suffix}.{}", ext.to_string_lossy()),
+        None => format!("{stem}{suffix}"),
+    };
+    path.with_file_name(name)
+}
+
+/// `dir/stem.ext` → `dir/stem.<what>.exr` (checkpoints and shard partials).
+pub fn sidecar(path: &Path, what: &str) -> PathBuf {
+    let stem = path
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    path.with_file_name(format!("{stem}.{what}.exr"))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sweeps_hit_their_ends_exactly_and_space_sensibly() {
+        let focus: Sweep = "1:4:4".parse().unwrap();
+        let v = focus.values(Spacing::Reciprocal);
+        assert_eq!((v[0], v[3]), (1.0, 4.0));
+        // Evenly in dioptres: 1, 0.75, 0.5, 0.25 → 1, 1.333, 2, 4 m.
+        assert!((v[1] - 4.0 / 3.0).abs() < 1e-12 && (v[2] - 2.0).abs() < 1e-12);
+        let stops: Sweep = "2:8:3".parse().unwrap();
+        let v = stops.values(Spacing::Geometric);
+        assert!((v[1] - 4.0).abs() < 1e-12);
+        for bad in ["1:2", "0:2:3", "1:2:0", "a:b:c", "-1:2:3"] {
+            assert!(bad.parse::<Sweep>().is_err(), "{bad}");
+        }
+    }
+
+    #[test]
+    fn shards_partition_the_samples() {
+        let parts: Vec<Vec<u32>> = (0..3)
+            .map(|i| Shard { index: i, count: 3 }.samples(10))
+            .collect();
+        let mut all: Vec<u32> = parts.concat();
+        all.sort();
+        assert_eq!(all, (0..10).collect::<Vec<_>>());
+        assert_eq!(parts[1], vec![1, 4, 7]);
+        for bad in ["3/3", "1/0", "x/2", "2"] {
+            assert!(bad.parse::<Shard>().is_err(), "{bad}");
+        }
+    }
+
+    #[test]
+    fn frames_are_named_after_lens_and_number() {
+        let names = vec!["dgauss.50mm".to_string(), "wide.22mm".to_string()];
+        let focus = [FocusSetting::default(); 2];
+        let aperture = [ApertureSetting::Full; 2];
+        let request = FrameRequest {
+            lens_names: &names,
+            focus: &focus,
+            aperture: &aperture,
+            focus_sweep: Some("1:10:3".parse().unwrap()),
+            focus_mode: FocusMode::Paraxial,
+            aperture_sweep: None,
+            out: Path::new("out/render.png"),
+            exr: None,
+        };
+        let frames = plan_frames(&request);
+        assert_eq!(frames.len(), 6);
+        assert_eq!(frames[0].out, Path::new("out/render-dgauss.50mm-000.png"));
+        assert_eq!(frames[5].out, Path::new("out/render-wide.22mm-002.png"));
+        let single = FrameRequest {
+            lens_names: &names[..1],
+            focus_sweep: None,
+            ..request
+        };
+        assert_eq!(plan_frames(&single)[0].out, Path::new("out/render.png"));
+    }
+}

@@ -1,0 +1,196 @@
+//! Setting up a render: the scene's environment, where the camera goes, what it focuses on.
+
+use std::path::Path;
+
+use anyhow::bail;
+use glam::{Mat4, Vec3};
+
+use super::render::RenderArgs;
+use crate::lens::Prescription;
+use crate::lens::aperture::ApertureSetting;
+use crate::lens::elements::{FocusSetting, Lens, build_geometry};
+use crate::lens::focus::closest_focus_mm;
+use crate::pipeline::{Renderer, SceneBounds};
+use crate::scene::{CameraHints, MaterialLibrary, PunctualLight, SceneCamera, look_at};
+use crate::shade::Environment;
+
+pub fn parse_vec3(s: &str) -> Result<Vec3, String> {
+    let parts: Vec<f32> = s
+        .split(',')
+        .map(|p| p.trim().parse::<f32>())
+        .collect::<Result<_, _>>()
+        .map_err(|_| format!("'{s}' is not X,Y,Z"))?;
+    match parts[..] {
+        [x, y, z] if parts.iter().all(|v| v.is_finite()) => Ok(Vec3::new(x, y, z)),
+        _ => Err(format!("'{s}' is not three finite numbers X,Y,Z")),
+    }
+}
+
+/// The camera placement chosen for a render.
+pub struct Placement {
+    pub world_from_camera: Mat4,
+    pub hints: CameraHints,
+    /// Focus distance (m) implied by the placement when the user gave none.
+    pub default_focus_m: Option<f64>,
+    /// No camera in the scene: frame the bounds once the lens is known.
+    pub frame_bounds: bool,
+}
+
+pub fn choose_environment(
+    args: &RenderArgs,
+    renderer: &mut Renderer,
+) -> anyhow::Result<Environment> {
+    if let Some(spec) = &args.env {
+        if let Ok(rgb) = parse_vec3(spec) {
+            if rgb.min_element() < 0.0 {
+                bail!("--env {spec}: radiance must not be negative");
+            }
+            return Ok(Environment::Uniform(rgb));
+        }
+        return crate::shade::load_environment(Path::new(spec));
+    }
+    let has_lights = renderer
+        .world
+        .query::<&PunctualLight>()
+        .iter(&renderer.world)
+        .next()
+        .is_some();
+    // A light fixture glows uniformly (an emissive factor, like a Cornell box's ceiling panel);
+    // an emissive *texture* marks glowing details of an object (a helmet's visor), which
+    // light nothing else, so such a scene still gets a sky.
+    let has_fixtures = renderer
+        .world
+        .resource::<MaterialLibrary>()
+        .materials
+        .iter()
+        .any(|m| m.is_emissive() && m.emissive_texture.is_none());
+    if has_lights || has_fixtures {
+        Ok(Environment::Uniform(Vec3::ZERO))
+    } else {
+        eprintln!(
+            "note: the scene has no lights; lighting it with a white sky of 1 nit (set one with --env)"
+        );
+        Ok(Environment::Uniform(Vec3::ONE))
+    }
+}
+
+pub fn place_camera(args: &RenderArgs, renderer: &mut Renderer) -> anyhow::Result<Placement> {
+    if let (Some(from), Some(at)) = (args.look_from, args.look_at) {
+        if (at - from).length() < 1e-6
+            || (at - from)
+                .normalize()
+                .cross(args.up.normalize_or_zero())
+                .length()
+                < 1e-6
+        {
+            bail!(
+                "--look-from and --look-at must differ, and --up must not be parallel to the view direction"
+            );
+        }
+        return Ok(Placement {
+            world_from_camera: look_at(from, at, args.up),
+            hints: CameraHints::default(),
+            default_focus_m: Some((at - from).length() as f64),
+            frame_bounds: false,
+        });
+    }
+    let cameras = renderer.scene_cameras();
+    let chosen: Option<&SceneCamera> = match &args.camera {
+        Some(wanted) => {
+            let found = cameras
+                .iter()
+                .find(|c| c.name.as_deref() == Some(wanted.as_str()))
+                .or_else(|| {
+                    wanted
+                        .parse::<usize>()
+                        .ok()
+                        .and_then(|i| cameras.iter().find(|c| c.index == i))
+                });
+            if found.is_none() {
+                let names: Vec<String> = cameras
+                    .iter()
+                    .map(|c| format!("{} ({})", c.index, c.name.as_deref().unwrap_or("unnamed")))
+                    .collect();
+                bail!(
+                    "--camera {wanted}: no such camera in the scene; it has {}",
+                    if names.is_empty() {
+                        "no cameras".to_string()
+                    } else {
+                        names.join(", ")
+                    }
+                );
+            }
+            found
+        }
+        None => cameras.first(),
+    };
+    Ok(match chosen {
+        Some(camera) => Placement {
+            world_from_camera: camera.world_from_camera,
+            hints: camera.hints.clone(),
+            default_focus_m: None,
+            frame_bounds: false,
+        },
+        None => Placement {
+            world_from_camera: Mat4::IDENTITY,
+            hints: CameraHints::default(),
+            default_focus_m: None,
+            frame_bounds: true,
+        },
+    })
+}
+
+/// Looks at the scene's bounds from +z (front), far enough back for the lens to fit them in
+/// the frame and no closer than it can focus; focused on the bounds' centre.
+pub fn frame_scene(
+    renderer: &mut Renderer,
+    prescription: &Prescription,
+    aperture: ApertureSetting,
+    film_diagonal: f64,
+) -> anyhow::Result<(Mat4, Option<f64>)> {
+    let bounds = renderer.world.resource::<SceneBounds>().0;
+    if bounds.is_empty() {
+        bail!("the scene has no geometry to look at");
+    }
+    let lens = Lens {
+        name: prescription.name.clone(),
+        source: prescription.source.clone(),
+        format: prescription.format,
+    };
+    let geometry =
+        build_geometry(&lens, &prescription.rows, aperture).map_err(anyhow::Error::msg)?;
+    let efl = geometry.first_order.focal_length;
+    // Half the film's short side for a square image: diagonal / (2√2).
+    let half_field = ((film_diagonal / (2.0 * 2f64.sqrt())) / efl).atan();
+    let radius = (bounds.diagonal() / 2.0) as f64;
+    let fit = radius / half_field.sin() * 1.05;
+    let closest = closest_focus_mm(&geometry.system, &geometry.first_order) / 1000.0 * 1.02;
+    if fit < closest {
+        eprintln!(
+            "note: the scene ({:.3} m across) is smaller than {} can fill the frame with; it will look small (closest focus {:.3} m)",
+            2.0 * radius,
+            prescription.name,
+            closest
+        );
+    }
+    let distance = fit.max(closest);
+    let center = bounds.center();
+    let eye = center + Vec3::Z * distance as f32;
+    Ok((look_at(eye, center, Vec3::Y), Some(distance)))
+}
+
+/// Focus on whatever the image centre sees, like a camera's autofocus; 10 m on a miss.
+pub fn autofocus(renderer: &mut Renderer, world_from_camera: Mat4) -> FocusSetting {
+    let origin = world_from_camera.transform_point3(Vec3::ZERO);
+    let forward = world_from_camera
+        .transform_vector3(-Vec3::Z)
+        .normalize_or_zero();
+    let accel = renderer.world.get_resource::<crate::accel::SceneAccel>();
+    let metres = accel
+        .and_then(|a| a.intersect(origin, forward, f32::INFINITY))
+        .map_or(10.0, |hit| hit.t as f64);
+    FocusSetting::Distance {
+        metres,
+        mode: Default::default(),
+    }
+}
