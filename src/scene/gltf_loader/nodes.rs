@@ -8,6 +8,7 @@ use gltf::json::validation::Checked;
 use serde::Deserialize;
 
 use super::{MAX_NODE_DEPTH, MAX_NODE_VISITS};
+use crate::lens::prescription::MAX_LENGTH_MM;
 use crate::scene::{CameraHints, PunctualLight, SceneCamera};
 
 /// A mesh placed by a node.
@@ -221,14 +222,61 @@ fn camera_hints(
         let Some(realcam) = value.get("realcam") else {
             continue;
         };
-        return CameraHints::deserialize(realcam).unwrap_or_else(|error| {
-            warnings.push(format!(
-                "{label}: \"realcam\" in {what} is malformed ({error}); ignored. Expected an object like {{\"lens\": \"dgauss.50mm\", \"film_diagonal_mm\": 35.0}}"
-            ));
-            CameraHints::default()
-        });
+        return match CameraHints::deserialize(realcam) {
+            Ok(hints) => usable_hints(hints, &format!("{label}: \"realcam\" in {what}"), warnings),
+            Err(error) => {
+                warnings.push(format!(
+                    "{label}: \"realcam\" in {what} is malformed ({error}); ignored. Expected an object like {{\"lens\": \"dgauss.50mm\", \"film_diagonal_mm\": 35.0}}"
+                ));
+                CameraHints::default()
+            }
+        };
     }
     CameraHints::default()
+}
+
+/// The largest image side a hint may ask for, as `realcam render --width/--height` allow.
+const MAX_IMAGE_SIDE: u32 = 16_384;
+
+/// `hints` without the values no flag would accept, each dropped with a warning: a file's
+/// hint is checked like the flag it stands in for (a 100 000 × 100 000 hint would otherwise
+/// exhaust memory, a negative film distance fail with a message about a flag never given).
+fn usable_hints(mut hints: CameraHints, source: &str, warnings: &mut Vec<String>) -> CameraHints {
+    let lengths = [
+        (
+            "film_diagonal_mm",
+            &mut hints.film_diagonal_mm,
+            MAX_LENGTH_MM,
+        ),
+        (
+            "film_distance_mm",
+            &mut hints.film_distance_mm,
+            MAX_LENGTH_MM,
+        ),
+        ("aperture_mm", &mut hints.aperture_mm, MAX_LENGTH_MM),
+        ("focus_distance_m", &mut hints.focus_distance_m, f64::MAX),
+    ];
+    for (name, hint, max) in lengths {
+        if let Some(value) = *hint
+            && !(value > 0.0 && value <= max)
+        {
+            warnings.push(format!(
+                "{source}: {name} {value} ignored; it must be positive and at most {max:e}"
+            ));
+            *hint = None;
+        }
+    }
+    for (name, hint) in [("width", &mut hints.width), ("height", &mut hints.height)] {
+        if let Some(value) = *hint
+            && !(1..=MAX_IMAGE_SIDE).contains(&value)
+        {
+            warnings.push(format!(
+                "{source}: {name} {value} ignored; it must be between 1 and {MAX_IMAGE_SIDE} pixels"
+            ));
+            *hint = None;
+        }
+    }
+    hints
 }
 
 /// A `KHR_lights_punctual` light placed by `world`: it sits at the node's origin and shines
@@ -285,6 +333,32 @@ mod tests {
             assert_relative_eq!(*a, b, epsilon = 1e-5);
         }
         assert!(rigid_frame(Mat4::from_scale(Vec3::new(1.0, 1.0, 0.0))).is_none());
+    }
+
+    #[test]
+    fn unusable_hint_values_are_dropped_with_a_warning() {
+        let raw = serde_json::value::RawValue::from_string(
+            r#"{"realcam": {"lens": "wide.22mm", "width": 100000, "height": 0, "film_diagonal_mm": -5, "aperture_mm": 1e308, "focus_distance_m": 2.5}}"#.into(),
+        )
+        .unwrap();
+        let extras: gltf::json::Extras = Some(raw);
+        let mut warnings = Vec::new();
+        let hints = camera_hints(&[(&extras, "extras")], "node 3", &mut warnings);
+        assert_eq!(
+            hints,
+            CameraHints {
+                lens: Some("wide.22mm".into()),
+                focus_distance_m: Some(2.5),
+                ..CameraHints::default()
+            }
+        );
+        assert_eq!(warnings.len(), 4, "{warnings:?}");
+        assert!(
+            warnings
+                .iter()
+                .all(|w| w.starts_with("node 3: \"realcam\" in extras: "))
+        );
+        assert!(warnings.iter().any(|w| w.contains("width 100000 ignored")));
     }
 
     #[test]
