@@ -292,6 +292,38 @@ fn damaged_but_usable_scenes_render_with_a_warning() {
 }
 
 #[test]
+fn out_of_range_camera_hints_are_ignored_with_a_warning() {
+    // No --height: the file's 100 000-pixel hint would have been rendered, exhausting memory.
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("x.png");
+    let scene = bad("camera-hints-out-of-range.gltf");
+    let run = realcam(&[
+        "render".as_ref(),
+        scene.as_os_str(),
+        "--spp".as_ref(),
+        "1".as_ref(),
+        "--width".as_ref(),
+        "8".as_ref(),
+        "--out".as_ref(),
+        out.as_os_str(),
+    ]);
+    let context = format!("exit {}, stderr:\n{}", run.code, run.stderr);
+    assert_eq!(run.code, 0, "{context}");
+    assert_clean(&run, &context);
+    for phrase in ["height 100000 ignored", "film_distance_mm -50 ignored"] {
+        assert!(
+            run.stderr.lines().any(|line| line.starts_with("warning: ")
+                && line.contains("camera-hints-out-of-range.gltf")
+                && line.contains("node 1 ('cam')")
+                && line.contains(phrase)),
+            "{phrase}: {context}"
+        );
+    }
+    let png = image::open(&out).unwrap();
+    assert_eq!((png.width(), png.height()), (8, 512), "{context}");
+}
+
+#[test]
 fn scene_paths_that_are_not_gltf_files_are_refused() {
     let dir = tempfile::tempdir().unwrap();
     assert_scene_refused(
@@ -699,4 +731,82 @@ fn merge_refuses_bad_partials_naming_them() {
     assert_eq!(std::fs::read(&a).unwrap(), before);
     let run = merge(&[&a, &b], &["--exr", out.to_str().unwrap()]);
     assert_refused(&run, "frame.png", &["same file"]);
+}
+
+#[test]
+fn merged_real_shards_equal_the_single_render_and_mismatched_ones_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = good_scene();
+    let frame = dir.path().join("frame.png");
+    let common = ["--spp", "4", "--seed", "3", "--max-depth", "2"];
+    for shard in ["0/2", "1/2"] {
+        let run = render(&scene, &frame, &[&common[..], &["--shard", shard]].concat());
+        assert_eq!(run.code, 0, "{}", run.stderr);
+    }
+    let whole = dir.path().join("whole.exr");
+    let run = render(
+        &scene,
+        &dir.path().join("whole.png"),
+        &[&common[..], &["--exr", whole.to_str().unwrap()]].concat(),
+    );
+    assert_eq!(run.code, 0, "{}", run.stderr);
+
+    let parts = [0, 1].map(|i| dir.path().join(format!("frame.shard-{i}-of-2.exr")));
+    let merged = dir.path().join("merged.exr");
+    let run = realcam(&[
+        "merge".as_ref(),
+        parts[1].as_os_str(),
+        parts[0].as_os_str(),
+        "--out".as_ref(),
+        frame.as_os_str(),
+        "--exr".as_ref(),
+        merged.as_os_str(),
+    ]);
+    assert_eq!(run.code, 0, "{}", run.stderr);
+    assert!(
+        run.stderr.contains("4 spp from 2 of 2 shards"),
+        "{}",
+        run.stderr
+    );
+    let merged = image::open(&merged).unwrap().to_rgb32f();
+    let whole = image::open(&whole).unwrap().to_rgb32f();
+    assert_eq!(merged.dimensions(), whole.dimensions());
+    for (m, w) in merged
+        .pixels()
+        .flat_map(|p| p.0)
+        .zip(whole.pixels().flat_map(|p| p.0))
+    {
+        assert!(
+            (m - w).abs() <= 1e-5 * w.abs().max(1e-3),
+            "merged {m} vs single {w}"
+        );
+    }
+
+    // A shard of the same frame rendered with another seed cannot join.
+    let stray = dir.path().join("stray.exr");
+    let run = render(
+        &scene,
+        &frame,
+        &[
+            "--spp",
+            "4",
+            "--seed",
+            "4",
+            "--max-depth",
+            "2",
+            "--shard",
+            "1/2",
+            "--partial",
+            stray.to_str().unwrap(),
+        ],
+    );
+    assert_eq!(run.code, 0, "{}", run.stderr);
+    let run = realcam(&[
+        "merge".as_ref(),
+        parts[0].as_os_str(),
+        stray.as_os_str(),
+        "--out".as_ref(),
+        dir.path().join("mixed.png").as_os_str(),
+    ]);
+    assert_refused(&run, "stray.exr", &["frame.shard-0-of-2.exr", "seed"]);
 }
