@@ -628,6 +628,55 @@ fn outputs_never_overwrite_inputs() {
     assert_eq!(names, ["my.lens.dat", "scene.bin", "scene.gltf"]);
 }
 
+/// A scene with an external buffer and an external texture, written to `dir`.
+fn scene_with_external_files(dir: &Path) -> PathBuf {
+    let mut gltf = GltfBuilder::default();
+    let node = gltf.triangle_node(json!({}));
+    gltf.scene(&[node]);
+    std::fs::write(
+        dir.join("wood.png"),
+        support::png_2x1([200, 150, 100], [90, 60, 30]),
+    )
+    .unwrap();
+    gltf.add("images", json!({"uri": "wood.png"}));
+    gltf.add("textures", json!({"source": 0}));
+    gltf.material(json!({"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}}));
+    gltf.json["meshes"][0]["primitives"][0]["material"] = json!(0);
+    gltf.write(dir, "scene")
+}
+
+#[test]
+fn the_loader_lists_every_file_a_scene_reads() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = scene_with_external_files(dir.path());
+    let loaded = realcam::scene::load_gltf(&scene).unwrap();
+    assert_eq!(
+        loaded.inputs,
+        [
+            scene.clone(),
+            dir.path().join("scene.bin"),
+            dir.path().join("wood.png")
+        ]
+    );
+}
+
+#[test]
+#[ignore = "render.rs must refuse outputs among LoadedScene::inputs (reported to the lead)"]
+fn outputs_never_overwrite_files_the_scene_refers_to() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = scene_with_external_files(dir.path());
+    for name in ["scene.bin", "wood.png"] {
+        let input = dir.path().join(name);
+        let before = std::fs::read(&input).unwrap();
+        for flag in ["--out", "--exr", "--stats"] {
+            let ok = dir.path().join("ok.png");
+            let run = render(&scene, &ok, &[flag, input.to_str().unwrap()]);
+            assert_refused(&run, name, &["would overwrite an input file"]);
+            assert_eq!(std::fs::read(&input).unwrap(), before, "{flag} {name}");
+        }
+    }
+}
+
 // ------------------------------------------------------------------ merge
 
 fn write_partial(dir: &Path, name: &str, shard: (u32, u32), seed: u64) -> PathBuf {

@@ -16,7 +16,7 @@ mod world;
 
 use std::collections::HashMap;
 use std::collections::hash_map::Entry;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use anyhow::{Context, Result, anyhow, bail};
@@ -93,6 +93,7 @@ fn load(bytes: &[u8], base_dir: Option<&Path>, source: &Path) -> Result<LoadedSc
         cameras, lights, ..
     } = contents;
     Ok(LoadedScene {
+        inputs: input_files(&root, base_dir, source),
         source: source.to_path_buf(),
         bounds: world::world_bounds(&instances),
         meshes,
@@ -102,6 +103,18 @@ fn load(bytes: &[u8], base_dir: Option<&Path>, source: &Path) -> Result<LoadedSc
         cameras,
         warnings,
     })
+}
+
+/// `source` and every file its buffers and images name.
+fn input_files(root: &Root, base_dir: Option<&Path>, source: &Path) -> Vec<PathBuf> {
+    let uris = root
+        .buffers
+        .iter()
+        .filter_map(|buffer| buffer.uri.as_deref())
+        .chain(root.images.iter().filter_map(|image| image.uri.as_deref()));
+    std::iter::once(source.to_path_buf())
+        .chain(uris.filter_map(|uri| uri::file_path(uri, base_dir)))
+        .collect()
 }
 
 /// Parses GLB or JSON glTF, refuses unsupported required extensions, and validates indices.

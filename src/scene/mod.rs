@@ -260,6 +260,9 @@ pub struct LoadedScene {
     pub bounds: Bounds,
     /// Problems that did not stop loading (missing texture, skipped point primitives, …).
     pub warnings: Vec<String>,
+    /// The files the scene was read from: the glTF itself and the external buffers and images
+    /// it names (read or not), so that no output overwrites them.
+    pub inputs: Vec<PathBuf>,
 }
 
 impl LoadedScene {

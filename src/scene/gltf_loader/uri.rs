@@ -28,6 +28,14 @@ pub(super) fn read_uri(uri: &str, base_dir: Option<&Path>, limit: Option<u64>) -
     }
 }
 
+/// The file a glTF `uri` names, if it names one (not a data URI, not a malformed URI).
+pub(super) fn file_path(uri: &str, base_dir: Option<&Path>) -> Option<PathBuf> {
+    match parse(uri, base_dir).ok()? {
+        UriTarget::File(path) => Some(path),
+        UriTarget::Base64(_) => None,
+    }
+}
+
 /// Reads at most `limit` bytes of the file at `path`. A directory or a device (`/dev/zero`,
 /// `/dev/urandom`: endless) is refused rather than read until memory runs out; a named pipe is
 /// read to its end, as a user piping a scene in expects.
@@ -235,6 +243,18 @@ mod tests {
         );
         assert!(parse("bad%FF.bin", Some(base)).is_err());
         assert_eq!(percent_decode("100%").unwrap(), "100%");
+    }
+
+    #[test]
+    fn file_paths_of_uris() {
+        let base = Path::new("/scenes");
+        assert_eq!(
+            file_path("a%20b.bin", Some(base)),
+            Some(PathBuf::from("/scenes/a b.bin"))
+        );
+        assert_eq!(file_path("data:;base64,AA==", Some(base)), None);
+        assert_eq!(file_path("https://example.com/a.bin", Some(base)), None);
+        assert_eq!(file_path("a.bin", None), None);
     }
 
     #[test]
