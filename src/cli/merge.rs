@@ -130,39 +130,47 @@ fn same_file(a: &Path, b: &Path) -> bool {
     }
 }
 
-/// A partial as read, with its shard number checked.
+/// What a partial says about itself. Its pixels are added up as soon as it is read and then
+/// dropped, so merging 64 shards of an 8K frame holds one partial at a time, not 64.
 struct Partial {
     path: PathBuf,
-    image: Image,
     info: CheckpointInfo,
     index: u32,
     count: u32,
+    width: u32,
+    height: u32,
 }
 
 /// Reads the partials at `paths` and adds them up. Refuses, naming the files, partials of
 /// different frames (settings, size or shard count differ), a shard given twice, and, unless
 /// `allow_missing`, missing or unfinished shards.
 pub fn merge_partials(paths: &[PathBuf], allow_missing: bool) -> anyhow::Result<Merged> {
-    let partials: Vec<Partial> = paths
-        .iter()
-        .map(|path| read_partial(path))
-        .collect::<anyhow::Result<_>>()?;
-    let Some(first) = partials.first() else {
-        bail!("no partials to merge");
-    };
-    let mut by_index: BTreeMap<u32, &Partial> = BTreeMap::new();
-    for partial in &partials {
-        check_same_frame(first, partial)?;
-        if let Some(earlier) = by_index.insert(partial.index, partial) {
+    let mut partials: Vec<Partial> = Vec::with_capacity(paths.len());
+    // Shard index → position in `partials`.
+    let mut by_index: BTreeMap<u32, usize> = BTreeMap::new();
+    let mut film: Option<Film> = None;
+    for path in paths {
+        let (partial, image) = read_partial(path)?;
+        if let Some(first) = partials.first() {
+            check_same_frame(first, &partial)?;
+        }
+        if let Some(&earlier) = by_index.get(&partial.index) {
             bail!(
                 "shard {}/{} is given twice: {} and {}; give each shard's partial once",
                 partial.index,
                 partial.count,
-                earlier.path.display(),
+                partials[earlier].path.display(),
                 partial.path.display()
             );
         }
+        film.get_or_insert_with(|| Film::new(partial.width, partial.height))
+            .add(&image, &partial.path)?;
+        by_index.insert(partial.index, partials.len());
+        partials.push(partial);
     }
+    let (Some(film), Some(first)) = (film, partials.first()) else {
+        bail!("no partials to merge");
+    };
     let shard_count = first.count;
 
     let missing: Vec<u32> = (0..shard_count)
@@ -171,7 +179,7 @@ pub fn merge_partials(paths: &[PathBuf], allow_missing: bool) -> anyhow::Result<
     if !missing.is_empty() && !allow_missing {
         let given: Vec<String> = by_index
             .iter()
-            .map(|(index, partial)| format!("{index} in {}", partial.path.display()))
+            .map(|(index, &at)| format!("{index} in {}", partials[at].path.display()))
             .collect();
         bail!(
             "shard(s) {} of 0..{} are missing (given: {}); render them with `realcam render … --shard I/{shard_count}`, or pass --allow-missing to merge what is there",
@@ -182,6 +190,7 @@ pub fn merge_partials(paths: &[PathBuf], allow_missing: bool) -> anyhow::Result<
     }
     let unfinished: Vec<(PathBuf, usize)> = by_index
         .values()
+        .map(|&at| &partials[at])
         .filter(|partial| !partial.info.remaining.is_empty())
         .map(|partial| (partial.path.clone(), partial.info.remaining.len()))
         .collect();
@@ -195,7 +204,7 @@ pub fn merge_partials(paths: &[PathBuf], allow_missing: bool) -> anyhow::Result<
     }
 
     Ok(Merged {
-        image: add_up(by_index.values().copied())?,
+        image: film.finish()?,
         shard_count,
         merged: by_index.keys().copied().collect(),
         missing,
@@ -203,7 +212,7 @@ pub fn merge_partials(paths: &[PathBuf], allow_missing: bool) -> anyhow::Result<
     })
 }
 
-fn read_partial(path: &Path) -> anyhow::Result<Partial> {
+fn read_partial(path: &Path) -> anyhow::Result<(Partial, Image)> {
     let (image, info) = read_checkpoint(path)?;
     let Some((index, count)) = info.shard else {
         bail!(
@@ -217,13 +226,15 @@ fn read_partial(path: &Path) -> anyhow::Result<Partial> {
             path.display()
         );
     }
-    Ok(Partial {
+    let partial = Partial {
         path: path.to_path_buf(),
-        image,
         info,
         index,
         count,
-    })
+        width: image.width,
+        height: image.height,
+    };
+    Ok((partial, image))
 }
 
 /// Partials of one frame share the shard count, the image size and every setting.
@@ -236,14 +247,13 @@ fn check_same_frame(first: &Partial, partial: &Partial) -> anyhow::Result<()> {
             partial.count
         );
     }
-    let size = |p: &Partial| (p.image.width, p.image.height);
-    if size(partial) != size(first) {
+    if (partial.width, partial.height) != (first.width, first.height) {
         bail!(
             "{a} is {}×{} pixels but {b} is {}×{}: partials of one frame have the same size",
-            first.image.width,
-            first.image.height,
-            partial.image.width,
-            partial.image.height
+            first.width,
+            first.height,
+            partial.width,
+            partial.height
         );
     }
     if partial.info.settings != first.info.settings {
@@ -284,37 +294,51 @@ fn settings_difference(a: &serde_json::Value, b: &serde_json::Value) -> String {
     }
 }
 
-/// Sums the partials' sums (in f64, in shard order, so the result does not depend on the order
-/// the files were given in) and their sample counts.
-fn add_up<'a>(partials: impl Iterator<Item = &'a Partial>) -> anyhow::Result<Image> {
-    let mut partials = partials.peekable();
-    let Some(first) = partials.peek() else {
-        bail!("no partials to merge");
-    };
-    let (width, height) = (first.image.width, first.image.height);
-    let mut sums = vec![[0f64; 3]; first.image.sums.len()];
-    let mut samples = 0u32;
-    for partial in partials {
-        samples = samples
-            .checked_add(partial.image.samples)
-            .with_context(|| format!("{}: too many samples in all", partial.path.display()))?;
-        for (total, part) in sums.iter_mut().zip(&partial.image.sums) {
+/// The merged film so far: per-pixel sums in f64 (adding a few dozen f32 partials in f64 loses
+/// nothing, so the order of the files hardly matters) and the total sample count.
+struct Film {
+    width: u32,
+    height: u32,
+    sums: Vec<[f64; 3]>,
+    samples: u32,
+}
+
+impl Film {
+    fn new(width: u32, height: u32) -> Film {
+        Film {
+            width,
+            height,
+            sums: vec![[0.0; 3]; width as usize * height as usize],
+            samples: 0,
+        }
+    }
+
+    fn add(&mut self, image: &Image, path: &Path) -> anyhow::Result<()> {
+        self.samples = self
+            .samples
+            .checked_add(image.samples)
+            .with_context(|| format!("{}: too many samples in all", path.display()))?;
+        for (total, part) in self.sums.iter_mut().zip(&image.sums) {
             for channel in 0..3 {
                 total[channel] += f64::from(part[channel]);
             }
         }
+        Ok(())
     }
-    if samples == 0 {
-        bail!(
-            "the partials hold no samples (more shards than samples per pixel?); nothing to merge"
-        );
+
+    fn finish(self) -> anyhow::Result<Image> {
+        if self.samples == 0 {
+            bail!(
+                "the partials hold no samples (more shards than samples per pixel?); nothing to merge"
+            );
+        }
+        Ok(Image {
+            width: self.width,
+            height: self.height,
+            sums: self.sums.iter().map(|s| s.map(|c| c as f32)).collect(),
+            samples: self.samples,
+        })
     }
-    Ok(Image {
-        width,
-        height,
-        sums: sums.iter().map(|s| s.map(|c| c as f32)).collect(),
-        samples,
-    })
 }
 
 /// `0, 3–5, 9` for messages.
@@ -394,7 +418,7 @@ mod tests {
         }
         assert_eq!(merged.merged, [0, 1]);
         assert!(merged.missing.is_empty() && merged.unfinished.is_empty());
-        // The order of the arguments does not matter, to the bit.
+        // The order of the arguments does not matter (f64 sums of these f32 values are exact).
         let swapped = merge_partials(&[b, a], false).unwrap();
         assert_eq!(swapped.image, merged.image);
     }
