@@ -2,6 +2,7 @@
 
 pub mod interrupt;
 pub mod lens;
+pub mod merge;
 pub mod options;
 pub mod plan;
 pub mod render;
@@ -29,6 +30,8 @@ pub enum Command {
     Render(Box<render::RenderArgs>),
     /// Inspect a lens: first-order data, focus, pupils; trace rays; draw its cross-section.
     Lens(lens::LensArgs),
+    /// Combine the shard partials of `realcam render --shard I/N` into the full frame.
+    Merge(merge::MergeArgs),
 }
 
 /// Runs the command line; errors are printed as `error: …` with a non-zero exit.
@@ -51,6 +54,7 @@ pub fn main() -> ExitCode {
         },
         Some(Command::Render(args)) => render::run(&args),
         Some(Command::Lens(args)) => lens::run(&args),
+        Some(Command::Merge(args)) => merge::run(&args),
     };
     match result {
         Ok(code) => code,

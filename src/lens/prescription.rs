@@ -13,6 +13,7 @@
 //! thickness 0 (the film distance is not part of the lens).
 
 use std::fmt;
+use std::io::Read;
 use std::path::{Path, PathBuf};
 
 /// Radii at or beyond this magnitude (mm) are flat surfaces: a sphere that large has a sag
@@ -23,6 +24,17 @@ pub const FLAT_RADIUS_MM: f64 = 1e8;
 /// Prescription files larger than this are refused before reading: the largest real lens
 /// prescriptions have a few dozen rows.
 pub const MAX_FILE_BYTES: u64 = 1 << 20;
+
+/// Thicknesses and apertures beyond this (100 m) are refused: no real lens comes near, and it
+/// catches files in the wrong unit and values whose sums would overflow.
+pub const MAX_LENGTH_MM: f64 = 1e5;
+
+/// Apertures below a micrometre (under the wavelength of light) are refused.
+pub const MIN_APERTURE_MM: f64 = 1e-3;
+
+/// Refractive indices above this are refused: optical glasses lie between about 1.4 and 2.1,
+/// and no transparent material reaches 5 (germanium, in the infrared, is about 4).
+pub const MAX_INDEX: f64 = 10.0;
 
 /// How to read the second column.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
@@ -146,20 +158,22 @@ impl Prescription {
             line: None,
             message,
         };
-        let metadata =
-            std::fs::metadata(path).map_err(|e| error(format!("cannot read lens file: {e}")))?;
-        if metadata.is_dir() {
+        let cannot_read = |e: std::io::Error| error(format!("cannot read lens file: {e}"));
+        let file = std::fs::File::open(path).map_err(cannot_read)?;
+        if file.metadata().map_err(cannot_read)?.is_dir() {
             return Err(error("is a directory, not a lens file".into()));
         }
-        if metadata.len() > MAX_FILE_BYTES {
+        // Read through a limit rather than trusting the size: a device such as /dev/zero
+        // reports 0 bytes and never ends.
+        let mut bytes = Vec::new();
+        file.take(MAX_FILE_BYTES + 1)
+            .read_to_end(&mut bytes)
+            .map_err(cannot_read)?;
+        if bytes.len() as u64 > MAX_FILE_BYTES {
             return Err(error(format!(
-                "is {} bytes; a lens prescription is a small text table (limit {} bytes)",
-                metadata.len(),
-                MAX_FILE_BYTES
+                "is more than {MAX_FILE_BYTES} bytes; a lens prescription is a small text table of rows 'radius thickness index aperture'"
             )));
         }
-        let bytes =
-            std::fs::read(path).map_err(|e| error(format!("cannot read lens file: {e}")))?;
         let text = String::from_utf8(bytes).map_err(|_| {
             error("is not a text file (invalid UTF-8); expected rows of 'radius thickness index aperture'".into())
         })?;
@@ -278,6 +292,33 @@ impl Prescription {
                     row.line,
                     format!(
                         "refractive index {} is below 1 (use 1 or 0 for air)",
+                        row.index
+                    ),
+                ));
+            }
+            if row.aperture > MAX_LENGTH_MM || row.thickness > MAX_LENGTH_MM {
+                return Err(error(
+                    row.line,
+                    format!(
+                        "aperture {} mm or thickness {} mm is more than 100 m; lens files are in millimetres",
+                        row.aperture, row.thickness
+                    ),
+                ));
+            }
+            if row.aperture < MIN_APERTURE_MM {
+                return Err(error(
+                    row.line,
+                    format!(
+                        "aperture diameter {} mm is below a micrometre; lens files are in millimetres",
+                        row.aperture
+                    ),
+                ));
+            }
+            if row.index > MAX_INDEX {
+                return Err(error(
+                    row.line,
+                    format!(
+                        "refractive index {} is not a real material (glasses lie between 1.4 and 2.1; the limit is {MAX_INDEX})",
                         row.index
                     ),
                 ));
@@ -422,6 +463,10 @@ fn shorten(s: &str) -> String {
 }
 
 fn detect_format(rows: &[RawRow]) -> Result<LensFormat, String> {
+    // One row reads the same in both layouts; validation then says what is missing.
+    if rows.len() == 1 {
+        return Ok(LensFormat::ThicknessAfter);
+    }
     let first_zero = rows[0].values[1] == 0.0;
     let last_zero = rows[rows.len() - 1].values[1] == 0.0;
     match (first_zero, last_zero) {
@@ -565,6 +610,26 @@ mod tests {
                 Some(1),
             ),
             ("50 5 0.5 20\n0 5 0 10\n-50 0 1 20\n", "below 1", Some(1)),
+            (
+                "50 5 1.5 20\n0 5 0 10\n-50 0 1 2e5\n",
+                "more than 100 m",
+                Some(3),
+            ),
+            (
+                "50 5 1.5 20\n0 1e300 0 10\n-50 0 1 20\n",
+                "more than 100 m",
+                Some(2),
+            ),
+            (
+                "50 5 1.5 1e-4\n0 5 0 10\n-50 0 1 20\n",
+                "below a micrometre",
+                Some(1),
+            ),
+            (
+                "50 5 11 20\n0 5 0 10\n-50 0 1 20\n",
+                "not a real material",
+                Some(1),
+            ),
             (
                 "5 5 1.5 20\n0 5 0 10\n-50 0 1 20\n",
                 "wider than the sphere",

@@ -6,11 +6,13 @@
 //! file, however corrupt, can make the loader panic: it returns an error naming the file.
 
 mod accessor;
+mod budget;
 mod buffers;
 mod geometry;
 mod materials;
 mod nodes;
 mod uri;
+mod world;
 
 use std::collections::HashMap;
 use std::collections::hash_map::Entry;
@@ -24,12 +26,9 @@ use gltf::json::validation::Checked;
 
 use self::buffers::Buffers;
 use self::nodes::SceneContents;
-use crate::scene::{Bounds, LoadedScene, Mesh, MeshInstance};
+use crate::scene::{LoadedScene, Mesh, MeshInstance};
 
-/// Scenes with more (instanced) triangles than this are refused before their buffers are read.
-pub const MAX_TRIANGLES: u64 = 50_000_000;
-/// Vertices over all distinct primitives, likewise.
-pub const MAX_VERTICES: u64 = 3 * MAX_TRIANGLES;
+pub use budget::{MAX_TRIANGLES, MAX_VERTICES};
 /// Deeper node hierarchies are taken as corrupt (real files stay far below).
 pub const MAX_NODE_DEPTH: usize = 256;
 /// Node visits in one scene walk. A node shared by several parents is visited once per path,
@@ -42,7 +41,7 @@ const SUPPORTED_REQUIRED_EXTENSIONS: &[&str] =
 
 /// Loads a `.gltf` or `.glb` file; external buffers and images are found relative to it.
 pub fn load_gltf(path: &Path) -> Result<LoadedScene> {
-    let bytes = std::fs::read(path).map_err(|error| {
+    let bytes = uri::read_file(path, None).map_err(|error| {
         anyhow!(
             "cannot read glTF file {}: {error}; check the path",
             path.display()
@@ -59,8 +58,13 @@ pub fn load_gltf_bytes(
     source: &Path,
 ) -> Result<LoadedScene> {
     // One message holding the file name and the whole cause chain, however it is printed.
-    load(bytes, base_dir, source)
-        .map_err(|error| anyhow!("cannot load glTF scene {}: {error:#}", source.display()))
+    let mut scene = load(bytes, base_dir, source)
+        .map_err(|error| anyhow!("cannot load glTF scene {}: {error:#}", source.display()))?;
+    // Warnings name the file too: the user may not know which file a "mesh 3" is in.
+    for warning in &mut scene.warnings {
+        *warning = format!("{}: {warning}", source.display());
+    }
+    Ok(scene)
 }
 
 fn load(bytes: &[u8], base_dir: Option<&Path>, source: &Path) -> Result<LoadedScene> {
@@ -90,7 +94,7 @@ fn load(bytes: &[u8], base_dir: Option<&Path>, source: &Path) -> Result<LoadedSc
     } = contents;
     Ok(LoadedScene {
         source: source.to_path_buf(),
-        bounds: world_bounds(&instances),
+        bounds: world::world_bounds(&instances),
         meshes,
         instances,
         materials,
@@ -264,16 +268,7 @@ fn check_size_budget(root: &Root, contents: &SceneContents) -> Result<()> {
     let vertices = sizes
         .values()
         .fold(0u64, |sum, &(_, vertices)| sum.saturating_add(vertices));
-    if triangles > MAX_TRIANGLES || vertices > MAX_VERTICES {
-        bail!(
-            "the scene would have about {} M triangles ({} M vertices), more than realcam's limit of {} M triangles ({} M vertices); decimate the scene or remove instances",
-            triangles / 1_000_000,
-            vertices / 1_000_000,
-            MAX_TRIANGLES / 1_000_000,
-            MAX_VERTICES / 1_000_000
-        );
-    }
-    Ok(())
+    budget::check(triangles, vertices, budget::available_memory())
 }
 
 /// One [`MeshInstance`] per (placed mesh, primitive), sharing one [`Mesh`] per primitive.
@@ -326,27 +321,13 @@ fn build_instances(
             } else {
                 mesh
             };
-            instances.push(MeshInstance {
+            let instance = MeshInstance {
                 mesh,
                 world_from_local: placement.world_from_local,
                 node_name: placement.node_name.clone(),
-            });
+            };
+            instances.extend(world::usable_in_world(instance, &mut meshes, warnings));
         }
     }
     Ok((meshes, instances))
-}
-
-/// World bounds of every vertex of every instanced triangle.
-fn world_bounds(instances: &[MeshInstance]) -> Bounds {
-    let mut bounds = Bounds::EMPTY;
-    for instance in instances {
-        for triangle in &instance.mesh.triangles {
-            for &index in triangle {
-                if let Some(&position) = instance.mesh.positions.get(index as usize) {
-                    bounds.include(instance.world_from_local.transform_point3(position));
-                }
-            }
-        }
-    }
-    bounds
 }

@@ -23,9 +23,11 @@ impl<'a> Buffers<'a> {
         let mut blob = blob;
         let mut buffers = Vec::with_capacity(root.buffers.len());
         for (index, buffer) in root.buffers.iter().enumerate() {
+            let declared = buffer.byte_length.0;
             let data = match &buffer.uri {
+                // Bytes of a file past byteLength are never used: they are not read.
                 Some(uri) => Cow::Owned(
-                    uri::read_uri(uri, base_dir)
+                    uri::read_uri(uri, base_dir, Some(declared))
                         .with_context(|| format!("buffer {index} ({})", uri::describe(uri)))?,
                 ),
                 None => match blob.take() {
@@ -35,7 +37,6 @@ impl<'a> Buffers<'a> {
                     ),
                 },
             };
-            let declared = buffer.byte_length.0;
             if (data.len() as u64) < declared {
                 let source = buffer
                     .uri

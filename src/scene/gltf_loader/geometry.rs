@@ -303,15 +303,16 @@ pub(super) fn assemble_triangles(mode: Mode, corners: &[u32]) -> Vec<[u32; 3]> {
     }
 }
 
-/// Removes triangles touching a non-finite position and zero-area triangles (both with a
-/// warning), then zeroes non-finite positions so no NaN reaches later stages.
+/// Removes triangles touching a non-finite position, zero-area triangles and triangles so
+/// large their area overflows f32 (each with a warning), then zeroes non-finite positions so
+/// no NaN reaches later stages.
 fn drop_bad_triangles(
     triangles: &mut Vec<[u32; 3]>,
     positions: &mut [Vec3],
     label: &str,
     warnings: &mut Vec<String>,
 ) {
-    let (mut non_finite, mut degenerate) = (0usize, 0usize);
+    let (mut non_finite, mut degenerate, mut overflowing) = (0usize, 0usize, 0usize);
     triangles.retain(|triangle| {
         let [a, b, c] = triangle.map(|index| positions[index as usize]);
         if !(a.is_finite() && b.is_finite() && c.is_finite()) {
@@ -319,12 +320,21 @@ fn drop_bad_triangles(
             return false;
         }
         let area_vector = (b - a).cross(c - a);
-        if area_vector == Vec3::ZERO || !area_vector.is_finite() {
+        if !area_vector.is_finite() {
+            overflowing += 1;
+            return false;
+        }
+        if area_vector == Vec3::ZERO {
             degenerate += 1;
             return false;
         }
         true
     });
+    if overflowing > 0 {
+        warnings.push(format!(
+            "{label}: {overflowing} triangles so large their area overflows f32 dropped; check the scene's units"
+        ));
+    }
     if non_finite > 0 {
         warnings.push(format!(
             "{label}: {non_finite} triangles with non-finite vertex positions dropped"
@@ -381,14 +391,17 @@ mod tests {
             Vec3::Y,
             Vec3::new(f32::NAN, 0.0, 0.0),
             Vec3::new(2.0, 0.0, 0.0),
+            Vec3::new(1e30, 0.0, 0.0),
+            Vec3::new(0.0, 1e30, 0.0),
         ];
-        let mut triangles = vec![[0, 1, 2], [0, 1, 3], [0, 1, 4], [2, 2, 1]];
+        let mut triangles = vec![[0, 1, 2], [0, 1, 3], [0, 1, 4], [2, 2, 1], [0, 5, 6]];
         let mut warnings = Vec::new();
         drop_bad_triangles(&mut triangles, &mut positions, "test", &mut warnings);
         assert_eq!(triangles, [[0, 1, 2]]);
-        assert_eq!(warnings.len(), 2, "{warnings:?}");
-        assert!(warnings[0].contains("1 triangles with non-finite"));
-        assert!(warnings[1].contains("2 degenerate"));
+        assert_eq!(warnings.len(), 3, "{warnings:?}");
+        assert!(warnings[0].contains("1 triangles so large their area overflows"));
+        assert!(warnings[1].contains("1 triangles with non-finite"));
+        assert!(warnings[2].contains("2 degenerate"));
         assert!(positions.iter().all(|p| p.is_finite()));
     }
 

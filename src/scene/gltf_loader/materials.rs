@@ -213,7 +213,7 @@ fn decode_image(
         .ok_or_else(|| anyhow!("image does not exist"))?;
     let bytes: Cow<[u8]> = match (&json.buffer_view, &json.uri) {
         (Some(view), _) => Cow::Borrowed(buffers.view(root, view.value())?),
-        (None, Some(uri)) => Cow::Owned(uri::read_uri(uri, base_dir)?),
+        (None, Some(uri)) => Cow::Owned(uri::read_uri(uri, base_dir, None)?),
         (None, None) => bail!("the image has neither a uri nor a bufferView"),
     };
     let format = image::guess_format(&bytes).context("not a PNG or JPEG image")?;

@@ -1,5 +1,7 @@
 //! glTF URIs: embedded `data:` URIs and files relative to the glTF file.
 
+use std::fs::Metadata;
+use std::io::Read;
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, anyhow, bail};
@@ -12,18 +14,48 @@ enum UriTarget<'a> {
     File(PathBuf),
 }
 
-/// Reads the bytes a glTF `uri` names. Relative paths are resolved against `base_dir`, the
-/// directory of the glTF file (`None` when the glTF came from memory).
-pub(super) fn read_uri(uri: &str, base_dir: Option<&Path>) -> Result<Vec<u8>> {
+/// Reads the bytes a glTF `uri` names, at most `limit` of a file. Relative paths are resolved
+/// against `base_dir`, the directory of the glTF file (`None` when the glTF came from memory).
+pub(super) fn read_uri(uri: &str, base_dir: Option<&Path>, limit: Option<u64>) -> Result<Vec<u8>> {
     match parse(uri, base_dir)? {
         UriTarget::Base64(payload) => decode_base64(payload).context("corrupt data URI"),
-        UriTarget::File(path) => std::fs::read(&path).with_context(|| {
+        UriTarget::File(path) => read_file(&path, limit).with_context(|| {
             format!(
                 "cannot read {} (files a glTF refers to must be at that path relative to it)",
                 path.display()
             )
         }),
     }
+}
+
+/// Reads at most `limit` bytes of the file at `path`. A directory or a device (`/dev/zero`,
+/// `/dev/urandom`: endless) is refused rather than read until memory runs out; a named pipe is
+/// read to its end, as a user piping a scene in expects.
+pub(super) fn read_file(path: &Path, limit: Option<u64>) -> std::io::Result<Vec<u8>> {
+    let file = std::fs::File::open(path)?;
+    let metadata = file.metadata()?;
+    if metadata.is_dir() {
+        return Err(std::io::Error::other("it is a directory, not a file"));
+    }
+    if is_device(&metadata) {
+        return Err(std::io::Error::other("it is a device, not a file"));
+    }
+    let mut bytes = Vec::with_capacity(metadata.len().min(limit.unwrap_or(u64::MAX)) as usize);
+    file.take(limit.unwrap_or(u64::MAX))
+        .read_to_end(&mut bytes)?;
+    Ok(bytes)
+}
+
+#[cfg(unix)]
+fn is_device(metadata: &Metadata) -> bool {
+    use std::os::unix::fs::FileTypeExt;
+    let kind = metadata.file_type();
+    kind.is_char_device() || kind.is_block_device() || kind.is_socket()
+}
+
+#[cfg(not(unix))]
+fn is_device(_: &Metadata) -> bool {
+    false
 }
 
 /// A short form of a URI for messages: data URIs can be megabytes long.
@@ -173,10 +205,10 @@ mod tests {
 
     #[test]
     fn data_uri() {
-        let bytes = read_uri("data:application/octet-stream;base64,AAEC", None).unwrap();
+        let bytes = read_uri("data:application/octet-stream;base64,AAEC", None, None).unwrap();
         assert_eq!(bytes, [0, 1, 2]);
-        assert!(read_uri("data:text/plain,hello", None).is_err());
-        assert!(read_uri("data:nocomma", None).is_err());
+        assert!(read_uri("data:text/plain,hello", None, None).is_err());
+        assert!(read_uri("data:nocomma", None, None).is_err());
     }
 
     #[test]

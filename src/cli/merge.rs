@@ -1,0 +1,563 @@
+//! `realcam merge`: combines the shard partials of `realcam render --shard I/N` into the image
+//! one unsharded render would give.
+//!
+//! Shard I of N renders the sample indices s ≡ I (mod N), and its partial holds the per-pixel
+//! *sums* of those samples with their count (see [`crate::film::checkpoint`]). The sums of all
+//! shards are the sums of all samples, so adding sums and counts gives exactly the single
+//! render's film, up to float rounding in the additions.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+use anyhow::{Context, bail};
+use clap::Args;
+
+use crate::film::Image;
+use crate::film::checkpoint::{CheckpointInfo, read_checkpoint};
+use crate::film::output::{auto_exposure, check_writable, write_exr, write_png};
+
+#[derive(Args, Debug, Clone)]
+pub struct MergeArgs {
+    /// Shard partials (.exr) written by `realcam render --shard I/N`, in any order.
+    #[arg(required = true, value_name = "PARTS")]
+    pub parts: Vec<PathBuf>,
+    /// Output PNG (sRGB).
+    #[arg(long, value_name = "FILE.png")]
+    pub out: PathBuf,
+    /// Also write the linear, un-tonemapped film as OpenEXR.
+    #[arg(long, value_name = "FILE.exr")]
+    pub exr: Option<PathBuf>,
+    /// PNG exposure in stops: pixel = film irradiance × 2^EV [default: automatic, the image's
+    /// log-average luminance to 18 % grey].
+    #[arg(long, value_name = "EV", allow_hyphen_values = true)]
+    pub exposure: Option<f32>,
+    /// Merge the shards that are there even if some of 0..N-1 are missing or unfinished (the
+    /// image then has fewer samples per pixel, and more noise, than the full render).
+    #[arg(long)]
+    pub allow_missing: bool,
+}
+
+/// The merged film and what went into it.
+#[derive(Debug)]
+pub struct Merged {
+    pub image: Image,
+    /// N of the `--shard I/N` the partials were rendered with.
+    pub shard_count: u32,
+    /// Shard indices merged, ascending.
+    pub merged: Vec<u32>,
+    /// Shard indices of 0..N-1 with no partial (only with `allow_missing`).
+    pub missing: Vec<u32>,
+    /// Partials whose shard had samples left to render, with how many (only with
+    /// `allow_missing`).
+    pub unfinished: Vec<(PathBuf, usize)>,
+}
+
+pub fn run(args: &MergeArgs) -> anyhow::Result<ExitCode> {
+    validate(args)?;
+    let merged = merge_partials(&args.parts, args.allow_missing)?;
+    let n = merged.shard_count;
+    if !merged.missing.is_empty() {
+        eprintln!(
+            "warning: shard(s) {} of 0..{} missing; merging the {} present",
+            format_indices(&merged.missing),
+            n - 1,
+            merged.merged.len()
+        );
+    }
+    for (path, remaining) in &merged.unfinished {
+        eprintln!(
+            "warning: {}: unfinished shard ({remaining} samples not rendered); merging the samples it has",
+            path.display()
+        );
+    }
+    let image = &merged.image;
+    let exposure = args
+        .exposure
+        .map_or_else(|| auto_exposure(&image.mean()), |ev| 2f32.powf(ev));
+    write_png(&args.out, image, exposure)?;
+    eprintln!(
+        "wrote {} ({}×{}, {} spp from {} of {n} shards)",
+        args.out.display(),
+        image.width,
+        image.height,
+        image.samples,
+        merged.merged.len()
+    );
+    if let Some(exr) = &args.exr {
+        write_exr(exr, image)?;
+        eprintln!("wrote {}", exr.display());
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+/// Checks the flags and the output paths before any partial is read.
+fn validate(args: &MergeArgs) -> anyhow::Result<()> {
+    if let Some(ev) = args.exposure
+        && !ev.is_finite()
+    {
+        bail!("--exposure must be a finite number of stops");
+    }
+    let outputs: Vec<&Path> = [Some(args.out.as_path()), args.exr.as_deref()]
+        .into_iter()
+        .flatten()
+        .collect();
+    if let [png, exr] = outputs[..]
+        && (png == exr || same_file(png, exr))
+    {
+        bail!(
+            "{}: --out and --exr name the same file; give them different paths",
+            png.display()
+        );
+    }
+    for output in &outputs {
+        if let Some(part) = args.parts.iter().find(|part| same_file(output, part)) {
+            bail!(
+                "{}: the output would overwrite the partial {}; choose another --out/--exr path",
+                output.display(),
+                part.display()
+            );
+        }
+        check_writable(output)?;
+    }
+    Ok(())
+}
+
+fn same_file(a: &Path, b: &Path) -> bool {
+    match (a.canonicalize(), b.canonicalize()) {
+        (Ok(a), Ok(b)) => a == b,
+        _ => false,
+    }
+}
+
+/// A partial as read, with its shard number checked.
+struct Partial {
+    path: PathBuf,
+    image: Image,
+    info: CheckpointInfo,
+    index: u32,
+    count: u32,
+}
+
+/// Reads the partials at `paths` and adds them up. Refuses, naming the files, partials of
+/// different frames (settings, size or shard count differ), a shard given twice, and, unless
+/// `allow_missing`, missing or unfinished shards.
+pub fn merge_partials(paths: &[PathBuf], allow_missing: bool) -> anyhow::Result<Merged> {
+    let partials: Vec<Partial> = paths
+        .iter()
+        .map(|path| read_partial(path))
+        .collect::<anyhow::Result<_>>()?;
+    let Some(first) = partials.first() else {
+        bail!("no partials to merge");
+    };
+    let mut by_index: BTreeMap<u32, &Partial> = BTreeMap::new();
+    for partial in &partials {
+        check_same_frame(first, partial)?;
+        if let Some(earlier) = by_index.insert(partial.index, partial) {
+            bail!(
+                "shard {}/{} is given twice: {} and {}; give each shard's partial once",
+                partial.index,
+                partial.count,
+                earlier.path.display(),
+                partial.path.display()
+            );
+        }
+    }
+    let shard_count = first.count;
+
+    let missing: Vec<u32> = (0..shard_count)
+        .filter(|index| !by_index.contains_key(index))
+        .collect();
+    if !missing.is_empty() && !allow_missing {
+        let given: Vec<String> = by_index
+            .iter()
+            .map(|(index, partial)| format!("{index} in {}", partial.path.display()))
+            .collect();
+        bail!(
+            "shard(s) {} of 0..{} are missing (given: {}); render them with `realcam render … --shard I/{shard_count}`, or pass --allow-missing to merge what is there",
+            format_indices(&missing),
+            shard_count - 1,
+            given.join(", "),
+        );
+    }
+    let unfinished: Vec<(PathBuf, usize)> = by_index
+        .values()
+        .filter(|partial| !partial.info.remaining.is_empty())
+        .map(|partial| (partial.path.clone(), partial.info.remaining.len()))
+        .collect();
+    if let Some((path, remaining)) = unfinished.first()
+        && !allow_missing
+    {
+        bail!(
+            "{}: this shard is unfinished (it was stopped with {remaining} of its samples not rendered); render the shard again, or pass --allow-missing to merge the samples it has",
+            path.display()
+        );
+    }
+
+    Ok(Merged {
+        image: add_up(by_index.values().copied())?,
+        shard_count,
+        merged: by_index.keys().copied().collect(),
+        missing,
+        unfinished,
+    })
+}
+
+fn read_partial(path: &Path) -> anyhow::Result<Partial> {
+    let (image, info) = read_checkpoint(path)?;
+    let Some((index, count)) = info.shard else {
+        bail!(
+            "{}: a checkpoint of an unsharded render, not a shard partial; merge combines the partials of `realcam render --shard I/N` (continue a checkpoint with --resume instead)",
+            path.display()
+        );
+    };
+    if count == 0 || index >= count {
+        bail!(
+            "{}: damaged partial: shard {index}/{count} is not one of 0..N-1",
+            path.display()
+        );
+    }
+    Ok(Partial {
+        path: path.to_path_buf(),
+        image,
+        info,
+        index,
+        count,
+    })
+}
+
+/// Partials of one frame share the shard count, the image size and every setting.
+fn check_same_frame(first: &Partial, partial: &Partial) -> anyhow::Result<()> {
+    let (a, b) = (first.path.display(), partial.path.display());
+    if partial.count != first.count {
+        bail!(
+            "{a} is one of {} shards but {b} is one of {}: partials of one frame are rendered with the same N in --shard I/N",
+            first.count,
+            partial.count
+        );
+    }
+    let size = |p: &Partial| (p.image.width, p.image.height);
+    if size(partial) != size(first) {
+        bail!(
+            "{a} is {}×{} pixels but {b} is {}×{}: partials of one frame have the same size",
+            first.image.width,
+            first.image.height,
+            partial.image.width,
+            partial.image.height
+        );
+    }
+    if partial.info.settings != first.info.settings {
+        bail!(
+            "{a} and {b} were rendered with different settings ({}); every shard of a frame must use the same scene, lens, settings and seed",
+            settings_difference(&first.info.settings, &partial.info.settings)
+        );
+    }
+    Ok(())
+}
+
+/// The settings that differ, as `key: a vs b`, for messages.
+fn settings_difference(a: &serde_json::Value, b: &serde_json::Value) -> String {
+    const SHOWN: usize = 5;
+    let short = |value: Option<&serde_json::Value>| {
+        let text = value.map_or("(absent)".to_string(), serde_json::Value::to_string);
+        if text.chars().count() > 60 {
+            format!("{}…", text.chars().take(60).collect::<String>())
+        } else {
+            text
+        }
+    };
+    let (Some(a), Some(b)) = (a.as_object(), b.as_object()) else {
+        return format!("{} vs {}", short(Some(a)), short(Some(b)));
+    };
+    let mut keys: Vec<&String> = a.keys().chain(b.keys()).collect();
+    keys.sort();
+    keys.dedup();
+    let differing: Vec<String> = keys
+        .into_iter()
+        .filter(|key| a.get(*key) != b.get(*key))
+        .map(|key| format!("{key}: {} vs {}", short(a.get(key)), short(b.get(key))))
+        .collect();
+    match differing.len() {
+        0 => "they differ".to_string(),
+        n if n > SHOWN => format!("{}; and {} more", differing[..SHOWN].join("; "), n - SHOWN),
+        _ => differing.join("; "),
+    }
+}
+
+/// Sums the partials' sums (in f64, in shard order, so the result does not depend on the order
+/// the files were given in) and their sample counts.
+fn add_up<'a>(partials: impl Iterator<Item = &'a Partial>) -> anyhow::Result<Image> {
+    let mut partials = partials.peekable();
+    let Some(first) = partials.peek() else {
+        bail!("no partials to merge");
+    };
+    let (width, height) = (first.image.width, first.image.height);
+    let mut sums = vec![[0f64; 3]; first.image.sums.len()];
+    let mut samples = 0u32;
+    for partial in partials {
+        samples = samples
+            .checked_add(partial.image.samples)
+            .with_context(|| format!("{}: too many samples in all", partial.path.display()))?;
+        for (total, part) in sums.iter_mut().zip(&partial.image.sums) {
+            for channel in 0..3 {
+                total[channel] += f64::from(part[channel]);
+            }
+        }
+    }
+    if samples == 0 {
+        bail!(
+            "the partials hold no samples (more shards than samples per pixel?); nothing to merge"
+        );
+    }
+    Ok(Image {
+        width,
+        height,
+        sums: sums.iter().map(|s| s.map(|c| c as f32)).collect(),
+        samples,
+    })
+}
+
+/// `0, 3–5, 9` for messages.
+fn format_indices(indices: &[u32]) -> String {
+    let mut runs: Vec<(u32, u32)> = Vec::new();
+    for &index in indices {
+        match runs.last_mut() {
+            Some((_, end)) if *end + 1 == index => *end = index,
+            _ => runs.push((index, index)),
+        }
+    }
+    runs.iter()
+        .map(|&(start, end)| match end - start {
+            0 => start.to_string(),
+            1 => format!("{start}, {end}"),
+            _ => format!("{start}–{end}"),
+        })
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::film::checkpoint::{FORMAT_VERSION, write_checkpoint};
+    use serde_json::json;
+
+    /// A 3×2 partial of shard `index`/`count` whose pixel i holds `base + i` in every channel.
+    fn partial(dir: &Path, index: u32, count: u32, base: f32, samples: u32) -> PathBuf {
+        let image = Image {
+            width: 3,
+            height: 2,
+            sums: (0..6)
+                .map(|i| [base + i as f32, base, 0.5 * base])
+                .collect(),
+            samples,
+        };
+        write(
+            dir,
+            &format!("p{index}-{count}.exr"),
+            &image,
+            info(index, count, samples),
+        )
+    }
+
+    fn info(index: u32, count: u32, samples: u32) -> CheckpointInfo {
+        CheckpointInfo {
+            version: FORMAT_VERSION,
+            samples,
+            remaining: Vec::new(),
+            planned: samples,
+            shard: Some((index, count)),
+            settings: json!({"seed": 7, "spp": 8, "lens": "dgauss.50mm"}),
+        }
+    }
+
+    fn write(dir: &Path, name: &str, image: &Image, info: CheckpointInfo) -> PathBuf {
+        let path = dir.join(name);
+        write_checkpoint(&path, image, &info).unwrap();
+        path
+    }
+
+    fn error(paths: &[PathBuf]) -> String {
+        format!("{:#}", merge_partials(paths, false).unwrap_err())
+    }
+
+    #[test]
+    fn sums_and_sample_counts_add_up() {
+        let dir = tempfile::tempdir().unwrap();
+        let a = partial(dir.path(), 0, 2, 1.0, 3);
+        let b = partial(dir.path(), 1, 2, 10.0, 5);
+        let merged = merge_partials(&[a.clone(), b.clone()], false).unwrap();
+        assert_eq!(merged.image.samples, 8);
+        assert_eq!((merged.image.width, merged.image.height), (3, 2));
+        for (i, sum) in merged.image.sums.iter().enumerate() {
+            assert_eq!(*sum, [11.0 + 2.0 * i as f32, 11.0, 5.5]);
+        }
+        assert_eq!(merged.merged, [0, 1]);
+        assert!(merged.missing.is_empty() && merged.unfinished.is_empty());
+        // The order of the arguments does not matter, to the bit.
+        let swapped = merge_partials(&[b, a], false).unwrap();
+        assert_eq!(swapped.image, merged.image);
+    }
+
+    #[test]
+    fn partials_of_different_frames_are_refused_naming_both() {
+        let dir = tempfile::tempdir().unwrap();
+        let a = partial(dir.path(), 0, 2, 1.0, 4);
+        let image = Image {
+            width: 3,
+            height: 2,
+            sums: vec![[1.0; 3]; 6],
+            samples: 4,
+        };
+        let mut other_seed = info(1, 2, 4);
+        other_seed.settings["seed"] = json!(8);
+        let b = write(dir.path(), "seed8.exr", &image, other_seed);
+        let message = error(&[a.clone(), b]);
+        assert!(
+            message.contains("p0-2.exr") && message.contains("seed8.exr"),
+            "{message}"
+        );
+        assert!(message.contains("seed: 7 vs 8"), "{message}");
+        assert!(!message.contains("spp"), "only what differs: {message}");
+
+        let small = Image {
+            width: 2,
+            height: 2,
+            sums: vec![[1.0; 3]; 4],
+            samples: 4,
+        };
+        let b = write(dir.path(), "small.exr", &small, info(1, 2, 4));
+        let message = error(&[a.clone(), b]);
+        assert!(
+            message.contains("3×2") && message.contains("2×2"),
+            "{message}"
+        );
+
+        let b = partial(dir.path(), 1, 3, 1.0, 4);
+        let message = error(&[a, b]);
+        assert!(
+            message.contains("p1-3.exr") && message.contains("same N"),
+            "{message}"
+        );
+    }
+
+    #[test]
+    fn a_shard_given_twice_is_refused() {
+        let dir = tempfile::tempdir().unwrap();
+        let a = partial(dir.path(), 0, 2, 1.0, 4);
+        let copy = dir.path().join("copy.exr");
+        std::fs::copy(&a, &copy).unwrap();
+        let message = error(&[a, copy]);
+        assert!(
+            message.contains("shard 0/2 is given twice")
+                && message.contains("p0-2.exr")
+                && message.contains("copy.exr"),
+            "{message}"
+        );
+    }
+
+    #[test]
+    fn missing_shards_are_listed_unless_allowed() {
+        let dir = tempfile::tempdir().unwrap();
+        let parts: Vec<PathBuf> = [0, 1, 5, 7]
+            .into_iter()
+            .map(|i| partial(dir.path(), i, 8, i as f32, 1))
+            .collect();
+        let message = error(&parts);
+        assert!(
+            message.contains("shard(s) 2–4, 6 of 0..7 are missing"),
+            "{message}"
+        );
+        assert!(message.contains("--allow-missing"), "{message}");
+        let merged = merge_partials(&parts, true).unwrap();
+        assert_eq!(merged.missing, [2, 3, 4, 6]);
+        assert_eq!(merged.merged, [0, 1, 5, 7]);
+        assert_eq!(merged.image.samples, 4);
+        assert_eq!(merged.image.sums[0], [13.0, 13.0, 6.5]);
+    }
+
+    #[test]
+    fn unfinished_shards_and_plain_checkpoints_are_refused() {
+        let dir = tempfile::tempdir().unwrap();
+        let a = partial(dir.path(), 0, 2, 1.0, 4);
+        let image = Image {
+            width: 3,
+            height: 2,
+            sums: vec![[1.0; 3]; 6],
+            samples: 2,
+        };
+        let mut unfinished = info(1, 2, 2);
+        unfinished.remaining = vec![5, 7];
+        let b = write(dir.path(), "half.exr", &image, unfinished);
+        let message = error(&[a.clone(), b.clone()]);
+        assert!(
+            message.contains("half.exr") && message.contains("unfinished"),
+            "{message}"
+        );
+        let merged = merge_partials(&[a.clone(), b.clone()], true).unwrap();
+        assert_eq!(merged.unfinished, [(b, 2)]);
+        assert_eq!(merged.image.samples, 6);
+
+        let mut plain = info(0, 1, 2);
+        plain.shard = None;
+        let c = write(dir.path(), "plain.exr", &image, plain);
+        let message = error(&[c]);
+        assert!(
+            message.contains("plain.exr") && message.contains("not a shard partial"),
+            "{message}"
+        );
+
+        let broken = write(dir.path(), "broken.exr", &image, info(4, 2, 2));
+        let message = error(&[a, broken]);
+        assert!(
+            message.contains("broken.exr") && message.contains("4/2"),
+            "{message}"
+        );
+    }
+
+    #[test]
+    fn command_writes_png_and_exr_and_never_overwrites_a_partial() {
+        let dir = tempfile::tempdir().unwrap();
+        let parts = vec![
+            partial(dir.path(), 0, 2, 1.0, 2),
+            partial(dir.path(), 1, 2, 3.0, 2),
+        ];
+        let out = dir.path().join("frame.png");
+        let exr = dir.path().join("frame.exr");
+        let args = MergeArgs {
+            parts: parts.clone(),
+            out: out.clone(),
+            exr: Some(exr.clone()),
+            exposure: Some(0.0),
+            allow_missing: false,
+        };
+        run(&args).unwrap();
+        let png = image::open(&out).unwrap().to_rgb8();
+        assert_eq!(png.dimensions(), (3, 2));
+        let linear = image::open(&exr).unwrap().to_rgb32f();
+        // Pixel 1: sums 2 + 4 = 6 red over 4 samples.
+        assert_eq!(linear.get_pixel(1, 0).0, [1.5, 1.0, 0.5]);
+        let leftovers = std::fs::read_dir(dir.path())
+            .unwrap()
+            .filter(|entry| entry.as_ref().unwrap().path().extension() == Some("tmp".as_ref()))
+            .count();
+        assert_eq!(leftovers, 0);
+
+        let before = std::fs::read(&parts[0]).unwrap();
+        let overwrite = MergeArgs {
+            out: parts[0].clone(),
+            exr: None,
+            ..args.clone()
+        };
+        let message = format!("{:#}", run(&overwrite).unwrap_err());
+        assert!(message.contains("would overwrite the partial"), "{message}");
+        assert_eq!(std::fs::read(&parts[0]).unwrap(), before);
+    }
+
+    #[test]
+    fn index_lists_are_compact() {
+        assert_eq!(format_indices(&[0, 3, 4, 5, 9]), "0, 3–5, 9");
+        assert_eq!(format_indices(&[1, 2]), "1, 2");
+        assert_eq!(format_indices(&[]), "");
+    }
+}
