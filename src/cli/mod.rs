@@ -1,5 +1,6 @@
 //! The `realcam` command line.
 
+pub mod bench;
 pub mod lens;
 pub mod options;
 pub mod render;
@@ -26,6 +27,8 @@ pub enum Command {
     Render(Box<render::RenderArgs>),
     /// Inspect a lens: first-order data, focus, pupils; trace rays; draw its cross-section.
     Lens(lens::LensArgs),
+    /// Measure lens-tracing speed on this CPU: scalar per-ray vs SoA batches, one thread.
+    Bench(bench::BenchArgs),
 }
 
 /// Runs the command line; errors are printed as `error: …` with a non-zero exit.
@@ -48,6 +51,7 @@ pub fn main() -> ExitCode {
         },
         Some(Command::Render(args)) => render::run(&args),
         Some(Command::Lens(args)) => lens::run(&args),
+        Some(Command::Bench(args)) => bench::run(&args),
     };
     match result {
         Ok(code) => code,
