@@ -1,6 +1,7 @@
 //! Lens ray tracing, one thread: the scalar per-ray path (the reference tracer in f32, array of
-//! structs) against SoA batches of 64 … 4096 rays with both kernels (auto-vectorised and
-//! explicit 8-lane `wide`), for every bundled lens; and the exit-pupil bounds of every lens.
+//! structs) against SoA batches of 64 … 4096 rays with both kernels (auto-vectorised, on each
+//! instruction set, and explicit 8-lane `wide`), for every bundled lens; and the exit-pupil
+//! bounds of every lens.
 //! The rays are film → scene camera rays as the renderer makes them (see
 //! `realcam::cli::bench::LensWorkload`, which `realcam bench` measures too).
 
@@ -9,7 +10,7 @@ use realcam::batch::RayBatch;
 use realcam::cli::bench::LensWorkload;
 use realcam::lens::bundled::BUNDLED;
 use realcam::lens::pupil::{ExitPupil, PupilSampling};
-use realcam::lens::trace_batch::Kernel;
+use realcam::lens::trace_batch::{Isa, Kernel};
 
 const RAYS: usize = 4096;
 
@@ -35,25 +36,37 @@ fn scalar_per_ray(bencher: Bencher, lens: &str) {
         .bench_local(|| black_box(&w).trace_scalar(&mut out));
 }
 
-/// The same rays as SoA batches of `BATCH`, explicit 8-lane SIMD kernel.
+/// The same rays as SoA batches of `BATCH`, explicit `wide::f32x8` kernel.
 #[divan::bench(args = lenses(), consts = [64, 256, 1024, 4096])]
 fn soa_simd<const BATCH: usize>(bencher: Bencher, lens: &str) {
-    soa(bencher, lens, BATCH, Kernel::Simd);
+    soa(bencher, lens, BATCH, Kernel::Simd, Isa::detect());
 }
 
-/// The same rays as SoA batches of `BATCH`, plain loop left to the auto-vectoriser (the
-/// renderer's default kernel).
+/// The same rays as SoA batches of `BATCH`, plain loop auto-vectorised for the widest
+/// instruction set of this CPU (the renderer's kernel: AVX-512 here).
 #[divan::bench(args = lenses(), consts = [64, 256, 1024, 4096])]
 fn soa_autovec<const BATCH: usize>(bencher: Bencher, lens: &str) {
-    soa(bencher, lens, BATCH, Kernel::AutoVectorised);
+    soa(bencher, lens, BATCH, Kernel::AutoVectorised, Isa::detect());
 }
 
-fn soa(bencher: Bencher, lens: &str, batch: usize, kernel: Kernel) {
+/// The plain loop compiled for AVX2 (8 lanes), if this CPU has it.
+#[divan::bench(args = lenses(), consts = [64, 1024])]
+fn soa_autovec_avx2<const BATCH: usize>(bencher: Bencher, lens: &str) {
+    soa(bencher, lens, BATCH, Kernel::AutoVectorised, Isa::Avx2);
+}
+
+/// The plain loop as the portable build compiles it (x86-64: SSE2, 4 lanes).
+#[divan::bench(args = lenses(), consts = [64, 1024])]
+fn soa_autovec_baseline<const BATCH: usize>(bencher: Bencher, lens: &str) {
+    soa(bencher, lens, BATCH, Kernel::AutoVectorised, Isa::Baseline);
+}
+
+fn soa(bencher: Bencher, lens: &str, batch: usize, kernel: Kernel, isa: Isa) {
     let w = workload(lens);
     let mut work = RayBatch::with_capacity(batch);
     bencher
         .counter(divan::counter::ItemsCount::new(RAYS))
-        .bench_local(|| black_box(&w).trace_soa(batch, Some(kernel), &mut work));
+        .bench_local(|| black_box(&w).trace_soa(batch, kernel, isa, &mut work));
 }
 
 /// Exit-pupil bounds of a lens (64 film segments, in parallel on all cores).

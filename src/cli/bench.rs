@@ -19,7 +19,7 @@ use crate::lens::first_order::FirstOrder;
 use crate::lens::focus::paraxial_film_distance;
 use crate::lens::pupil::{ExitPupil, PupilSampling};
 use crate::lens::trace::{Ray, Travel, trace};
-use crate::lens::trace_batch::{Kernel, trace_batch, trace_batch_with};
+use crate::lens::trace_batch::{DEFAULT_KERNEL, Isa, Kernel, trace_batch_on};
 use crate::sampling::Rng;
 
 #[derive(Args, Debug, Clone)]
@@ -117,11 +117,12 @@ impl LensWorkload {
     }
 
     /// The same rays in SoA batches of `batch_size`, each copied into `work` and traced there
-    /// in place by `kernel` (`None`: the renderer's default). Returns the number that pass.
+    /// in place by `kernel` compiled for `isa`. Returns the number that pass.
     pub fn trace_soa(
         &self,
         batch_size: usize,
-        kernel: Option<Kernel>,
+        kernel: Kernel,
+        isa: Isa,
         work: &mut RayBatch,
     ) -> usize {
         let mut passed = 0;
@@ -130,12 +131,7 @@ impl LensWorkload {
         while start < len {
             let end = (start + batch_size).min(len);
             copy_rays(&self.batch, start..end, work);
-            match kernel {
-                Some(kernel) => {
-                    trace_batch_with(&self.system.f32s, work, Travel::FilmToScene, kernel)
-                }
-                None => trace_batch(&self.system.f32s, work, Travel::FilmToScene),
-            }
+            trace_batch_on(&self.system.f32s, work, Travel::FilmToScene, kernel, isa);
             passed += work.alive_count();
             start = end;
         }
@@ -159,13 +155,14 @@ fn copy_rays(from: &RayBatch, range: std::ops::Range<usize>, to: &mut RayBatch) 
     to.alive.extend_from_slice(&from.alive[range]);
 }
 
-/// A way of tracing the workload, as the report names it.
+/// A way of tracing the workload.
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum Variant {
     Scalar,
     Soa {
         batch: usize,
-        kernel: Option<Kernel>,
+        kernel: Kernel,
+        isa: Isa,
     },
 }
 
@@ -178,7 +175,30 @@ impl Variant {
     ) -> usize {
         match self {
             Variant::Scalar => workload.trace_scalar(scalar_out),
-            Variant::Soa { batch, kernel } => workload.trace_soa(batch, kernel, work),
+            Variant::Soa { batch, kernel, isa } => workload.trace_soa(batch, kernel, isa, work),
+        }
+    }
+
+    fn name(self) -> String {
+        match self {
+            Variant::Scalar => "scalar per-ray (f32, array of structs)".into(),
+            Variant::Soa {
+                kernel: Kernel::AutoVectorised,
+                isa,
+                ..
+            } => format!("auto-vectorised kernel, {}", isa_name(isa)),
+            // `wide` fixes its layout when it is compiled, whatever the dispatch.
+            Variant::Soa {
+                kernel: Kernel::Simd,
+                ..
+            } => format!(
+                "explicit wide::f32x8 kernel, {}",
+                if wide_uses_avx() {
+                    "AVX (8 lanes)"
+                } else {
+                    "2 × 128-bit"
+                }
+            ),
         }
     }
 }
@@ -254,22 +274,13 @@ fn median(mut values: Vec<f64>) -> f64 {
     }
 }
 
-/// Vector extensions of this CPU that the kernels can use.
-fn cpu_features() -> Vec<&'static str> {
-    #[allow(unused_mut)]
-    let mut features = Vec::new();
-    #[cfg(target_arch = "x86_64")]
-    {
-        if std::arch::is_x86_feature_detected!("avx2") {
-            features.push("avx2");
-        }
-        if std::arch::is_x86_feature_detected!("avx512f") {
-            features.push("avx512f");
-        }
+fn isa_name(isa: Isa) -> &'static str {
+    match isa {
+        Isa::Baseline if cfg!(target_arch = "x86_64") => "baseline SSE2 (4 lanes)",
+        Isa::Baseline => "baseline",
+        Isa::Avx2 => "AVX2 (8 lanes)",
+        Isa::Avx512 => "AVX-512 (16 lanes)",
     }
-    #[cfg(target_arch = "aarch64")]
-    features.push("neon");
-    features
 }
 
 /// Whether `wide`'s 8-lane type was compiled for 256-bit AVX registers (else 2 × 128-bit).
@@ -277,22 +288,34 @@ fn wide_uses_avx() -> bool {
     cfg!(target_feature = "avx")
 }
 
-/// What the rates are per: "CPU-second" (this thread's CPU time) or "second" (wall time).
+/// What the rates are per: this thread's CPU time, or wall time where the OS does not tell.
 fn clock_name() -> &'static str {
     if thread_cpu_time().is_some() {
-        "CPU-second of this thread (time while other processes ran on the core left out)"
+        "thread-cpu-time"
     } else {
-        "second of wall time"
+        "wall"
     }
 }
 
 const SWEEP_BATCHES: &[usize] = &[64, 128, 256, 512, 1024, 2048, 4096];
 
-fn kernel_name(kernel: Kernel) -> &'static str {
-    match kernel {
-        Kernel::Simd => "simd",
-        Kernel::AutoVectorised => "auto-vectorised",
-    }
+/// The SoA variants worth comparing at one batch size: the plain kernel on every instruction
+/// set this CPU has, and the explicit kernel on the widest.
+fn soa_variants(batch: usize) -> Vec<Variant> {
+    let mut variants: Vec<Variant> = Isa::available()
+        .into_iter()
+        .map(|isa| Variant::Soa {
+            batch,
+            kernel: Kernel::AutoVectorised,
+            isa,
+        })
+        .collect();
+    variants.push(Variant::Soa {
+        batch,
+        kernel: Kernel::Simd,
+        isa: Isa::detect(),
+    });
+    variants
 }
 
 pub fn run(args: &BenchArgs) -> anyhow::Result<ExitCode> {
@@ -301,52 +324,45 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<ExitCode> {
     }
     let workload = LensWorkload::new(&args.lens, args.rays)?;
     let min_time = Duration::from_millis(60);
-    let variants = [
-        Variant::Scalar,
-        Variant::Soa {
-            batch: args.batch,
-            kernel: None,
-        },
-        Variant::Soa {
-            batch: args.batch,
-            kernel: Some(Kernel::AutoVectorised),
-        },
-        Variant::Soa {
-            batch: args.batch,
-            kernel: Some(Kernel::Simd),
-        },
-    ];
+    let default = Variant::Soa {
+        batch: args.batch,
+        kernel: DEFAULT_KERNEL,
+        isa: Isa::detect(),
+    };
+    let mut variants = vec![Variant::Scalar];
+    variants.extend(soa_variants(args.batch));
     let rates = measure(&workload, &variants, args.rounds, min_time);
-    let (scalar, soa) = (rates[0], rates[1]);
-    let passed = workload.trace_soa(args.batch, None, &mut RayBatch::default());
+    let rate_of = |v: Variant| rates[variants.iter().position(|&x| x == v).expect("measured")];
+    let (scalar, soa) = (rate_of(Variant::Scalar), rate_of(default));
+    let passed = workload.trace_soa(
+        args.batch,
+        DEFAULT_KERNEL,
+        Isa::detect(),
+        &mut RayBatch::default(),
+    );
     let pass_fraction = passed as f64 / workload.rays.len() as f64;
 
-    let sweep: Vec<(usize, Kernel, f64)> = if args.sweep {
+    let sweep: Vec<(Variant, f64)> = if args.sweep {
         let variants: Vec<Variant> = SWEEP_BATCHES
             .iter()
-            .flat_map(|&batch| {
-                [Kernel::AutoVectorised, Kernel::Simd].map(|kernel| Variant::Soa {
-                    batch,
-                    kernel: Some(kernel),
-                })
-            })
+            .flat_map(|&b| soa_variants(b))
             .collect();
         let rates = measure(&workload, &variants, args.rounds, min_time);
-        variants
-            .iter()
-            .zip(rates)
-            .map(|(v, rate)| match *v {
-                Variant::Soa { batch, kernel } => {
-                    (batch, kernel.expect("sweep names kernels"), rate)
-                }
-                Variant::Scalar => unreachable!("the sweep has SoA variants only"),
-            })
-            .collect()
+        variants.into_iter().zip(rates).collect()
     } else {
         Vec::new()
     };
 
     if args.json {
+        let entry = |v: Variant, rate: f64| match v {
+            Variant::Scalar => json!({"variant": "scalar", "rays_per_s": rate}),
+            Variant::Soa { batch, kernel, isa } => json!({
+                "batch": batch,
+                "kernel": match kernel { Kernel::Simd => "simd", Kernel::AutoVectorised => "auto-vectorised" },
+                "isa": isa.name(),
+                "rays_per_s": rate,
+            }),
+        };
         let report = json!({
             "lens": args.lens,
             "surfaces": workload.system.surface_count(),
@@ -354,83 +370,59 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<ExitCode> {
             "pass_fraction": pass_fraction,
             "batch": args.batch,
             "threads": 1,
-            "clock": if thread_cpu_time().is_some() { "thread-cpu-time" } else { "wall" },
+            "clock": clock_name(),
             "rounds": args.rounds,
             "scalar_rays_per_s": scalar,
             "soa_rays_per_s": soa,
             "speedup": soa / scalar,
-            "soa_kernel": "auto-vectorised",
-            "kernels": {
-                "auto-vectorised": rates[2],
-                "simd": rates[3],
-            },
-            "cpu_features": cpu_features(),
+            "soa_kernel": entry(default, soa),
+            "variants": variants.iter().zip(&rates).map(|(&v, &r)| entry(v, r)).collect::<Vec<_>>(),
             "wide_uses_avx": wide_uses_avx(),
-            "sweep": sweep.iter().map(|&(batch, kernel, rate)| json!({
-                "batch": batch,
-                "kernel": kernel_name(kernel),
-                "rays_per_s": rate,
-            })).collect::<Vec<_>>(),
+            "sweep": sweep.iter().map(|&(v, r)| entry(v, r)).collect::<Vec<_>>(),
         });
         println!("{report}");
         return Ok(ExitCode::SUCCESS);
     }
     let m = |rate: f64| rate / 1e6;
     println!(
-        "lens tracing, {} ({} surfaces), {} film→scene rays ({:.0} % pass), one thread, median of {} rounds",
+        "lens tracing: {} ({} surfaces), {} film→scene camera rays ({:.0} % pass), one thread",
         args.lens,
         workload.system.surface_count(),
         workload.rays.len(),
         pass_fraction * 100.0,
+    );
+    println!(
+        "rays per {}, median of {} rounds",
+        if clock_name() == "wall" {
+            "second"
+        } else {
+            "CPU-second of the thread (time other processes held the core left out)"
+        },
         args.rounds
     );
-    println!("  rates per {}", clock_name());
     println!(
-        "  scalar per-ray (f32, array of structs)  {:>8.2} M rays/s",
+        "  {:<52}{:>8.2} M rays/s",
+        Variant::Scalar.name(),
         m(scalar)
     );
-    println!(
-        "  SoA, batches of {:<5} (renderer default) {:>8.2} M rays/s",
-        args.batch,
-        m(soa)
-    );
-    println!(
-        "    auto-vectorised kernel                {:>8.2} M rays/s",
-        m(rates[2])
-    );
-    println!(
-        "    explicit 8-lane SIMD kernel           {:>8.2} M rays/s",
-        m(rates[3])
-    );
-    println!(
-        "  speedup SoA / scalar                    {:>8.2}×",
-        soa / scalar
-    );
-    println!(
-        "  CPU: {}; wide::f32x8 compiled for {}",
-        match cpu_features().as_slice() {
-            [] => "no AVX2".to_string(),
-            features => features.join(", "),
-        },
-        if wide_uses_avx() {
-            "AVX (256-bit)"
-        } else {
-            "2 × 128-bit"
-        }
-    );
+    println!("  SoA, batches of {}:", args.batch);
+    for (&v, &rate) in variants.iter().zip(&rates).skip(1) {
+        let marker = if v == default { "  ← renderer" } else { "" };
+        println!("    {:<50}{:>8.2} M rays/s{marker}", v.name(), m(rate));
+    }
+    println!("  speedup SoA / scalar: {:.2}×", soa / scalar);
     if !sweep.is_empty() {
-        println!("  batch size sweep (M rays/s):");
-        println!(
-            "    {:>6}  {:>15}  {:>6}",
-            "batch", "auto-vectorised", "simd"
-        );
-        for pair in sweep.chunks(2) {
-            println!(
-                "    {:>6}  {:>15.2}  {:>6.2}",
-                pair[0].0,
-                m(pair[0].2),
-                m(pair[1].2)
-            );
+        println!("  batch-size sweep (M rays/s):");
+        let columns = soa_variants(1).len();
+        for row in sweep.chunks(columns) {
+            let Variant::Soa { batch, .. } = row[0].0 else {
+                continue;
+            };
+            let cells: Vec<String> = row
+                .iter()
+                .map(|&(v, r)| format!("{}: {:.2}", v.name(), m(r)))
+                .collect();
+            println!("    {batch:>5}  {}", cells.join(" | "));
         }
     }
     Ok(ExitCode::SUCCESS)

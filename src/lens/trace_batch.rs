@@ -9,10 +9,10 @@
 //!   (alive as lane masks) and every surface run over them.
 //!
 //! Rays go through in blocks of [`BLOCK`] so a block's state stays in L1 while all surfaces run
-//! over it, and a block stops early once none of its rays is alive. On x86-64 CPUs with AVX2
-//! both kernels run in a copy compiled for AVX2 (chosen at run time), so a portable build still
-//! uses 8-lane vectors; the explicit kernel's `wide` types use AVX only when the whole build
-//! targets it (see BENCHMARKS.md).
+//! over it, and a block stops early once none of its rays is alive. On x86-64 both kernels are
+//! also compiled for AVX2 and AVX-512 and the widest the CPU has is chosen at run time ([`Isa`]),
+//! so a portable build still runs the plain loop 8 or 16 lanes wide; the explicit kernel's
+//! `wide` types use AVX only when the whole build targets it (see BENCHMARKS.md).
 
 mod lanes;
 mod refract;
@@ -41,44 +41,114 @@ pub const BLOCK: usize = 256;
 /// refracted direction; blocked rays get `alive = false` and keep the state they had when
 /// blocked.
 pub fn trace_batch(surfaces: &SurfaceArrays<f32>, rays: &mut RayBatch, travel: Travel) {
-    trace_batch_with(surfaces, rays, travel, Kernel::AutoVectorised)
+    trace_batch_with(surfaces, rays, travel, DEFAULT_KERNEL)
 }
 
-/// [`trace_batch`] with a chosen kernel (for benchmarks and cross-checks).
+/// The kernel [`trace_batch`] runs: the faster one where the build does not target AVX (the
+/// plain loop gets 8 or 16 lanes from run-time dispatch, `wide` stays at 2 × 4; see
+/// BENCHMARKS.md).
+pub const DEFAULT_KERNEL: Kernel = Kernel::AutoVectorised;
+
+/// [`trace_batch`] with a chosen kernel (for benchmarks and cross-checks), on the widest
+/// instruction set this CPU has.
 pub fn trace_batch_with(
     surfaces: &SurfaceArrays<f32>,
     rays: &mut RayBatch,
     travel: Travel,
     kernel: Kernel,
 ) {
-    let plan = SurfaceConstants::in_travel_order(surfaces, travel);
-    #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("avx2") {
-        // SAFETY: the CPU supports AVX2, checked just above.
-        unsafe {
-            match kernel {
-                Kernel::Simd => trace_simd_avx2(&plan, rays),
-                Kernel::AutoVectorised => trace_plain_avx2(&plan, rays),
+    trace_batch_on(surfaces, rays, travel, kernel, Isa::detect())
+}
+
+/// The instruction sets the kernels are compiled for, narrowest first. All give bit-identical
+/// rays: they differ only in how many lanes one instruction works on.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+pub enum Isa {
+    /// What the build targets (x86-64: SSE2, 4 lanes; AArch64: NEON).
+    Baseline,
+    /// x86-64 AVX2: 8 lanes.
+    Avx2,
+    /// x86-64 AVX-512 (F, VL, BW, DQ): 16 lanes.
+    Avx512,
+}
+
+impl Isa {
+    /// The widest instruction set this CPU supports.
+    pub fn detect() -> Isa {
+        #[cfg(target_arch = "x86_64")]
+        {
+            use std::arch::is_x86_feature_detected as has;
+            if has!("avx512f") && has!("avx512vl") && has!("avx512bw") && has!("avx512dq") {
+                return Isa::Avx512;
+            }
+            if has!("avx2") {
+                return Isa::Avx2;
             }
         }
-        return;
+        Isa::Baseline
     }
+
+    /// Every instruction set this CPU supports, narrowest first.
+    pub fn available() -> Vec<Isa> {
+        [Isa::Baseline, Isa::Avx2, Isa::Avx512]
+            .into_iter()
+            .filter(|&isa| isa <= Isa::detect())
+            .collect()
+    }
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Isa::Baseline => "baseline",
+            Isa::Avx2 => "avx2",
+            Isa::Avx512 => "avx512",
+        }
+    }
+}
+
+/// [`trace_batch_with`] compiled for `isa` (capped at what this CPU supports), to compare
+/// instruction sets.
+pub fn trace_batch_on(
+    surfaces: &SurfaceArrays<f32>,
+    rays: &mut RayBatch,
+    travel: Travel,
+    kernel: Kernel,
+    isa: Isa,
+) {
+    let plan = SurfaceConstants::in_travel_order(surfaces, travel);
+    match isa.min(Isa::detect()) {
+        Isa::Baseline => run_kernel(kernel, &plan, rays),
+        // SAFETY (both): `Isa::detect` found the instructions on this CPU.
+        #[cfg(target_arch = "x86_64")]
+        Isa::Avx2 => unsafe { run_kernel_avx2(kernel, &plan, rays) },
+        #[cfg(target_arch = "x86_64")]
+        Isa::Avx512 => unsafe { run_kernel_avx512(kernel, &plan, rays) },
+        #[cfg(not(target_arch = "x86_64"))]
+        _ => unreachable!("Isa::detect finds only the baseline here"),
+    }
+}
+
+#[inline(always)]
+fn run_kernel(kernel: Kernel, plan: &[SurfaceConstants<f32>], rays: &mut RayBatch) {
     match kernel {
-        Kernel::Simd => trace_simd(&plan, rays),
-        Kernel::AutoVectorised => trace_plain(&plan, rays),
+        Kernel::Simd => trace_simd(plan, rays),
+        Kernel::AutoVectorised => trace_plain(plan, rays),
     }
 }
 
+/// The kernels compiled again for AVX2: the plain loop vectorises 8 lanes wide. (`wide`'s
+/// types keep the layout chosen when the crate was compiled: 2 × 128-bit unless the whole
+/// build targets AVX.)
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-fn trace_plain_avx2(plan: &[SurfaceConstants<f32>], rays: &mut RayBatch) {
-    trace_plain(plan, rays)
+fn run_kernel_avx2(kernel: Kernel, plan: &[SurfaceConstants<f32>], rays: &mut RayBatch) {
+    run_kernel(kernel, plan, rays)
 }
 
+/// The kernels compiled again for AVX-512: the plain loop vectorises 16 lanes wide.
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-fn trace_simd_avx2(plan: &[SurfaceConstants<f32>], rays: &mut RayBatch) {
-    trace_simd(plan, rays)
+#[target_feature(enable = "avx512f,avx512vl,avx512bw,avx512dq")]
+fn run_kernel_avx512(kernel: Kernel, plan: &[SurfaceConstants<f32>], rays: &mut RayBatch) {
+    run_kernel(kernel, plan, rays)
 }
 
 /// The auto-vectorised kernel: in place on the batch's arrays, block by block.
@@ -272,7 +342,7 @@ mod tests {
     }
 
     fn assert_bit_identical(a: &RayBatch, b: &RayBatch, name: &str) {
-        assert_eq!(a.alive, b.alive, "{name}: SIMD and plain kernels disagree");
+        assert_eq!(a.alive, b.alive, "{name}: kernels disagree");
         let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
         for (x, y) in [
             (&a.ox, &b.ox),
@@ -282,7 +352,24 @@ mod tests {
             (&a.dy, &b.dy),
             (&a.dz, &b.dz),
         ] {
-            assert_eq!(bits(x), bits(y), "{name}: SIMD and plain kernels disagree");
+            assert_eq!(bits(x), bits(y), "{name}: kernels disagree");
+        }
+    }
+
+    /// Both kernels on every instruction set this CPU has give exactly `expected`.
+    fn assert_every_kernel_agrees(
+        system: &LensSystem,
+        input: &RayBatch,
+        expected: &RayBatch,
+        travel: Travel,
+        name: &str,
+    ) {
+        for isa in Isa::available() {
+            for kernel in [Kernel::AutoVectorised, Kernel::Simd] {
+                let mut rays = input.clone();
+                trace_batch_on(&system.f32s, &mut rays, travel, kernel, isa);
+                assert_bit_identical(expected, &rays, &format!("{name} {kernel:?} {isa:?}"));
+            }
         }
     }
 
@@ -317,10 +404,9 @@ mod tests {
                 let f = |a: [f64; 3]| [a[0] as f32, a[1] as f32, a[2] as f32];
                 batch.push(f(r.origin), f(r.direction), 0, 0);
             }
-            let mut simd = batch.clone();
+            let input = batch.clone();
             trace_batch(&system.f32s, &mut batch, Travel::FilmToScene);
-            trace_batch_with(&system.f32s, &mut simd, Travel::FilmToScene, Kernel::Simd);
-            assert_bit_identical(&batch, &simd, name);
+            assert_every_kernel_agrees(&system, &input, &batch, Travel::FilmToScene, name);
             let mut passed = 0;
             let mut disagreements = 0;
             for (i, r) in rays.iter().enumerate() {
@@ -395,15 +481,9 @@ mod tests {
                 let f = |a: [f64; 3]| a.map(|x| x as f32);
                 batch.push(f(r.origin), f(r.direction), 0, 0);
             }
-            let mut simd = batch.clone();
-            trace_batch_with(
-                &system.f32s,
-                &mut batch,
-                Travel::SceneToFilm,
-                Kernel::AutoVectorised,
-            );
-            trace_batch_with(&system.f32s, &mut simd, Travel::SceneToFilm, Kernel::Simd);
-            assert_bit_identical(&batch, &simd, name);
+            let input = batch.clone();
+            trace_batch(&system.f32s, &mut batch, Travel::SceneToFilm);
+            assert_every_kernel_agrees(&system, &input, &batch, Travel::SceneToFilm, name);
             let mut disagreements = 0;
             for (i, r) in rays.iter().enumerate() {
                 assert!(
