@@ -115,7 +115,9 @@ impl std::fmt::Display for FrameScene {
 }
 
 /// A renderer with the scene loaded, its BVH built and the lens derived (by rendering one
-/// sample once), so that timing `render` measures the sample passes alone.
+/// sample once), so that timing `render` measures the sample passes alone. The default scene
+/// uses its camera's own settings (film, stop, focus: what `realcam render` does with it); the
+/// helmet the peer comparison's.
 pub fn frame_renderer(
     scene: FrameScene,
     width: u32,
@@ -123,7 +125,7 @@ pub fn frame_renderer(
     max_depth: u32,
 ) -> Option<Renderer> {
     let mut renderer = Renderer::new();
-    let (pose, focus_m) = match scene {
+    let (pose, focus, stop, film_diagonal) = match scene {
         FrameScene::Default => {
             renderer.set_scene(SceneSource {
                 path: PathBuf::from(realcam::cli::render::DEFAULT_SCENE_NAME),
@@ -131,9 +133,20 @@ pub fn frame_renderer(
             });
             renderer.update().expect("the default scene loads");
             let camera = renderer.scene_cameras().into_iter().next()?;
-            let focus = camera.hints.focus_distance_m.unwrap_or(5.0);
+            let hints = camera.hints;
+            let focus = match (hints.film_distance_mm, hints.focus_distance_m) {
+                (Some(mm), _) => FocusSetting::FilmDistance(mm),
+                (None, metres) => FocusSetting::Distance {
+                    metres: metres.unwrap_or(5.0),
+                    mode: FocusMode::Paraxial,
+                },
+            };
             renderer.set_environment(Environment::Uniform(Vec3::ZERO));
-            (camera.world_from_camera, focus)
+            let stop = hints
+                .aperture_mm
+                .map_or(ApertureSetting::Full, ApertureSetting::Diameter);
+            let film = hints.film_diagonal_mm.unwrap_or(FILM_DIAGONAL_MM);
+            (camera.world_from_camera, focus, stop, film)
         }
         FrameScene::Helmet => {
             renderer
@@ -141,14 +154,16 @@ pub fn frame_renderer(
                 .expect("DamagedHelmet loads");
             renderer.set_environment(Environment::Uniform(Vec3::ONE));
             let (eye, target) = (Vec3::from(HELMET_EYE), Vec3::from(HELMET_TARGET));
-            (
-                look_at(eye, target, Vec3::Y),
-                (eye - target).length() as f64,
-            )
+            let focus = FocusSetting::Distance {
+                metres: (eye - target).length() as f64,
+                mode: FocusMode::Paraxial,
+            };
+            let stop = ApertureSetting::Diameter(FRAME_STOP_MM);
+            (look_at(eye, target, Vec3::Y), focus, stop, FILM_DIAGONAL_MM)
         }
     };
     renderer.set_camera(pose);
-    renderer.set_film(FILM_DIAGONAL_MM, PupilSampling::Bounds);
+    renderer.set_film(film_diagonal, PupilSampling::Bounds);
     renderer.set_settings(RenderSettings {
         width,
         height,
@@ -158,11 +173,8 @@ pub fn frame_renderer(
     });
     let lens = renderer.add_lens(
         &load_lens(FRAME_LENS, None).expect("bundled lens"),
-        FocusSetting::Distance {
-            metres: focus_m,
-            mode: FocusMode::Paraxial,
-        },
-        ApertureSetting::Diameter(FRAME_STOP_MM),
+        focus,
+        stop,
     );
     renderer.set_active_lens(lens);
     renderer.render(1, |_, _| true).expect("renders");
