@@ -1,124 +1,84 @@
-//! Lens ray tracing: the scalar per-ray path (array of structs) against SoA batches, and the
-//! exit-pupil bounds, for every bundled lens. Rays run film → scene, as when rendering.
+//! Lens ray tracing, one thread: the scalar per-ray path (the reference tracer in f32, array of
+//! structs) against SoA batches of 64 … 4096 rays with both kernels (auto-vectorised, on each
+//! instruction set, and explicit 8-lane `wide`), for every bundled lens; and the exit-pupil
+//! bounds of every lens.
+//! The rays are film → scene camera rays as the renderer makes them (see
+//! `realcam::cli::bench::LensWorkload`, which `realcam bench` measures too).
 
 use divan::{Bencher, black_box};
 use realcam::batch::RayBatch;
-use realcam::lens::LensSystem;
-use realcam::lens::bundled::load_lens;
-use realcam::lens::first_order::FirstOrder;
-use realcam::lens::focus::paraxial_film_distance;
+use realcam::cli::bench::LensWorkload;
+use realcam::lens::bundled::BUNDLED;
 use realcam::lens::pupil::{ExitPupil, PupilSampling};
-use realcam::lens::trace::{Ray, Travel, trace};
-use realcam::lens::trace_batch::{Kernel, trace_batch_with};
-use realcam::sampling::Rng;
+use realcam::lens::trace_batch::{Isa, Kernel};
 
-const LENSES: &[&str] = &[
-    "dgauss.50mm",
-    "wide.22mm",
-    "telephoto.250mm",
-    "fisheye.10mm",
-];
 const RAYS: usize = 4096;
 
 fn main() {
     divan::main();
 }
 
-struct Setup {
-    system: LensSystem,
-    film_distance: f64,
-    rays: Vec<Ray<f32>>,
+fn lenses() -> impl Iterator<Item = &'static str> {
+    BUNDLED.iter().map(|(name, _)| *name)
 }
 
-fn setup(name: &str) -> Setup {
-    let p = load_lens(name, None).unwrap();
-    let system = LensSystem::new(&p.rows, None);
-    let fo = FirstOrder::compute(&system).unwrap();
-    let film_distance = paraxial_film_distance(&system, &fo, 5000.0).unwrap();
-    let pupil = ExitPupil::compute(&system, film_distance, 35.0, PupilSampling::Bounds);
-    let film_z = (system.rear_z() + film_distance) as f32;
-    let mut rng = Rng::new(1, 2);
-    let mut rays = Vec::with_capacity(RAYS);
-    while rays.len() < RAYS {
-        let (x, y) = ((rng.next_f32() - 0.5) * 24.0, (rng.next_f32() - 0.5) * 24.0);
-        if let Some(s) = pupil.sample(x, y, rng.next_2d()) {
-            let d = [s.point[0] - x, s.point[1] - y, s.point[2] - film_z];
-            let n = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
-            rays.push(Ray {
-                origin: [x, y, film_z],
-                direction: [d[0] / n, d[1] / n, d[2] / n],
-            });
-        }
-    }
-    Setup {
-        system,
-        film_distance,
-        rays,
-    }
+fn workload(lens: &str) -> LensWorkload {
+    LensWorkload::new(lens, RAYS).expect("bundled lens sets up")
 }
 
 /// One ray at a time through the generic reference tracer, in f32.
-#[divan::bench(args = LENSES)]
+#[divan::bench(args = lenses())]
 fn scalar_per_ray(bencher: Bencher, lens: &str) {
-    let s = setup(lens);
+    let w = workload(lens);
+    let mut out = Vec::with_capacity(RAYS);
     bencher
         .counter(divan::counter::ItemsCount::new(RAYS))
-        .bench_local(|| {
-            let mut passed = 0;
-            for ray in &s.rays {
-                passed += usize::from(
-                    trace(&s.system.f32s, black_box(*ray), Travel::FilmToScene).is_ok(),
-                );
-            }
-            passed
-        });
+        .bench_local(|| black_box(&w).trace_scalar(&mut out));
 }
 
-/// The same rays as SoA batches of `BATCH` rays, explicit 8-lane SIMD kernel.
-#[divan::bench(args = LENSES, consts = [64, 256, 1024, 4096])]
-fn soa_batch_simd<const BATCH: usize>(bencher: Bencher, lens: &str) {
-    soa_batch(bencher, lens, BATCH, Kernel::Simd);
+/// The same rays as SoA batches of `BATCH`, explicit `wide::f32x8` kernel.
+#[divan::bench(args = lenses(), consts = [64, 256, 1024, 4096])]
+fn soa_simd<const BATCH: usize>(bencher: Bencher, lens: &str) {
+    soa(bencher, lens, BATCH, Kernel::Simd, Isa::detect());
 }
 
-/// The same rays as SoA batches of `BATCH` rays, plain loop left to the auto-vectoriser.
-#[divan::bench(args = LENSES, consts = [64, 1024])]
-fn soa_batch_autovec<const BATCH: usize>(bencher: Bencher, lens: &str) {
-    soa_batch(bencher, lens, BATCH, Kernel::AutoVectorised);
+/// The same rays as SoA batches of `BATCH`, plain loop auto-vectorised for the widest
+/// instruction set of this CPU (the renderer's kernel: AVX-512 here).
+#[divan::bench(args = lenses(), consts = [64, 256, 1024, 4096])]
+fn soa_autovec<const BATCH: usize>(bencher: Bencher, lens: &str) {
+    soa(bencher, lens, BATCH, Kernel::AutoVectorised, Isa::detect());
 }
 
-fn soa_batch(bencher: Bencher, lens: &str, batch: usize, kernel: Kernel) {
-    let s = setup(lens);
-    let mut template = RayBatch::with_capacity(RAYS);
-    for r in &s.rays {
-        template.push(r.origin, r.direction, 0, 0);
-    }
+/// The plain loop compiled for AVX2 (8 lanes), if this CPU has it.
+#[divan::bench(args = lenses(), consts = [64, 1024])]
+fn soa_autovec_avx2<const BATCH: usize>(bencher: Bencher, lens: &str) {
+    soa(bencher, lens, BATCH, Kernel::AutoVectorised, Isa::Avx2);
+}
+
+/// The plain loop as the portable build compiles it (x86-64: SSE2, 4 lanes).
+#[divan::bench(args = lenses(), consts = [64, 1024])]
+fn soa_autovec_baseline<const BATCH: usize>(bencher: Bencher, lens: &str) {
+    soa(bencher, lens, BATCH, Kernel::AutoVectorised, Isa::Baseline);
+}
+
+fn soa(bencher: Bencher, lens: &str, batch: usize, kernel: Kernel, isa: Isa) {
+    let w = workload(lens);
     let mut work = RayBatch::with_capacity(batch);
     bencher
         .counter(divan::counter::ItemsCount::new(RAYS))
-        .bench_local(|| {
-            let mut passed = 0;
-            for start in (0..RAYS).step_by(batch) {
-                work.clear();
-                for i in start..start + batch {
-                    work.push(template.origin(i), template.direction(i), 0, 0);
-                }
-                trace_batch_with(
-                    &s.system.f32s,
-                    black_box(&mut work),
-                    Travel::FilmToScene,
-                    kernel,
-                );
-                passed += work.alive_count();
-            }
-            passed
-        });
+        .bench_local(|| black_box(&w).trace_soa(batch, kernel, isa, &mut work));
 }
 
-/// Exit-pupil bounds of a lens (all segments, in parallel).
-#[divan::bench(args = LENSES, sample_count = 10)]
+/// Exit-pupil bounds of a lens (64 film segments, in parallel on all cores).
+#[divan::bench(args = lenses(), sample_count = 10)]
 fn exit_pupil_bounds(bencher: Bencher, lens: &str) {
-    let s = setup(lens);
+    let w = workload(lens);
     bencher.bench_local(|| {
-        ExitPupil::compute(&s.system, s.film_distance, 35.0, PupilSampling::Bounds)
+        ExitPupil::compute(
+            &w.system,
+            w.film_distance,
+            LensWorkload::FILM_DIAGONAL_MM,
+            PupilSampling::Bounds,
+        )
     });
 }

@@ -142,6 +142,14 @@ pub struct PassState {
     pub sample: u32,
 }
 
+/// How many samples each pixel will get in all (a render's target spp). Camera samples
+/// 0..count are stratified together (correlated multi-jitter); the plan must stay the same
+/// across an interrupted render's resume and across shards, which it does: it is the target.
+#[derive(Resource, Clone, Copy, Debug, PartialEq, Eq)]
+pub struct SamplePlan {
+    pub samples_per_pixel: u32,
+}
+
 /// A stage that could not do its work; the driver turns it into an error.
 #[derive(Resource, Clone, Debug)]
 pub struct PipelineFault(pub String);
@@ -320,6 +328,7 @@ pub fn generate_rays(
     pose: Option<Res<CameraPose>>,
     settings: Res<RenderSettings>,
     pass: Res<PassState>,
+    plan: Option<Res<SamplePlan>>,
     mut tiles: Query<(&FilmTile, &mut TileBatch)>,
     mut stats: ResMut<RenderStats>,
 ) {
@@ -335,6 +344,7 @@ pub fn generate_rays(
         pupil,
         film: FilmGeometry::new(settings.width, settings.height, pupil.film_radius * 2.0),
         world_from_camera: pose.0,
+        samples_per_pixel: plan.map_or(0, |p| p.samples_per_pixel),
     };
     let mut work: Vec<(&FilmTile, Mut<TileBatch>)> = tiles.iter_mut().collect();
     let passed: u64 = work
@@ -525,6 +535,12 @@ impl Renderer {
     /// Makes `lens` the lens the next render uses.
     pub fn set_active_lens(&mut self, lens: Entity) {
         activate_lens(&mut self.world, lens);
+    }
+
+    /// Declares the render's target samples per pixel, over which camera samples are
+    /// stratified (see [`SamplePlan`]).
+    pub fn set_sample_plan(&mut self, samples_per_pixel: u32) {
+        self.world.insert_resource(SamplePlan { samples_per_pixel });
     }
 
     /// Places the camera: `world_from_camera` is rigid, the camera looks down its −Z.

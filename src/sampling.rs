@@ -66,6 +66,80 @@ impl Rng {
     }
 }
 
+/// A keyed pseudo-random permutation of 0..`len`, evaluated one element at a time (Kensler
+/// 2013, "Correlated Multi-Jittered Sampling", by cycle-walking a hash over the next power of
+/// two).
+pub fn permute(mut i: u32, len: u32, key: u32) -> u32 {
+    debug_assert!(i < len);
+    let mut w = len.wrapping_sub(1);
+    w |= w >> 1;
+    w |= w >> 2;
+    w |= w >> 4;
+    w |= w >> 8;
+    w |= w >> 16;
+    loop {
+        i ^= key;
+        i = i.wrapping_mul(0xe170893d);
+        i ^= key >> 16;
+        i ^= (i & w) >> 4;
+        i ^= key >> 8;
+        i = i.wrapping_mul(0x0929eb3f);
+        i ^= key >> 23;
+        i ^= (i & w) >> 1;
+        i = i.wrapping_mul(1 | key >> 27);
+        i = i.wrapping_mul(0x6935fa69);
+        i ^= (i & w) >> 11;
+        i = i.wrapping_mul(0x74dcb303);
+        i ^= (i & w) >> 2;
+        i = i.wrapping_mul(0x9e501cc3);
+        i ^= (i & w) >> 2;
+        i = i.wrapping_mul(0xc860a3df);
+        i &= w;
+        i ^= i >> 5;
+        if i < len {
+            break;
+        }
+    }
+    (i.wrapping_add(key)) % len
+}
+
+/// A keyed hash of `i` to [0, 1) (Kensler 2013).
+fn hash_to_unit(mut i: u32, key: u32) -> f32 {
+    i ^= key;
+    i ^= i >> 17;
+    i ^= i >> 10;
+    i = i.wrapping_mul(0xb36534e5);
+    i ^= i >> 12;
+    i ^= i >> 21;
+    i = i.wrapping_mul(0x93fc4795);
+    i ^= 0xdf6e307f;
+    i ^= i >> 17;
+    i = i.wrapping_mul(1 | key >> 18);
+    ((i >> 8) as f32 * (1.0 / (1u32 << 24) as f32)).min(1.0 - f32::EPSILON / 2.0)
+}
+
+/// Sample `index` of `count` correlated multi-jittered 2D points under `key` (Kensler 2013):
+/// the `count` points of one key are stratified in x, in y and jointly on an m × n grid,
+/// for any count. Each pixel and each pair of dimensions uses its own key, so pixels do not
+/// share a pattern and film and pupil samples are decorrelated.
+pub fn correlated_multi_jitter(index: u32, count: u32, key: u32) -> [f32; 2] {
+    let s = permute(index, count, key.wrapping_mul(0x51633e2d));
+    let m = (count as f32).sqrt() as u32;
+    let m = m.max(1);
+    let n = count.div_ceil(m);
+    let (column, row) = (s % m, s / m);
+    let sx = permute(column, m, key.wrapping_mul(0x68bc21eb));
+    let sy = permute(row, n, key.wrapping_mul(0x02e5be93));
+    let jx = hash_to_unit(s, key.wrapping_mul(0x967a889b));
+    let jy = hash_to_unit(s, key.wrapping_mul(0x368cc8b7));
+    let x = (column as f32 + (sy as f32 + jx) / n as f32) / m as f32;
+    let y = (row as f32 + (sx as f32 + jy) / m as f32) / n as f32;
+    [
+        x.min(1.0 - f32::EPSILON / 2.0),
+        y.min(1.0 - f32::EPSILON / 2.0),
+    ]
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -92,6 +166,30 @@ mod tests {
             .collect();
         assert_eq!(a, b);
         assert_ne!(a, c);
+    }
+
+    #[test]
+    fn permute_is_a_bijection() {
+        for len in [1u32, 2, 7, 64, 100] {
+            let mut seen: Vec<u32> = (0..len).map(|i| permute(i, len, 0xdead_beef)).collect();
+            seen.sort();
+            assert_eq!(seen, (0..len).collect::<Vec<_>>());
+        }
+    }
+
+    #[test]
+    fn multi_jitter_fills_every_grid_cell_once() {
+        // count = m × n: one point in each of the m × n cells, m in each row, n in each column.
+        for (count, m, n) in [(16u32, 4u32, 4u32), (30, 5, 6), (64, 8, 8)] {
+            let mut cells = vec![0; (m * n) as usize];
+            for i in 0..count {
+                let [x, y] = correlated_multi_jitter(i, count, 77 + count);
+                assert!((0.0..1.0).contains(&x) && (0.0..1.0).contains(&y));
+                let (cx, cy) = ((x * m as f32) as u32, (y * n as f32) as u32);
+                cells[(cy * m + cx) as usize] += 1;
+            }
+            assert!(cells.iter().all(|&c| c == 1), "count {count}: {cells:?}");
+        }
     }
 
     #[test]

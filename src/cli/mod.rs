@@ -1,5 +1,6 @@
 //! The `realcam` command line.
 
+pub mod bench;
 pub mod interrupt;
 pub mod lens;
 pub mod merge;
@@ -32,6 +33,8 @@ pub enum Command {
     Lens(lens::LensArgs),
     /// Combine the shard partials of `realcam render --shard I/N` into the full frame.
     Merge(merge::MergeArgs),
+    /// Measure lens-tracing speed on this CPU: scalar per-ray vs SoA batches, one thread.
+    Bench(bench::BenchArgs),
 }
 
 /// Runs the command line; errors are printed as `error: …` with a non-zero exit.
@@ -55,6 +58,7 @@ pub fn main() -> ExitCode {
         Some(Command::Render(args)) => render::run(&args),
         Some(Command::Lens(args)) => lens::run(&args),
         Some(Command::Merge(args)) => merge::run(&args),
+        Some(Command::Bench(args)) => bench::run(&args),
     };
     match result {
         Ok(code) => code,

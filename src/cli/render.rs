@@ -265,6 +265,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<ExitCode> {
     let width = args.width.or(placement.hints.width).unwrap_or(512);
     let height = args.height.or(placement.hints.height).unwrap_or(512);
     renderer.set_camera(world_from_camera);
+    renderer.set_sample_plan(args.spp);
     renderer.set_film(film_diagonal, args.lens_options.pupil_sampling);
     renderer.set_settings(RenderSettings {
         width,

@@ -15,7 +15,7 @@ use super::system::LensSystem;
 use super::trace::Travel;
 use super::trace_batch::trace_batch;
 use crate::batch::RayBatch;
-use crate::sampling::Rng;
+use crate::sampling::{Rng, correlated_multi_jitter};
 
 /// The film's size in pixels and millimetres.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -55,6 +55,9 @@ pub struct LensCamera<'a> {
     pub film: FilmGeometry,
     /// Rigid transform from the camera frame (see module docs) to the world.
     pub world_from_camera: Mat4,
+    /// The render's target spp: samples 0..this are stratified together; beyond it (or when
+    /// 0) samples are independent.
+    pub samples_per_pixel: u32,
 }
 
 /// Camera rays of one batch: rays in the world frame and the lens weight of each.
@@ -86,10 +89,11 @@ impl LensCamera<'_> {
         out.weight.clear();
         for (x, y) in pixels {
             let pixel = y * self.film.width + x;
-            let mut rng = Rng::for_sample(seed, pixel, sample);
-            let [jx, jy] = rng.next_2d();
-            let [fx, fy] = self.film.film_point(x as f32 + jx, y as f32 + jy);
-            match self.pupil.sample(fx, fy, rng.next_2d()) {
+            let (jitter, pupil_u) = self.camera_sample(seed, pixel, sample);
+            let [fx, fy] = self
+                .film
+                .film_point(x as f32 + jitter[0], y as f32 + jitter[1]);
+            match self.pupil.sample(fx, fy, pupil_u) {
                 Some(s) => {
                     let d = [s.point[0] - fx, s.point[1] - fy, s.point[2] - film_z];
                     let inv = 1.0 / (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
@@ -111,6 +115,25 @@ impl LensCamera<'_> {
         }
         trace_batch(&self.system.f32s, rays, Travel::FilmToScene);
         self.to_world(film_z, out);
+    }
+
+    /// The 4D camera sample (film jitter, pupil point) of `sample` in `pixel`: two correlated
+    /// multi-jittered 2D patterns over the planned samples, keyed per pixel and per pair of
+    /// dimensions; independent random numbers past the plan.
+    fn camera_sample(&self, seed: u64, pixel: u32, sample: u32) -> ([f32; 2], [f32; 2]) {
+        const CAMERA_KEY: u64 = 0x4341_4d45_5241_5f4b; // "CAMERA_K"
+        if sample < self.samples_per_pixel {
+            let mut keys = Rng::for_sample(seed ^ CAMERA_KEY, pixel, u32::MAX);
+            let (film_key, pupil_key) = (keys.next_u32(), keys.next_u32());
+            let count = self.samples_per_pixel;
+            (
+                correlated_multi_jitter(sample, count, film_key),
+                correlated_multi_jitter(sample, count, pupil_key),
+            )
+        } else {
+            let mut rng = Rng::for_sample(seed, pixel, sample);
+            (rng.next_2d(), rng.next_2d())
+        }
     }
 
     /// Lens frame (mm) → camera frame (m) → world, for every ray; zero weight for the blocked.

@@ -1,0 +1,288 @@
+#!/usr/bin/env python3
+"""realcam against peer renderers, side by side, on the same scene and settings.
+
+    python3 benches/peers/compare.py [--spp 64] [--size 320] [--repeat 1] [--skip-install]
+
+Installs what it needs (idempotent): rs_pbrt (`cargo install rs_pbrt --locked`, a Rust port
+of pbrt-v3 with its realistic camera), Mitsuba 3 (`pip install mitsuba`; its llvm variant
+needs Debian's libllvm19), numpy and pygltflib. Converts DamagedHelmet to PLY (peers) and a
+matte .glb (realcam), writes a pbrt-v3 scene, renders with each renderer and prints camera
+samples per second (width × height × spp / render seconds, all cores), the ratios, and each
+renderer's fixed set-up time (scene, BVH, lens; excluded from the rate).
+
+The settings: 320 × 320, 64 spp, path depth 5 (pbrt's maxdepth; Mitsuba's max_depth is one
+more, as it counts the camera segment), matte albedo 0.5, a white uniform sky of radiance 1,
+the camera 4.5 m in front of the helmet looking at it, focused at 4.5 m; dgauss.50mm at an
+8 mm stop on a 35 mm-diagonal film for realcam and rs_pbrt; Mitsuba's thin lens gets the same
+horizontal field of view and entrance pupil. A peer that cannot be installed or run is
+reported as such and the rest go on. Results also go to target/peers/results.json.
+"""
+
+import argparse
+import json
+import os
+import shutil
+import statistics
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[2]
+WORK = ROOT / "target" / "peers"
+SCENE = ROOT.parent / "shared" / "scenes" / "DamagedHelmet" / "DamagedHelmet.glb"
+LENS = "dgauss.50mm"
+STOP_MM = 8.0
+FILM_DIAGONAL_MM = 35.0
+EYE = [0.0, 0.0, 4.5]
+TARGET = [0.0, 0.0, 0.0]
+DEPTH = 5
+ALBEDO = 0.5
+LLVM_CANDIDATES = [
+    "/usr/lib/x86_64-linux-gnu/libLLVM-19.so",
+    "/usr/lib/x86_64-linux-gnu/libLLVM.so.19.1",
+    "/usr/lib/aarch64-linux-gnu/libLLVM-19.so",
+    "/usr/lib/llvm-19/lib/libLLVM.so",
+]
+
+
+def say(message: str) -> None:
+    print(f"[peers] {message}", flush=True)
+
+
+def run(command: list[str], **kwargs) -> subprocess.CompletedProcess:
+    return subprocess.run(command, text=True, capture_output=True, **kwargs)
+
+
+def cargo_bin(name: str) -> str | None:
+    found = shutil.which(name)
+    if found:
+        return found
+    candidate = Path.home() / ".cargo" / "bin" / name
+    return str(candidate) if candidate.exists() else None
+
+
+# ---------------------------------------------------------------- installation
+
+
+def install_python_packages() -> None:
+    missing = []
+    for module, package in [("numpy", "numpy"), ("pygltflib", "pygltflib"), ("mitsuba", "mitsuba")]:
+        try:
+            __import__(module)
+        except ImportError:
+            missing.append(package)
+    if missing:
+        say(f"pip install {' '.join(missing)}")
+        result = run([sys.executable, "-m", "pip", "install", *missing])
+        if result.returncode != 0:
+            say(f"pip install failed:\n{result.stderr[-2000:]}")
+
+
+def find_libllvm() -> str | None:
+    if os.environ.get("DRJIT_LIBLLVM_PATH") and Path(os.environ["DRJIT_LIBLLVM_PATH"]).exists():
+        return os.environ["DRJIT_LIBLLVM_PATH"]
+    return next((p for p in LLVM_CANDIDATES if Path(p).exists()), None)
+
+
+def install_libllvm() -> None:
+    if find_libllvm():
+        return
+    if not shutil.which("apt-get") or os.geteuid() != 0:
+        say("libllvm19 missing and apt-get (as root) unavailable: Mitsuba's llvm variant will be skipped")
+        return
+    say("apt-get install -y libllvm19 (for Mitsuba's llvm variant)")
+    run(["apt-get", "update"])
+    result = run(["apt-get", "install", "-y", "libllvm19"])
+    if result.returncode != 0:
+        say(f"apt-get install libllvm19 failed:\n{result.stderr[-2000:]}")
+
+
+def install_rs_pbrt() -> None:
+    if cargo_bin("rs_pbrt"):
+        return
+    say("cargo install rs_pbrt --locked (compiles for several minutes)")
+    result = subprocess.run(["cargo", "install", "rs_pbrt", "--locked"])
+    if result.returncode != 0:
+        say("cargo install rs_pbrt failed: rs_pbrt will be skipped")
+
+
+def build_realcam() -> str:
+    say("cargo build --release (realcam)")
+    subprocess.run(["cargo", "build", "--release", "--quiet"], cwd=ROOT, check=True)
+    return str(ROOT / "target" / "release" / "realcam")
+
+
+# ---------------------------------------------------------------- scene set-up
+
+
+def lens_settings(realcam: str) -> dict:
+    """Thin-lens equivalents of the real lens, from realcam's own first-order report."""
+    report = json.loads(
+        run(
+            [realcam, "lens", LENS, "--aperture", str(STOP_MM), "--film-diagonal", str(FILM_DIAGONAL_MM),
+             "--focus-distance", str(distance(EYE, TARGET)), "--json"],
+            check=True,
+        ).stdout
+    )
+    import math
+
+    half_diagonal = math.radians(report["field_of_view_deg"] / 2)
+    # A square film: the horizontal half-width is the half-diagonal over √2.
+    fov_x = 2 * math.degrees(math.atan(math.tan(half_diagonal) / math.sqrt(2)))
+    return {
+        "fov_x_deg": fov_x,
+        "aperture_radius_m": report["entrance_pupil"]["diameter_mm"] / 2 / 1000,
+        "focus_distance_m": distance(EYE, TARGET),
+        "eye": EYE,
+        "target": TARGET,
+        "f_number": report["f_number"],
+    }
+
+
+def distance(a: list[float], b: list[float]) -> float:
+    return sum((x - y) ** 2 for x, y in zip(a, b)) ** 0.5
+
+
+def write_pbrt_scene(path: Path, ply: Path, size: int, spp: int) -> None:
+    shutil.copy(ROOT / "lenses" / f"{LENS}.dat", path.parent / f"{LENS}.dat")
+    eye, target = " ".join(map(str, EYE)), " ".join(map(str, TARGET))
+    # pbrt's camera space is left-handed: mirroring x gives glTF's (unmirrored) image.
+    path.write_text(
+        f"""Scale -1 1 1
+LookAt {eye}  {target}  0 1 0
+Camera "realistic" "string lensfile" "{LENS}.dat" "float aperturediameter" {STOP_MM}
+       "float focusdistance" {distance(EYE, TARGET)}
+Film "image" "integer xresolution" {size} "integer yresolution" {size}
+     "float diagonal" {FILM_DIAGONAL_MM} "string filename" "rs_pbrt.png"
+Sampler "random" "integer pixelsamples" {spp}
+Integrator "path" "integer maxdepth" {DEPTH}
+WorldBegin
+LightSource "infinite" "rgb L" [1 1 1]
+Material "matte" "rgb Kd" [{ALBEDO} {ALBEDO} {ALBEDO}]
+Shape "plymesh" "string filename" "{ply.name}"
+WorldEnd
+"""
+    )
+
+
+# ---------------------------------------------------------------- renderers
+
+
+def time_rs_pbrt(rs_pbrt: str, ply: Path, size: int, spp: int) -> dict:
+    """Two runs, at 1 spp and at `spp`: the difference is the sampling, the rest set-up."""
+    seconds = {}
+    for n in (1, spp):
+        scene = WORK / f"rs_pbrt_{n}spp.pbrt"
+        write_pbrt_scene(scene, ply, size, n)
+        start = time.perf_counter()
+        result = run([rs_pbrt, "-i", scene.name], cwd=WORK)
+        seconds[n] = time.perf_counter() - start
+        if result.returncode != 0:
+            raise RuntimeError(f"rs_pbrt failed: {(result.stderr or result.stdout)[-1500:]}")
+    per_sample = (seconds[spp] - seconds[1]) / (size * size * (spp - 1))
+    return {
+        "samples_per_second": 1 / per_sample,
+        "setup_seconds": seconds[1] - per_sample * size * size,
+        "wall_seconds": seconds[spp],
+    }
+
+
+def time_mitsuba(variant: str, ply: Path, size: int, spp: int, settings: dict) -> dict:
+    env = dict(os.environ)
+    if variant.startswith("llvm"):
+        libllvm = find_libllvm()
+        if not libllvm:
+            raise RuntimeError("libLLVM 19 not found (apt-get install libllvm19)")
+        env["DRJIT_LIBLLVM_PATH"] = libllvm
+    result = run(
+        [sys.executable, str(Path(__file__).with_name("mitsuba_run.py")), variant, str(ply),
+         str(size), str(size), str(spp), str(DEPTH + 1), json.dumps(settings),
+         str(WORK / f"mitsuba_{variant}.exr")],
+        env=env,
+    )
+    if result.returncode != 0:
+        raise RuntimeError(f"Mitsuba {variant} failed: {result.stderr[-1500:]}")
+    return json.loads(result.stdout.strip().splitlines()[-1])
+
+
+def time_realcam(realcam: str, glb: Path, size: int, spp: int) -> dict:
+    stats = WORK / "realcam_stats.json"
+    look_from, look_at = ",".join(map(str, EYE)), ",".join(map(str, TARGET))
+    result = run(
+        [realcam, "render", str(glb), "--lens", LENS, "--aperture", str(STOP_MM),
+         "--film-diagonal", str(FILM_DIAGONAL_MM), "--look-from", look_from, "--look-at", look_at,
+         "--env", "1,1,1", "--width", str(size), "--height", str(size), "--spp", str(spp),
+         "--max-depth", str(DEPTH), "--out", str(WORK / "realcam.png"), "--stats", str(stats)],
+    )
+    if result.returncode != 0:
+        raise RuntimeError(f"realcam failed: {result.stderr[-1500:]}")
+    s = json.loads(stats.read_text())
+    stage = s["stage_seconds"]
+    return {
+        "samples_per_second": s["samples_per_second"],
+        "setup_seconds": stage["load_scene"] + stage["build_bvh"] + s["lens_derivation"]["seconds"],
+        "wall_seconds": s["wall_seconds"],
+    }
+
+
+def median_of(runs: list[dict]) -> dict:
+    return {key: statistics.median(r[key] for r in runs) for key in runs[0]}
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--spp", type=int, default=64)
+    parser.add_argument("--size", type=int, default=320)
+    parser.add_argument("--repeat", type=int, default=1, help="runs per renderer (median)")
+    parser.add_argument("--skip-install", action="store_true")
+    args = parser.parse_args()
+    WORK.mkdir(parents=True, exist_ok=True)
+
+    if not args.skip_install:
+        install_python_packages()
+        install_libllvm()
+        install_rs_pbrt()
+    realcam = build_realcam()
+    sys.path.insert(0, str(Path(__file__).parent))
+    from convert import convert
+
+    ply, glb = WORK / "scene.ply", WORK / "scene.glb"
+    triangles = convert(SCENE, ply, glb, ALBEDO)
+    settings = lens_settings(realcam)
+    say(f"DamagedHelmet: {triangles} triangles; {args.size}² px, {args.spp} spp, depth {DEPTH}; "
+        f"thin lens fov {settings['fov_x_deg']:.2f}°, aperture radius {settings['aperture_radius_m'] * 1000:.2f} mm")
+    load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
+
+    renderers = [
+        ("realcam", f"real lens {LENS}", lambda: time_realcam(realcam, glb, args.size, args.spp)),
+        ("rs_pbrt", f"realistic {LENS}", lambda: time_rs_pbrt(cargo_bin("rs_pbrt") or "", ply, args.size, args.spp)),
+        ("mitsuba scalar_rgb", "thin lens", lambda: time_mitsuba("scalar_rgb", ply, args.size, args.spp, settings)),
+        ("mitsuba llvm_ad_rgb", "thin lens", lambda: time_mitsuba("llvm_ad_rgb", ply, args.size, args.spp, settings)),
+    ]
+    results = {}
+    for name, camera, measure in renderers:
+        if name == "rs_pbrt" and not cargo_bin("rs_pbrt"):
+            say("rs_pbrt is not installed (cargo install rs_pbrt --locked failed or was skipped): skipped")
+            continue
+        try:
+            say(f"rendering with {name}")
+            results[name] = {"camera": camera, **median_of([measure() for _ in range(args.repeat)])}
+        except Exception as error:  # a peer that fails is reported, the others go on
+            say(f"{name}: {error}")
+
+    print()
+    print(f"DamagedHelmet {args.size}×{args.size}, {args.spp} spp, depth {DEPTH}, matte {ALBEDO}, white sky; "
+          f"load average {load:.2f} on {os.cpu_count()} CPUs")
+    print(f"{'renderer':<22}{'camera':<24}{'M samples/s':>12}{'set-up s':>10}{'realcam ÷ it':>14}")
+    ours = results.get("realcam", {}).get("samples_per_second")
+    for name, r in results.items():
+        ratio = f"{ours / r['samples_per_second']:.2f}×" if ours else "-"
+        print(f"{name:<22}{r['camera']:<24}{r['samples_per_second'] / 1e6:>12.3f}{r['setup_seconds']:>10.2f}{ratio:>14}")
+    (WORK / "results.json").write_text(json.dumps(
+        {"load_average": load, "size": args.size, "spp": args.spp, "depth": DEPTH,
+         "settings": settings, "results": results}, indent=2))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,429 @@
+//! `realcam bench`: a few seconds' check of lens-tracing speed on this CPU, one thread.
+//!
+//! Traces the same film→scene camera rays through a lens one ray at a time (the scalar
+//! reference tracer in f32, array of structs) and in SoA batches (the renderer's kernels), and
+//! prints rays per second and their ratio. [`LensWorkload`] is also what `cargo bench`
+//! (benches/lens_tracing.rs) measures, so both report the same work.
+
+use std::process::ExitCode;
+use std::time::{Duration, Instant};
+
+use anyhow::{Context, bail};
+use clap::Args;
+use serde_json::json;
+
+use crate::batch::RayBatch;
+use crate::lens::LensSystem;
+use crate::lens::bundled::{DEFAULT_LENS, load_lens};
+use crate::lens::first_order::FirstOrder;
+use crate::lens::focus::paraxial_film_distance;
+use crate::lens::pupil::{ExitPupil, PupilSampling};
+use crate::lens::trace::{Ray, Travel, trace};
+use crate::lens::trace_batch::{DEFAULT_KERNEL, Isa, Kernel, trace_batch_on};
+use crate::sampling::Rng;
+
+#[derive(Args, Debug, Clone)]
+pub struct BenchArgs {
+    /// Lens prescription file or bundled lens name.
+    #[arg(long, default_value = DEFAULT_LENS, value_name = "FILE")]
+    pub lens: String,
+    /// Camera rays in the workload.
+    #[arg(long, default_value_t = 4096, value_name = "N")]
+    pub rays: usize,
+    /// Rays per SoA batch (the renderer traces one 32×32 tile, 1024 rays, per batch).
+    #[arg(long, default_value_t = 1024, value_name = "N")]
+    pub batch: usize,
+    /// Rounds per variant; the median is reported. Variants alternate within a round so
+    /// that load from other processes hits them alike.
+    #[arg(long, default_value_t = 7, value_name = "N")]
+    pub rounds: usize,
+    /// Also measure both SoA kernels at batch sizes 64 … 4096 (for the plot in BENCHMARKS.md).
+    #[arg(long)]
+    pub sweep: bool,
+    /// Print one JSON object instead of the summary.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// Film→scene camera rays for one lens, as the renderer makes them: focused at 5 m, film
+/// points uniform over the central 24 × 24 mm of a 35 mm-diagonal film, each aimed at a
+/// uniform point of its exit-pupil bounds. The same rays are held as structs and as SoA.
+pub struct LensWorkload {
+    pub system: LensSystem,
+    pub film_distance: f64,
+    pub rays: Vec<Ray<f32>>,
+    pub batch: RayBatch,
+}
+
+impl LensWorkload {
+    pub const FOCUS_MM: f64 = 5000.0;
+    pub const FILM_DIAGONAL_MM: f64 = 35.0;
+
+    pub fn new(lens: &str, count: usize) -> anyhow::Result<LensWorkload> {
+        let prescription = load_lens(lens, None)?;
+        let system = LensSystem::new(&prescription.rows, None);
+        let first_order = FirstOrder::compute(&system)
+            .map_err(|e| anyhow::anyhow!("{lens}: no first-order data: {e:?}"))?;
+        let film_distance = paraxial_film_distance(&system, &first_order, Self::FOCUS_MM)
+            .with_context(|| format!("{lens} cannot focus at 5 m"))?;
+        let pupil = ExitPupil::compute(
+            &system,
+            film_distance,
+            Self::FILM_DIAGONAL_MM,
+            PupilSampling::Bounds,
+        );
+        let film_z = (system.rear_z() + film_distance) as f32;
+        let mut rng = Rng::new(1, 2);
+        let mut rays = Vec::with_capacity(count);
+        let mut batch = RayBatch::with_capacity(count);
+        for _attempt in 0..count * 100 {
+            if rays.len() == count {
+                break;
+            }
+            let (x, y) = ((rng.next_f32() - 0.5) * 24.0, (rng.next_f32() - 0.5) * 24.0);
+            if let Some(s) = pupil.sample(x, y, rng.next_2d()) {
+                let d = [s.point[0] - x, s.point[1] - y, s.point[2] - film_z];
+                let inv = 1.0 / (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+                let ray = Ray {
+                    origin: [x, y, film_z],
+                    direction: d.map(|v| v * inv),
+                };
+                batch.push(ray.origin, ray.direction, 0, 0);
+                rays.push(ray);
+            }
+        }
+        if rays.len() < count {
+            bail!("{lens}: too few film points see light through the lens");
+        }
+        Ok(LensWorkload {
+            system,
+            film_distance,
+            rays,
+            batch,
+        })
+    }
+
+    /// One ray at a time through the reference tracer in f32; results into `out`. Returns the
+    /// number of rays that pass.
+    pub fn trace_scalar(&self, out: &mut Vec<Ray<f32>>) -> usize {
+        out.clear();
+        let mut passed = 0;
+        for ray in &self.rays {
+            let traced = trace(&self.system.f32s, *ray, Travel::FilmToScene);
+            passed += usize::from(traced.is_ok());
+            out.push(traced.unwrap_or(*ray));
+        }
+        passed
+    }
+
+    /// The same rays in SoA batches of `batch_size`, each copied into `work` and traced there
+    /// in place by `kernel` compiled for `isa`. Returns the number that pass.
+    pub fn trace_soa(
+        &self,
+        batch_size: usize,
+        kernel: Kernel,
+        isa: Isa,
+        work: &mut RayBatch,
+    ) -> usize {
+        let mut passed = 0;
+        let len = self.batch.len();
+        let mut start = 0;
+        while start < len {
+            let end = (start + batch_size).min(len);
+            copy_rays(&self.batch, start..end, work);
+            trace_batch_on(&self.system.f32s, work, Travel::FilmToScene, kernel, isa);
+            passed += work.alive_count();
+            start = end;
+        }
+        passed
+    }
+}
+
+/// Rays `range` of `from` into `to` (positions, directions, alive), replacing its contents.
+fn copy_rays(from: &RayBatch, range: std::ops::Range<usize>, to: &mut RayBatch) {
+    let copy = |src: &Vec<f32>, dst: &mut Vec<f32>| {
+        dst.clear();
+        dst.extend_from_slice(&src[range.clone()]);
+    };
+    copy(&from.ox, &mut to.ox);
+    copy(&from.oy, &mut to.oy);
+    copy(&from.oz, &mut to.oz);
+    copy(&from.dx, &mut to.dx);
+    copy(&from.dy, &mut to.dy);
+    copy(&from.dz, &mut to.dz);
+    to.alive.clear();
+    to.alive.extend_from_slice(&from.alive[range]);
+}
+
+/// A way of tracing the workload.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Variant {
+    Scalar,
+    Soa {
+        batch: usize,
+        kernel: Kernel,
+        isa: Isa,
+    },
+}
+
+impl Variant {
+    fn run(
+        self,
+        workload: &LensWorkload,
+        scalar_out: &mut Vec<Ray<f32>>,
+        work: &mut RayBatch,
+    ) -> usize {
+        match self {
+            Variant::Scalar => workload.trace_scalar(scalar_out),
+            Variant::Soa { batch, kernel, isa } => workload.trace_soa(batch, kernel, isa, work),
+        }
+    }
+
+    fn name(self) -> String {
+        match self {
+            Variant::Scalar => "scalar per-ray (f32, array of structs)".into(),
+            Variant::Soa {
+                kernel: Kernel::AutoVectorised,
+                isa,
+                ..
+            } => format!("auto-vectorised kernel, {}", isa_name(isa)),
+            // `wide` fixes its layout when it is compiled, whatever the dispatch.
+            Variant::Soa {
+                kernel: Kernel::Simd,
+                ..
+            } => format!(
+                "explicit wide::f32x8 kernel, {}",
+                if wide_uses_avx() {
+                    "AVX (8 lanes)"
+                } else {
+                    "2 × 128-bit"
+                }
+            ),
+        }
+    }
+}
+
+/// Time this thread has spent running on a CPU, when the OS tells (Linux: the first field of
+/// /proc/thread-self/schedstat, ns). On a shared machine this leaves out the time other
+/// processes held the core, so rays per CPU-second measure the code, not the load.
+fn thread_cpu_time() -> Option<Duration> {
+    let text = std::fs::read_to_string("/proc/thread-self/schedstat").ok()?;
+    let nanos: u64 = text.split_whitespace().next()?.parse().ok()?;
+    Some(Duration::from_nanos(nanos))
+}
+
+/// Measures intervals of this thread's CPU time where available, else wall time.
+#[derive(Clone, Copy)]
+struct Stopwatch {
+    wall: Instant,
+    cpu: Option<Duration>,
+}
+
+impl Stopwatch {
+    fn start() -> Stopwatch {
+        Stopwatch {
+            wall: Instant::now(),
+            cpu: thread_cpu_time(),
+        }
+    }
+
+    fn elapsed(&self) -> Duration {
+        match (self.cpu, thread_cpu_time()) {
+            (Some(start), Some(now)) => now.saturating_sub(start),
+            _ => self.wall.elapsed(),
+        }
+    }
+}
+
+/// Rays per second of every variant: `rounds` rounds, each timing every variant in turn for
+/// at least `min_time` (CPU time where available); the median round per variant.
+fn measure(
+    workload: &LensWorkload,
+    variants: &[Variant],
+    rounds: usize,
+    min_time: Duration,
+) -> Vec<f64> {
+    let mut scalar_out = Vec::with_capacity(workload.rays.len());
+    let mut work = RayBatch::with_capacity(workload.rays.len());
+    let mut rates: Vec<Vec<f64>> = vec![Vec::with_capacity(rounds); variants.len()];
+    for variant in variants {
+        std::hint::black_box(variant.run(workload, &mut scalar_out, &mut work));
+    }
+    for _ in 0..rounds {
+        for (variant, rates) in variants.iter().zip(&mut rates) {
+            let start = Stopwatch::start();
+            let mut runs = 0u64;
+            while start.elapsed() < min_time || runs == 0 {
+                std::hint::black_box(variant.run(workload, &mut scalar_out, &mut work));
+                runs += 1;
+            }
+            let seconds = start.elapsed().as_secs_f64();
+            rates.push((runs as usize * workload.rays.len()) as f64 / seconds);
+        }
+    }
+    rates.into_iter().map(median).collect()
+}
+
+fn median(mut values: Vec<f64>) -> f64 {
+    values.sort_by(f64::total_cmp);
+    let n = values.len();
+    if n % 2 == 1 {
+        values[n / 2]
+    } else {
+        (values[n / 2 - 1] + values[n / 2]) / 2.0
+    }
+}
+
+fn isa_name(isa: Isa) -> &'static str {
+    match isa {
+        Isa::Baseline if cfg!(target_arch = "x86_64") => "baseline SSE2 (4 lanes)",
+        Isa::Baseline => "baseline",
+        Isa::Avx2 => "AVX2 (8 lanes)",
+        Isa::Avx512 => "AVX-512 (16 lanes)",
+    }
+}
+
+/// Whether `wide`'s 8-lane type was compiled for 256-bit AVX registers (else 2 × 128-bit).
+fn wide_uses_avx() -> bool {
+    cfg!(target_feature = "avx")
+}
+
+/// What the rates are per: this thread's CPU time, or wall time where the OS does not tell.
+fn clock_name() -> &'static str {
+    if thread_cpu_time().is_some() {
+        "thread-cpu-time"
+    } else {
+        "wall"
+    }
+}
+
+const SWEEP_BATCHES: &[usize] = &[64, 128, 256, 512, 1024, 2048, 4096];
+
+/// The SoA variants worth comparing at one batch size: the plain kernel on every instruction
+/// set this CPU has, and the explicit kernel on the widest.
+fn soa_variants(batch: usize) -> Vec<Variant> {
+    let mut variants: Vec<Variant> = Isa::available()
+        .into_iter()
+        .map(|isa| Variant::Soa {
+            batch,
+            kernel: Kernel::AutoVectorised,
+            isa,
+        })
+        .collect();
+    variants.push(Variant::Soa {
+        batch,
+        kernel: Kernel::Simd,
+        isa: Isa::detect(),
+    });
+    variants
+}
+
+pub fn run(args: &BenchArgs) -> anyhow::Result<ExitCode> {
+    if args.rays == 0 || args.batch == 0 || args.rounds == 0 {
+        bail!("--rays, --batch and --rounds must be at least 1");
+    }
+    let workload = LensWorkload::new(&args.lens, args.rays)?;
+    let min_time = Duration::from_millis(60);
+    let default = Variant::Soa {
+        batch: args.batch,
+        kernel: DEFAULT_KERNEL,
+        isa: Isa::detect(),
+    };
+    let mut variants = vec![Variant::Scalar];
+    variants.extend(soa_variants(args.batch));
+    let rates = measure(&workload, &variants, args.rounds, min_time);
+    let rate_of = |v: Variant| rates[variants.iter().position(|&x| x == v).expect("measured")];
+    let (scalar, soa) = (rate_of(Variant::Scalar), rate_of(default));
+    let passed = workload.trace_soa(
+        args.batch,
+        DEFAULT_KERNEL,
+        Isa::detect(),
+        &mut RayBatch::default(),
+    );
+    let pass_fraction = passed as f64 / workload.rays.len() as f64;
+
+    let sweep: Vec<(Variant, f64)> = if args.sweep {
+        let variants: Vec<Variant> = SWEEP_BATCHES
+            .iter()
+            .flat_map(|&b| soa_variants(b))
+            .collect();
+        let rates = measure(&workload, &variants, args.rounds, min_time);
+        variants.into_iter().zip(rates).collect()
+    } else {
+        Vec::new()
+    };
+
+    if args.json {
+        let entry = |v: Variant, rate: f64| match v {
+            Variant::Scalar => json!({"variant": "scalar", "rays_per_s": rate}),
+            Variant::Soa { batch, kernel, isa } => json!({
+                "batch": batch,
+                "kernel": match kernel { Kernel::Simd => "simd", Kernel::AutoVectorised => "auto-vectorised" },
+                "isa": isa.name(),
+                "rays_per_s": rate,
+            }),
+        };
+        let report = json!({
+            "lens": args.lens,
+            "surfaces": workload.system.surface_count(),
+            "rays": workload.rays.len(),
+            "pass_fraction": pass_fraction,
+            "batch": args.batch,
+            "threads": 1,
+            "clock": clock_name(),
+            "rounds": args.rounds,
+            "scalar_rays_per_s": scalar,
+            "soa_rays_per_s": soa,
+            "speedup": soa / scalar,
+            "soa_kernel": entry(default, soa),
+            "variants": variants.iter().zip(&rates).map(|(&v, &r)| entry(v, r)).collect::<Vec<_>>(),
+            "wide_uses_avx": wide_uses_avx(),
+            "sweep": sweep.iter().map(|&(v, r)| entry(v, r)).collect::<Vec<_>>(),
+        });
+        println!("{report}");
+        return Ok(ExitCode::SUCCESS);
+    }
+    let m = |rate: f64| rate / 1e6;
+    println!(
+        "lens tracing: {} ({} surfaces), {} film→scene camera rays ({:.0} % pass), one thread",
+        args.lens,
+        workload.system.surface_count(),
+        workload.rays.len(),
+        pass_fraction * 100.0,
+    );
+    println!(
+        "rays per {}, median of {} rounds",
+        if clock_name() == "wall" {
+            "second"
+        } else {
+            "CPU-second of the thread (time other processes held the core left out)"
+        },
+        args.rounds
+    );
+    println!(
+        "  {:<52}{:>8.2} M rays/s",
+        Variant::Scalar.name(),
+        m(scalar)
+    );
+    println!("  SoA, batches of {}:", args.batch);
+    for (&v, &rate) in variants.iter().zip(&rates).skip(1) {
+        let marker = if v == default { "  ← renderer" } else { "" };
+        println!("    {:<50}{:>8.2} M rays/s{marker}", v.name(), m(rate));
+    }
+    println!("  speedup SoA / scalar: {:.2}×", soa / scalar);
+    if !sweep.is_empty() {
+        println!("  batch-size sweep (M rays/s):");
+        let columns = soa_variants(1).len();
+        for row in sweep.chunks(columns) {
+            let Variant::Soa { batch, .. } = row[0].0 else {
+                continue;
+            };
+            let cells: Vec<String> = row
+                .iter()
+                .map(|&(v, r)| format!("{}: {:.2}", v.name(), m(r)))
+                .collect();
+            println!("    {batch:>5}  {}", cells.join(" | "));
+        }
+    }
+    Ok(ExitCode::SUCCESS)
+}
