@@ -176,7 +176,7 @@ def time_rs_pbrt(rs_pbrt: str, ply: Path, size: int, spp: int) -> dict:
         scene = WORK / f"rs_pbrt_{n}spp.pbrt"
         write_pbrt_scene(scene, ply, size, n)
         start = time.perf_counter()
-        result = run([rs_pbrt, "-i", scene.name], cwd=WORK)
+        result = run([rs_pbrt, "--path", scene.name], cwd=WORK)
         seconds[n] = time.perf_counter() - start
         if result.returncode != 0:
             raise RuntimeError(f"rs_pbrt failed: {(result.stderr or result.stdout)[-1500:]}")
