@@ -75,6 +75,10 @@ def install_python_packages() -> None:
     if missing:
         say(f"pip install {' '.join(missing)}")
         result = run([sys.executable, "-m", "pip", "install", *missing])
+        if result.returncode != 0 and "externally-managed" in result.stderr:
+            # Debian's own python3 (PEP 668): install next to it anyway, for this user.
+            result = run([sys.executable, "-m", "pip", "install", "--user",
+                          "--break-system-packages", *missing])
         if result.returncode != 0:
             say(f"pip install failed:\n{result.stderr[-2000:]}")
 
