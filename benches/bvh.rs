@@ -9,9 +9,7 @@
 
 mod common;
 
-use common::{
-    SCENES, TraversalRays, WorldRays, coherent_order, scene_accel, scene_label, thread_pool,
-};
+use common::{SCENES, TraversalRays, WorldRays, coherent_order, scene_accel, thread_pool};
 use divan::{Bencher, black_box};
 use realcam::accel::SceneAccel;
 use realcam::batch::{HitBatch, RayBatch};
@@ -38,7 +36,6 @@ fn build<const THREADS: usize>(bencher: Bencher, scene: &str) {
                 SceneAccel::build(&loaded.instances, &loaded.materials).expect("builds")
             })
         });
-    eprintln!("{}: {triangles} triangles", scene_label(scene));
 }
 
 /// Which rays of [`TraversalRays`] a benchmark traces.

@@ -21,10 +21,18 @@ use realcam::scene::{LoadedScene, load_gltf, look_at};
 use realcam::shade::Environment;
 
 /// DamagedHelmet: 15k triangles, textured.
-pub const HELMET: &str = "DamagedHelmet/DamagedHelmet.glb";
+pub const HELMET: &str = "DamagedHelmet";
 /// MetalRoughSpheresNoTextures: about 1M triangles (the BVH stress case).
-pub const SPHERES: &str = "MetalRoughSpheresNoTextures/MetalRoughSpheresNoTextures.gltf";
+pub const SPHERES: &str = "MetalRoughSpheresNoTextures";
 pub const SCENES: &[&str] = &[HELMET, SPHERES];
+
+/// The scene file of a shared scene, relative to the shared scenes folder.
+fn scene_file(name: &str) -> String {
+    match name {
+        HELMET => format!("{name}/{name}.glb"),
+        _ => format!("{name}/{name}.gltf"),
+    }
+}
 
 /// The lens of the whole-frame and peer benchmarks, its stop (mm) and the film diagonal (mm).
 pub const FRAME_LENS: &str = "dgauss.50mm";
@@ -36,11 +44,11 @@ pub const FILM_DIAGONAL_MM: f64 = 35.0;
 pub const HELMET_EYE: [f32; 3] = [0.0, 0.0, 4.5];
 pub const HELMET_TARGET: [f32; 3] = [0.0, 0.0, 0.0];
 
-/// `relative` under the shared scenes folder, or `None` (with a note) when it is not there.
-pub fn shared_scene(relative: &str) -> Option<PathBuf> {
+/// The file of shared scene `name`, or `None` (with a note) when it is not there.
+pub fn shared_scene(name: &str) -> Option<PathBuf> {
     let path = Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("../shared/scenes")
-        .join(relative);
+        .join(scene_file(name));
     if path.exists() {
         Some(path)
     } else {
@@ -52,17 +60,12 @@ pub fn shared_scene(relative: &str) -> Option<PathBuf> {
     }
 }
 
-/// Short label for a scene path (the folder name).
-pub fn scene_label(relative: &str) -> &str {
-    relative.split('/').next().unwrap_or(relative)
-}
-
 /// A loaded scene, kept for the whole run (the 1M-triangle one takes seconds to load).
-pub fn loaded_scene(relative: &str) -> Option<&'static LoadedScene> {
+pub fn loaded_scene(name: &str) -> Option<&'static LoadedScene> {
     static CACHE: OnceLock<Mutex<HashMap<String, &'static LoadedScene>>> = OnceLock::new();
-    let path = shared_scene(relative)?;
+    let path = shared_scene(name)?;
     let mut cache = CACHE.get_or_init(Default::default).lock().unwrap();
-    let scene = cache.entry(relative.to_string()).or_insert_with(|| {
+    let scene = cache.entry(name.to_string()).or_insert_with(|| {
         Box::leak(Box::new(
             load_gltf(&path).unwrap_or_else(|e| panic!("{}: {e:#}", path.display())),
         ))
@@ -71,11 +74,11 @@ pub fn loaded_scene(relative: &str) -> Option<&'static LoadedScene> {
 }
 
 /// The BVH of a scene, built once for the whole run.
-pub fn scene_accel(relative: &str) -> Option<&'static SceneAccel> {
+pub fn scene_accel(name: &str) -> Option<&'static SceneAccel> {
     static CACHE: OnceLock<Mutex<HashMap<String, &'static SceneAccel>>> = OnceLock::new();
-    let scene = loaded_scene(relative)?;
+    let scene = loaded_scene(name)?;
     let mut cache = CACHE.get_or_init(Default::default).lock().unwrap();
-    let accel = cache.entry(relative.to_string()).or_insert_with(|| {
+    let accel = cache.entry(name.to_string()).or_insert_with(|| {
         Box::leak(Box::new(
             SceneAccel::build(&scene.instances, &scene.materials).expect("BVH builds"),
         ))

@@ -75,6 +75,10 @@ def install_python_packages() -> None:
     if missing:
         say(f"pip install {' '.join(missing)}")
         result = run([sys.executable, "-m", "pip", "install", *missing])
+        if result.returncode != 0 and "externally-managed" in result.stderr:
+            # Debian's own python3 (PEP 668): install next to it anyway, for this user.
+            result = run([sys.executable, "-m", "pip", "install", "--user",
+                          "--break-system-packages", *missing])
         if result.returncode != 0:
             say(f"pip install failed:\n{result.stderr[-2000:]}")
 
@@ -176,7 +180,7 @@ def time_rs_pbrt(rs_pbrt: str, ply: Path, size: int, spp: int) -> dict:
         scene = WORK / f"rs_pbrt_{n}spp.pbrt"
         write_pbrt_scene(scene, ply, size, n)
         start = time.perf_counter()
-        result = run([rs_pbrt, "-i", scene.name], cwd=WORK)
+        result = run([rs_pbrt, "--path", scene.name], cwd=WORK)
         seconds[n] = time.perf_counter() - start
         if result.returncode != 0:
             raise RuntimeError(f"rs_pbrt failed: {(result.stderr or result.stdout)[-1500:]}")
