@@ -318,12 +318,41 @@ fn soa_variants(batch: usize) -> Vec<Variant> {
     variants
 }
 
-pub fn run(args: &BenchArgs) -> anyhow::Result<ExitCode> {
+/// Everything one `realcam bench` run measured.
+struct Measured {
+    surfaces: usize,
+    rays: usize,
+    pass_fraction: f64,
+    /// The renderer's own variant (default kernel, widest instruction set).
+    default: Variant,
+    /// Scalar first, then the SoA variants at the requested batch size; rays/s each.
+    variants: Vec<(Variant, f64)>,
+    /// With `--sweep`: the SoA variants at every batch size of [`SWEEP_BATCHES`].
+    sweep: Vec<(Variant, f64)>,
+}
+
+impl Measured {
+    fn rate(&self, variant: Variant) -> f64 {
+        self.variants
+            .iter()
+            .find(|(v, _)| *v == variant)
+            .map_or(f64::NAN, |&(_, rate)| rate)
+    }
+
+    fn scalar(&self) -> f64 {
+        self.rate(Variant::Scalar)
+    }
+
+    fn soa(&self) -> f64 {
+        self.rate(self.default)
+    }
+}
+
+fn collect(args: &BenchArgs, min_time: Duration) -> anyhow::Result<Measured> {
     if args.rays == 0 || args.batch == 0 || args.rounds == 0 {
         bail!("--rays, --batch and --rounds must be at least 1");
     }
     let workload = LensWorkload::new(&args.lens, args.rays)?;
-    let min_time = Duration::from_millis(60);
     let default = Variant::Soa {
         batch: args.batch,
         kernel: DEFAULT_KERNEL,
@@ -332,17 +361,13 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<ExitCode> {
     let mut variants = vec![Variant::Scalar];
     variants.extend(soa_variants(args.batch));
     let rates = measure(&workload, &variants, args.rounds, min_time);
-    let rate_of = |v: Variant| rates[variants.iter().position(|&x| x == v).expect("measured")];
-    let (scalar, soa) = (rate_of(Variant::Scalar), rate_of(default));
     let passed = workload.trace_soa(
         args.batch,
         DEFAULT_KERNEL,
         Isa::detect(),
         &mut RayBatch::default(),
     );
-    let pass_fraction = passed as f64 / workload.rays.len() as f64;
-
-    let sweep: Vec<(Variant, f64)> = if args.sweep {
+    let sweep = if args.sweep {
         let variants: Vec<Variant> = SWEEP_BATCHES
             .iter()
             .flat_map(|&b| soa_variants(b))
@@ -352,44 +377,61 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<ExitCode> {
     } else {
         Vec::new()
     };
+    Ok(Measured {
+        surfaces: workload.system.surface_count(),
+        rays: workload.rays.len(),
+        pass_fraction: passed as f64 / workload.rays.len() as f64,
+        default,
+        variants: variants.into_iter().zip(rates).collect(),
+        sweep,
+    })
+}
 
-    if args.json {
-        let entry = |v: Variant, rate: f64| match v {
-            Variant::Scalar => json!({"variant": "scalar", "rays_per_s": rate}),
-            Variant::Soa { batch, kernel, isa } => json!({
-                "batch": batch,
-                "kernel": match kernel { Kernel::Simd => "simd", Kernel::AutoVectorised => "auto-vectorised" },
-                "isa": isa.name(),
-                "rays_per_s": rate,
-            }),
-        };
-        let report = json!({
-            "lens": args.lens,
-            "surfaces": workload.system.surface_count(),
-            "rays": workload.rays.len(),
-            "pass_fraction": pass_fraction,
-            "batch": args.batch,
-            "threads": 1,
-            "clock": clock_name(),
-            "rounds": args.rounds,
-            "scalar_rays_per_s": scalar,
-            "soa_rays_per_s": soa,
-            "speedup": soa / scalar,
-            "soa_kernel": entry(default, soa),
-            "variants": variants.iter().zip(&rates).map(|(&v, &r)| entry(v, r)).collect::<Vec<_>>(),
-            "wide_uses_avx": wide_uses_avx(),
-            "sweep": sweep.iter().map(|&(v, r)| entry(v, r)).collect::<Vec<_>>(),
-        });
-        println!("{report}");
-        return Ok(ExitCode::SUCCESS);
+fn json_entry(variant: Variant, rate: f64) -> serde_json::Value {
+    match variant {
+        Variant::Scalar => json!({"variant": "scalar", "rays_per_s": rate}),
+        Variant::Soa { batch, kernel, isa } => json!({
+            "batch": batch,
+            "kernel": match kernel {
+                Kernel::Simd => "simd",
+                Kernel::AutoVectorised => "auto-vectorised",
+            },
+            "isa": isa.name(),
+            "rays_per_s": rate,
+        }),
     }
-    let m = |rate: f64| rate / 1e6;
+}
+
+/// The `--json` report: one object; `scalar_rays_per_s`, `soa_rays_per_s` and `speedup` are
+/// the headline (one thread, same lens, the renderer's kernel).
+fn json_report(args: &BenchArgs, m: &Measured) -> serde_json::Value {
+    json!({
+        "lens": args.lens,
+        "surfaces": m.surfaces,
+        "rays": m.rays,
+        "pass_fraction": m.pass_fraction,
+        "batch": args.batch,
+        "threads": 1,
+        "clock": clock_name(),
+        "rounds": args.rounds,
+        "scalar_rays_per_s": m.scalar(),
+        "soa_rays_per_s": m.soa(),
+        "speedup": m.soa() / m.scalar(),
+        "soa_kernel": json_entry(m.default, m.soa()),
+        "variants": m.variants.iter().map(|&(v, r)| json_entry(v, r)).collect::<Vec<_>>(),
+        "wide_uses_avx": wide_uses_avx(),
+        "sweep": m.sweep.iter().map(|&(v, r)| json_entry(v, r)).collect::<Vec<_>>(),
+    })
+}
+
+fn print_summary(args: &BenchArgs, m: &Measured) {
+    let mega = |rate: f64| rate / 1e6;
     println!(
         "lens tracing: {} ({} surfaces), {} film→scene camera rays ({:.0} % pass), one thread",
         args.lens,
-        workload.system.surface_count(),
-        workload.rays.len(),
-        pass_fraction * 100.0,
+        m.surfaces,
+        m.rays,
+        m.pass_fraction * 100.0,
     );
     println!(
         "rays per {}, median of {} rounds",
@@ -403,27 +445,105 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<ExitCode> {
     println!(
         "  {:<52}{:>8.2} M rays/s",
         Variant::Scalar.name(),
-        m(scalar)
+        mega(m.scalar())
     );
     println!("  SoA, batches of {}:", args.batch);
-    for (&v, &rate) in variants.iter().zip(&rates).skip(1) {
-        let marker = if v == default { "  ← renderer" } else { "" };
-        println!("    {:<50}{:>8.2} M rays/s{marker}", v.name(), m(rate));
+    for &(v, rate) in m.variants.iter().filter(|(v, _)| *v != Variant::Scalar) {
+        let marker = if v == m.default { "  ← renderer" } else { "" };
+        println!("    {:<50}{:>8.2} M rays/s{marker}", v.name(), mega(rate));
     }
-    println!("  speedup SoA / scalar: {:.2}×", soa / scalar);
-    if !sweep.is_empty() {
+    println!("  speedup SoA / scalar: {:.2}×", m.soa() / m.scalar());
+    if !m.sweep.is_empty() {
         println!("  batch-size sweep (M rays/s):");
         let columns = soa_variants(1).len();
-        for row in sweep.chunks(columns) {
+        for row in m.sweep.chunks(columns) {
             let Variant::Soa { batch, .. } = row[0].0 else {
                 continue;
             };
             let cells: Vec<String> = row
                 .iter()
-                .map(|&(v, r)| format!("{}: {:.2}", v.name(), m(r)))
+                .map(|&(v, r)| format!("{}: {:.2}", v.name(), mega(r)))
                 .collect();
             println!("    {batch:>5}  {}", cells.join(" | "));
         }
     }
+}
+
+pub fn run(args: &BenchArgs) -> anyhow::Result<ExitCode> {
+    let measured = collect(args, Duration::from_millis(60))?;
+    if args.json {
+        println!("{}", json_report(args, &measured));
+    } else {
+        print_summary(args, &measured);
+    }
     Ok(ExitCode::SUCCESS)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::lens::bundled::BUNDLED;
+
+    fn quick_args() -> BenchArgs {
+        BenchArgs {
+            lens: DEFAULT_LENS.into(),
+            rays: 256,
+            batch: 64,
+            rounds: 1,
+            sweep: false,
+            json: true,
+        }
+    }
+
+    /// The scalar and SoA paths measure the same work: the same rays pass (f32 rounding may
+    /// flip a ray grazing an aperture edge), and every SoA variant passes exactly the same.
+    #[test]
+    fn scalar_and_every_soa_variant_trace_the_same_rays() {
+        for (lens, _) in BUNDLED {
+            let workload = LensWorkload::new(lens, 512).unwrap();
+            let scalar = workload.trace_scalar(&mut Vec::new());
+            let soa: Vec<usize> = [64, 100, 512]
+                .into_iter()
+                .flat_map(soa_variants)
+                .map(|v| v.run(&workload, &mut Vec::new(), &mut RayBatch::default()))
+                .collect();
+            assert!(soa.iter().all(|&p| p == soa[0]), "{lens}: {soa:?}");
+            assert!(
+                scalar.abs_diff(soa[0]) <= 2,
+                "{lens}: {scalar} vs {}",
+                soa[0]
+            );
+            assert!(soa[0] > 100, "{lens}: only {} of 512 pass", soa[0]);
+        }
+    }
+
+    #[test]
+    fn json_report_has_the_headline_fields() {
+        let args = quick_args();
+        let measured = collect(&args, Duration::from_micros(1)).unwrap();
+        let report = json_report(&args, &measured);
+        for key in ["scalar_rays_per_s", "soa_rays_per_s", "speedup"] {
+            let value = report[key].as_f64().unwrap_or(f64::NAN);
+            assert!(value.is_finite() && value > 0.0, "{key}: {}", report[key]);
+        }
+        assert_eq!(report["threads"], 1);
+        assert_eq!(
+            report["variants"].as_array().unwrap().len(),
+            measured.variants.len()
+        );
+    }
+
+    #[test]
+    fn bad_arguments_and_unknown_lenses_are_errors() {
+        let zero = BenchArgs {
+            rays: 0,
+            ..quick_args()
+        };
+        assert!(collect(&zero, Duration::ZERO).is_err());
+        let unknown = BenchArgs {
+            lens: "no-such-lens".into(),
+            ..quick_args()
+        };
+        assert!(collect(&unknown, Duration::ZERO).is_err());
+    }
 }
