@@ -125,6 +125,11 @@ pub struct SceneEnvironment(pub Environment);
 #[derive(Resource, Clone, Copy, Debug)]
 pub struct SceneBounds(pub Bounds);
 
+/// Every file the loaded scene reads (the glTF, its buffers and images): outputs must not
+/// overwrite any of them.
+#[derive(Resource, Clone, Debug, Default)]
+pub struct SceneInputs(pub Vec<PathBuf>);
+
 /// Warnings collected while loading (shown to the user once).
 #[derive(Resource, Clone, Debug, Default)]
 pub struct SceneWarnings(pub Vec<String>);
@@ -258,6 +263,7 @@ fn spawn_scene(commands: &mut Commands, scene: LoadedScene) {
     commands.insert_resource(scene.materials);
     commands.insert_resource(SceneBounds(scene.bounds));
     commands.insert_resource(SceneWarnings(scene.warnings));
+    commands.insert_resource(SceneInputs(scene.inputs));
 }
 
 /// BuildBvh: builds the BVH when mesh instances were added.

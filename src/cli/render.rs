@@ -29,7 +29,9 @@ use crate::lens::Prescription;
 use crate::lens::aperture::ApertureSetting;
 use crate::lens::bundled::{DEFAULT_LENS, load_lens};
 use crate::lens::elements::{FilmPlacement, FocusSetting, LensDerivationStats, LensGeometry};
-use crate::pipeline::{RenderSettings, RenderStats, Renderer, SceneSource, SceneWarnings, Stage};
+use crate::pipeline::{
+    RenderSettings, RenderStats, Renderer, SceneInputs, SceneSource, SceneWarnings, Stage,
+};
 use crate::scene::CameraHints;
 use crate::scene::default_scene::{DEFAULT_SCENE_GLB, DEFAULT_SCENE_PATH};
 
@@ -211,6 +213,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<ExitCode> {
     for warning in &renderer.world.resource::<SceneWarnings>().0 {
         eprintln!("warning: {warning}");
     }
+    refuse_overwriting_scene_files(args, &renderer.world.resource::<SceneInputs>().0)?;
     let environment = choose_environment(args, &mut renderer)?;
     renderer.set_environment(environment);
 
@@ -684,17 +687,15 @@ fn validate(args: &RenderArgs) -> anyhow::Result<()> {
     {
         bail!("--checkpoint-every must be a positive number of seconds");
     }
-    let outputs: Vec<&Path> = [
-        Some(args.out.as_path()),
-        args.exr.as_deref(),
-        args.stats.as_deref(),
-        args.contact_sheet.as_deref(),
-        args.checkpoint.as_deref(),
-        args.partial.as_deref(),
-    ]
-    .into_iter()
-    .flatten()
-    .collect();
+    let outputs = outputs(args);
+    for (i, a) in outputs.iter().enumerate() {
+        if outputs[..i].iter().any(|b| a == b) {
+            bail!(
+                "{}: given for two outputs; each output needs its own path",
+                a.display()
+            );
+        }
+    }
     let inputs: Vec<&Path> = args
         .scene
         .iter()
@@ -716,6 +717,38 @@ fn validate(args: &RenderArgs) -> anyhow::Result<()> {
             }
         }
         check_writable(output)?;
+    }
+    Ok(())
+}
+
+/// The run's output files (frames of sweeps and lens runs are suffixed copies of these).
+fn outputs(args: &RenderArgs) -> Vec<&Path> {
+    [
+        Some(args.out.as_path()),
+        args.exr.as_deref(),
+        args.stats.as_deref(),
+        args.contact_sheet.as_deref(),
+        args.checkpoint.as_deref(),
+        args.partial.as_deref(),
+    ]
+    .into_iter()
+    .flatten()
+    .collect()
+}
+
+/// Outputs must not replace the scene's buffers or textures (`--out scene.bin`).
+fn refuse_overwriting_scene_files(
+    args: &RenderArgs,
+    scene_files: &[PathBuf],
+) -> anyhow::Result<()> {
+    for output in outputs(args) {
+        if let Some(input) = scene_files.iter().find(|input| same_file(output, input)) {
+            bail!(
+                "{}: the output would overwrite an input file ({}, which the scene reads); choose another output path",
+                output.display(),
+                input.display()
+            );
+        }
     }
     Ok(())
 }
