@@ -89,38 +89,38 @@ fn traversal(bencher: Bencher, scene: &str, kind: Kind, sorted: bool) {
         });
 }
 
-#[divan::bench(args = SCENES)]
+#[divan::bench(args = SCENES, sample_count = 10)]
 fn closest_primary_per_ray(bencher: Bencher, scene: &str) {
     traversal(bencher, scene, Kind::Primary, false);
 }
 
-#[divan::bench(args = SCENES)]
+#[divan::bench(args = SCENES, sample_count = 10)]
 fn closest_primary_sorted(bencher: Bencher, scene: &str) {
     traversal(bencher, scene, Kind::Primary, true);
 }
 
-#[divan::bench(args = SCENES)]
+#[divan::bench(args = SCENES, sample_count = 10)]
 fn closest_bounce_per_ray(bencher: Bencher, scene: &str) {
     traversal(bencher, scene, Kind::Bounce, false);
 }
 
-#[divan::bench(args = SCENES)]
+#[divan::bench(args = SCENES, sample_count = 10)]
 fn closest_bounce_sorted(bencher: Bencher, scene: &str) {
     traversal(bencher, scene, Kind::Bounce, true);
 }
 
-#[divan::bench(args = SCENES)]
+#[divan::bench(args = SCENES, sample_count = 10)]
 fn shadow_any_hit_per_ray(bencher: Bencher, scene: &str) {
     traversal(bencher, scene, Kind::Shadow, false);
 }
 
-#[divan::bench(args = SCENES)]
+#[divan::bench(args = SCENES, sample_count = 10)]
 fn shadow_any_hit_sorted(bencher: Bencher, scene: &str) {
     traversal(bencher, scene, Kind::Shadow, true);
 }
 
 /// Primary rays through the renderer's batch call (SoA in, SoA hits out) on one thread.
-#[divan::bench(args = SCENES)]
+#[divan::bench(args = SCENES, sample_count = 10)]
 fn closest_primary_batch(bencher: Bencher, scene: &str) {
     let Some(accel) = scene_accel(scene) else {
         return;
