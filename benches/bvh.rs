@@ -9,8 +9,14 @@
 
 mod common;
 
-use common::{SCENES, TraversalRays, WorldRays, coherent_order, scene_accel, thread_pool};
+use common::{HELMET, SCENES, TraversalRays, WorldRays, coherent_order, scene_accel, thread_pool};
+use std::time::Duration;
+
 use divan::{Bencher, black_box};
+use glam::Vec3A;
+use obvhs::BvhBuildParams;
+use obvhs::cwbvh::builder::build_cwbvh_from_tris;
+use obvhs::ray::{Ray, RayHit};
 use realcam::accel::SceneAccel;
 use realcam::batch::{HitBatch, RayBatch};
 
@@ -89,38 +95,38 @@ fn traversal(bencher: Bencher, scene: &str, kind: Kind, sorted: bool) {
         });
 }
 
-#[divan::bench(args = SCENES)]
+#[divan::bench(args = SCENES, sample_count = 10)]
 fn closest_primary_per_ray(bencher: Bencher, scene: &str) {
     traversal(bencher, scene, Kind::Primary, false);
 }
 
-#[divan::bench(args = SCENES)]
+#[divan::bench(args = SCENES, sample_count = 10)]
 fn closest_primary_sorted(bencher: Bencher, scene: &str) {
     traversal(bencher, scene, Kind::Primary, true);
 }
 
-#[divan::bench(args = SCENES)]
+#[divan::bench(args = SCENES, sample_count = 10)]
 fn closest_bounce_per_ray(bencher: Bencher, scene: &str) {
     traversal(bencher, scene, Kind::Bounce, false);
 }
 
-#[divan::bench(args = SCENES)]
+#[divan::bench(args = SCENES, sample_count = 10)]
 fn closest_bounce_sorted(bencher: Bencher, scene: &str) {
     traversal(bencher, scene, Kind::Bounce, true);
 }
 
-#[divan::bench(args = SCENES)]
+#[divan::bench(args = SCENES, sample_count = 10)]
 fn shadow_any_hit_per_ray(bencher: Bencher, scene: &str) {
     traversal(bencher, scene, Kind::Shadow, false);
 }
 
-#[divan::bench(args = SCENES)]
+#[divan::bench(args = SCENES, sample_count = 10)]
 fn shadow_any_hit_sorted(bencher: Bencher, scene: &str) {
     traversal(bencher, scene, Kind::Shadow, true);
 }
 
 /// Primary rays through the renderer's batch call (SoA in, SoA hits out) on one thread.
-#[divan::bench(args = SCENES)]
+#[divan::bench(args = SCENES, sample_count = 10)]
 fn closest_primary_batch(bencher: Bencher, scene: &str) {
     let Some(accel) = scene_accel(scene) else {
         return;
@@ -135,4 +141,62 @@ fn closest_primary_batch(bencher: Bencher, scene: &str) {
     bencher
         .counter(divan::counter::ItemsCount::new(rays.len()))
         .bench_local(|| pool.install(|| accel.intersect_batch(black_box(&batch), &mut hits)));
+}
+
+/// obvhs build presets for realcam's BVH (no spatial splits: realcam needs one leaf entry per
+/// triangle), traced with obvhs's own triangle test on the helmet's bounce rays. Tells whether
+/// a better-built tree or smaller leaves would speed traversal, and, against
+/// `closest_bounce_per_ray`, what realcam's triangle test and alpha check cost on top.
+#[divan::bench(args = PRESETS, sample_count = 10)]
+fn preset_bounce_obvhs_triangles(bencher: Bencher, preset: &str) {
+    let (Some(scene), Some(accel)) = (common::loaded_scene(HELMET), scene_accel(HELMET)) else {
+        return;
+    };
+    let triangles = common::world_triangles(scene);
+    let bvh = build_cwbvh_from_tris(&triangles, preset_params(preset), &mut Duration::default());
+    let rays = rays(accel, Kind::Bounce);
+    bencher
+        .counter(divan::counter::ItemsCount::new(rays.len()))
+        .bench_local(|| {
+            let mut found = 0;
+            for i in 0..rays.len() {
+                let ray = Ray::new(
+                    Vec3A::from(rays.origin[i]),
+                    Vec3A::from(rays.direction[i]),
+                    0.0,
+                    f32::INFINITY,
+                );
+                let mut hit = RayHit::none();
+                found += usize::from(bvh.ray_traverse(ray, &mut hit, |ray, id| {
+                    triangles[bvh.primitive_indices[id] as usize].intersect(ray)
+                }));
+            }
+            found
+        });
+}
+
+const PRESETS: &[&str] = &[
+    "medium (realcam's)",
+    "slow, no splits",
+    "medium, leaves ≤ 4",
+    "medium, leaves ≤ 2",
+];
+
+fn preset_params(name: &str) -> BvhBuildParams {
+    let medium = BvhBuildParams::medium_build();
+    match name {
+        "slow, no splits" => BvhBuildParams {
+            pre_split: false,
+            ..BvhBuildParams::slow_build()
+        },
+        "medium, leaves ≤ 4" => BvhBuildParams {
+            max_prims_per_leaf: 4,
+            ..medium
+        },
+        "medium, leaves ≤ 2" => BvhBuildParams {
+            max_prims_per_leaf: 2,
+            ..medium
+        },
+        _ => medium,
+    }
 }

@@ -27,7 +27,7 @@ fn workload(lens: &str) -> LensWorkload {
 }
 
 /// One ray at a time through the generic reference tracer, in f32.
-#[divan::bench(args = lenses())]
+#[divan::bench(args = lenses(), sample_count = 40)]
 fn scalar_per_ray(bencher: Bencher, lens: &str) {
     let w = workload(lens);
     let mut out = Vec::with_capacity(RAYS);
@@ -37,26 +37,26 @@ fn scalar_per_ray(bencher: Bencher, lens: &str) {
 }
 
 /// The same rays as SoA batches of `BATCH`, explicit `wide::f32x8` kernel.
-#[divan::bench(args = lenses(), consts = [64, 256, 1024, 4096])]
+#[divan::bench(args = lenses(), consts = [64, 256, 1024, 4096], sample_count = 40)]
 fn soa_simd<const BATCH: usize>(bencher: Bencher, lens: &str) {
     soa(bencher, lens, BATCH, Kernel::Simd, Isa::detect());
 }
 
 /// The same rays as SoA batches of `BATCH`, plain loop auto-vectorised for the widest
 /// instruction set of this CPU (the renderer's kernel: AVX-512 here).
-#[divan::bench(args = lenses(), consts = [64, 256, 1024, 4096])]
+#[divan::bench(args = lenses(), consts = [64, 256, 1024, 4096], sample_count = 40)]
 fn soa_autovec<const BATCH: usize>(bencher: Bencher, lens: &str) {
     soa(bencher, lens, BATCH, Kernel::AutoVectorised, Isa::detect());
 }
 
 /// The plain loop compiled for AVX2 (8 lanes), if this CPU has it.
-#[divan::bench(args = lenses(), consts = [64, 1024])]
+#[divan::bench(args = lenses(), consts = [64, 1024], sample_count = 40)]
 fn soa_autovec_avx2<const BATCH: usize>(bencher: Bencher, lens: &str) {
     soa(bencher, lens, BATCH, Kernel::AutoVectorised, Isa::Avx2);
 }
 
 /// The plain loop as the portable build compiles it (x86-64: SSE2, 4 lanes).
-#[divan::bench(args = lenses(), consts = [64, 1024])]
+#[divan::bench(args = lenses(), consts = [64, 1024], sample_count = 40)]
 fn soa_autovec_baseline<const BATCH: usize>(bencher: Bencher, lens: &str) {
     soa(bencher, lens, BATCH, Kernel::AutoVectorised, Isa::Baseline);
 }

@@ -309,3 +309,21 @@ fn spread_bits(v: u64) -> u64 {
     x = (x | x << 2) & 0x0924_9249;
     x
 }
+
+/// The scene's world triangles in obvhs form (world space: traversal speed does not depend on
+/// the power-of-two scale `SceneAccel` applies).
+pub fn world_triangles(scene: &LoadedScene) -> Vec<obvhs::triangle::Triangle> {
+    let mut triangles = Vec::with_capacity(scene.triangle_count());
+    for instance in &scene.instances {
+        let m = instance.world_from_local;
+        let p = |i: u32| glam::Vec3A::from(m.transform_point3(instance.mesh.positions[i as usize]));
+        for &[a, b, c] in &instance.mesh.triangles {
+            triangles.push(obvhs::triangle::Triangle {
+                v0: p(a),
+                v1: p(b),
+                v2: p(c),
+            });
+        }
+    }
+    triangles
+}

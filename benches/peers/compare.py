@@ -264,16 +264,28 @@ def main() -> None:
         ("mitsuba scalar_rgb", "thin lens", lambda: time_mitsuba("scalar_rgb", ply, args.size, args.spp, settings)),
         ("mitsuba llvm_ad_rgb", "thin lens", lambda: time_mitsuba("llvm_ad_rgb", ply, args.size, args.spp, settings)),
     ]
-    results = {}
-    for name, camera, measure in renderers:
-        if name == "rs_pbrt" and not cargo_bin("rs_pbrt"):
-            say("rs_pbrt is not installed (cargo install rs_pbrt --locked failed or was skipped): skipped")
-            continue
-        try:
-            say(f"rendering with {name}")
-            results[name] = {"camera": camera, **median_of([measure() for _ in range(args.repeat)])}
-        except Exception as error:  # a peer that fails is reported, the others go on
-            say(f"{name}: {error}")
+    if not cargo_bin("rs_pbrt"):
+        say("rs_pbrt is not installed (cargo install rs_pbrt --locked failed or was skipped): skipped")
+        renderers = [r for r in renderers if r[0] != "rs_pbrt"]
+    # Rounds go through every renderer in turn, so a change in the machine's load hits all
+    # of them alike; each renderer's median round is reported.
+    runs: dict[str, list[dict]] = {name: [] for name, _, _ in renderers}
+    failed: set[str] = set()
+    for round_index in range(args.repeat):
+        for name, camera, measure in renderers:
+            if name in failed:
+                continue
+            try:
+                say(f"round {round_index + 1}/{args.repeat}: rendering with {name}")
+                runs[name].append(measure())
+            except Exception as error:  # a peer that fails is reported, the others go on
+                say(f"{name}: {error}")
+                failed.add(name)
+    results = {
+        name: {"camera": camera, **median_of(runs[name])}
+        for name, camera, _ in renderers
+        if runs[name]
+    }
 
     print()
     print(f"DamagedHelmet {args.size}×{args.size}, {args.spp} spp, depth {DEPTH}, matte {ALBEDO}, white sky; "

@@ -251,13 +251,22 @@ fn measure(
     }
     for _ in 0..rounds {
         for (variant, rates) in variants.iter().zip(&mut rates) {
+            // Doubling the runs between clock reads keeps the reads (a file read each for
+            // the CPU clock) to a handful per measurement, out of the short SoA runs' time.
             let start = Stopwatch::start();
-            let mut runs = 0u64;
-            while start.elapsed() < min_time || runs == 0 {
-                std::hint::black_box(variant.run(workload, &mut scalar_out, &mut work));
-                runs += 1;
-            }
-            let seconds = start.elapsed().as_secs_f64();
+            let (mut runs, mut next) = (0u64, 1u64);
+            let elapsed = loop {
+                for _ in 0..next {
+                    std::hint::black_box(variant.run(workload, &mut scalar_out, &mut work));
+                }
+                runs += next;
+                next *= 2;
+                let elapsed = start.elapsed();
+                if elapsed >= min_time {
+                    break elapsed;
+                }
+            };
+            let seconds = elapsed.as_secs_f64();
             rates.push((runs as usize * workload.rays.len()) as f64 / seconds);
         }
     }
