@@ -31,6 +31,21 @@ use crate::scene::{MaterialLibrary, PunctualLight};
 /// Share of slot selection spread uniformly over the lights, whatever their power estimate.
 const UNIFORM_SELECTION_SHARE: f32 = 0.1;
 
+/// Whether next-event estimation draws directions towards the environment.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum EnvironmentSampling {
+    /// Towards an image environment only. A uniform sky is left to BSDF sampling: its
+    /// radiance is the same from every direction, so the integrand L·f·cos θ is proportional
+    /// to f·cos θ, which BSDF sampling already draws in proportion (exactly for Lambert).
+    /// Uniform-sphere light samples would spend half their directions below the horizon and a
+    /// shadow ray per path vertex on adding variance; both estimators are unbiased (the shading
+    /// tests compare them).
+    #[default]
+    ImagesOnly,
+    /// Uniform skies too: kept so the tests can check light sampling of a uniform sky.
+    Always,
+}
+
 /// Where a shadow ray towards a light sample ends.
 #[derive(Clone, Copy, Debug)]
 pub enum ShadowTarget {
@@ -99,6 +114,23 @@ impl LightSet {
         materials: &MaterialLibrary,
         environment: &Environment,
     ) -> LightSet {
+        Self::build_with(
+            punctual,
+            accel,
+            materials,
+            environment,
+            EnvironmentSampling::default(),
+        )
+    }
+
+    /// [`LightSet::build`] with an explicit choice of when the environment is light-sampled.
+    pub fn build_with(
+        punctual: &[PunctualLight],
+        accel: &SceneAccel,
+        materials: &MaterialLibrary,
+        environment: &Environment,
+        environment_sampling: EnvironmentSampling,
+    ) -> LightSet {
         let bounds = accel.bounds();
         let scene_radius = if bounds.is_empty() || !(bounds.diagonal() > 0.0) {
             1.0
@@ -123,8 +155,14 @@ impl LightSet {
         }
         slots.push(LightSlot::Triangles);
         powers.push(PI * emitter_distribution.total() as f32);
-        slots.push(LightSlot::Environment);
-        powers.push(4.0 * PI * PI * scene_radius * scene_radius * environment.mean_luminance());
+        let sample_environment = match environment_sampling {
+            EnvironmentSampling::Always => true,
+            EnvironmentSampling::ImagesOnly => matches!(environment, Environment::Image(_)),
+        };
+        if sample_environment {
+            slots.push(LightSlot::Environment);
+            powers.push(4.0 * PI * PI * scene_radius * scene_radius * environment.mean_luminance());
+        }
 
         let powers: Vec<f32> = powers
             .iter()

@@ -35,7 +35,7 @@ use crate::scene::MaterialLibrary;
 use integrator::Strategy;
 
 pub use environment::{Environment, EnvironmentMap, load_environment};
-pub use lights::LightSet;
+pub use lights::{EnvironmentSampling, LightSet};
 
 /// Mixed into the seed of every shading stream, so shading draws numbers independent of any
 /// other stage keyed by the same (seed, pixel, sample).

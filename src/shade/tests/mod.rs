@@ -11,7 +11,7 @@ use std::sync::Arc;
 use glam::{Mat4, Vec3};
 
 use super::integrator::Strategy;
-use super::{Environment, LightSet, Shader};
+use super::{Environment, EnvironmentSampling, LightSet, Shader};
 use crate::accel::SceneAccel;
 use crate::sampling::Rng;
 use crate::scene::{Material, MaterialLibrary, Mesh, MeshInstance, PunctualLight};
@@ -31,12 +31,35 @@ impl TestScene {
         punctual: &[PunctualLight],
         environment: Environment,
     ) -> Self {
+        Self::with_environment_sampling(
+            instances,
+            materials,
+            punctual,
+            environment,
+            EnvironmentSampling::default(),
+        )
+    }
+
+    /// A scene whose light set samples the environment as `environment_sampling` says.
+    pub fn with_environment_sampling(
+        instances: &[MeshInstance],
+        materials: Vec<Material>,
+        punctual: &[PunctualLight],
+        environment: Environment,
+        environment_sampling: EnvironmentSampling,
+    ) -> Self {
         let materials = MaterialLibrary {
             materials,
             ..Default::default()
         };
         let accel = SceneAccel::build(instances, &materials).expect("accel");
-        let lights = LightSet::build(punctual, &accel, &materials, &environment);
+        let lights = LightSet::build_with(
+            punctual,
+            &accel,
+            &materials,
+            &environment,
+            environment_sampling,
+        );
         TestScene {
             accel,
             materials,
