@@ -548,7 +548,17 @@ fn impossible_flags_are_refused_before_rendering() {
             1,
             "--env -1,0,0: radiance must not be negative",
         ),
+        (&["--env", "-1,0,0"], 1, "radiance must not be negative"),
         (&["--env", "no-such-sky.exr"], 1, "no-such-sky.exr"),
+        (
+            &["--checkpoint-every", "-5"],
+            1,
+            "--checkpoint-every must be a positive number",
+        ),
+        (&["--shard", "-1/2"], 2, "'-1/2' is not I/N"),
+        (&["--focus-sweep", "-1:2:3"], 2, "two positive numbers"),
+        (&["--film-distance", "1e30"], 1, "--film-distance 1"),
+        (&["--focus-distance", "nan"], 1, "focus-distance"),
         (&["--camera", "7"], 1, "--camera 7"),
         (&["--lens", "no-such-lens"], 1, "no-such-lens"),
     ];

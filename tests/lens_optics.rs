@@ -189,6 +189,17 @@ fn focus_at_infinity_limit_is_back_focal_length() {
     let (system, fo) = load("dgauss.50mm.dat");
     let film = paraxial_film_distance(&system, &fo, 1e9).unwrap();
     assert!(close(film, fo.back_focal_length, 1e-5));
+    // Infinity itself, and distances whose (C·L)² would overflow, focus on the published BFL.
+    for distance_mm in [f64::INFINITY, 1e300, f64::MAX] {
+        for (name, _, bfl) in PUBLISHED {
+            let (system, fo) = load(name);
+            let film = paraxial_film_distance(&system, &fo, distance_mm).unwrap();
+            assert!(
+                close(film, *bfl, 5e-4),
+                "{name} at {distance_mm} mm: {film} vs {bfl}"
+            );
+        }
+    }
 }
 
 #[test]

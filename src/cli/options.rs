@@ -8,9 +8,14 @@ use crate::lens::elements::FocusSetting;
 use crate::lens::focus::FocusMode;
 use crate::lens::pupil::PupilSampling;
 
+/// Largest film distance accepted. Film distances far beyond the focal length focus near the
+/// front focal point at huge magnification; 100 m is beyond any real bellows, and keeps the
+/// f32 ray generator far from overflow.
+pub const MAX_FILM_DISTANCE_MM: f64 = 1e5;
+
 #[derive(Args, Debug, Clone, Default)]
 pub struct LensOptions {
-    /// Focus on the plane this far from the film, in metres (as pbrt).
+    /// Focus on the plane this far from the film, in metres (as pbrt); `inf` for infinity.
     #[arg(
         long,
         value_name = "M",
@@ -83,8 +88,21 @@ impl LensOptions {
             )),
             _ => Ok(()),
         };
-        positive("focus-distance", self.focus_distance)?;
+        if let Some(metres) = self.focus_distance
+            && !(metres > 0.0)
+        {
+            anyhow::bail!(
+                "--focus-distance must be a positive number of metres or inf, got {metres}"
+            );
+        }
         positive("film-distance", self.film_distance)?;
+        if let Some(mm) = self.film_distance
+            && mm > MAX_FILM_DISTANCE_MM
+        {
+            anyhow::bail!(
+                "--film-distance {mm} mm is beyond {MAX_FILM_DISTANCE_MM} mm (100 m): no lens focuses with its film that far back"
+            );
+        }
         positive("aperture", self.aperture)?;
         positive("f-number", self.f_number)?;
         positive("film-diagonal", self.film_diagonal)?;

@@ -75,7 +75,7 @@ pub struct RenderArgs {
     pub up: Vec3,
     /// Environment: a uniform sky `R,G,B` (nits) or an equirectangular .exr/.hdr image
     /// [default: black if the scene has lights or emitters, else a white sky of 1 nit].
-    #[arg(long, value_name = "R,G,B|FILE")]
+    #[arg(long, value_name = "R,G,B|FILE", allow_hyphen_values = true)]
     pub env: Option<String>,
     /// Random seed; the same seed gives the same image whatever the thread count.
     #[arg(long, default_value_t = 0)]
@@ -106,10 +106,10 @@ pub struct RenderArgs {
     pub stats: Option<PathBuf>,
     /// Rack focus: render FRAMES frames focused from NEAR to FAR metres (evenly in dioptres),
     /// numbered `<out>-000.png`, … ; with several lenses, each lens gets its sequence.
-    #[arg(long, value_name = "NEAR:FAR:FRAMES", conflicts_with_all = ["focus_distance", "film_distance"])]
+    #[arg(long, value_name = "NEAR:FAR:FRAMES", allow_hyphen_values = true, conflicts_with_all = ["focus_distance", "film_distance"])]
     pub focus_sweep: Option<Sweep>,
     /// Stop sweep: FRAMES frames with the stop diameter from A to B mm (evenly in stops).
-    #[arg(long, value_name = "A:B:FRAMES", conflicts_with_all = ["aperture", "f_number"])]
+    #[arg(long, value_name = "A:B:FRAMES", allow_hyphen_values = true, conflicts_with_all = ["aperture", "f_number"])]
     pub aperture_sweep: Option<Sweep>,
     /// Also write one picture of every render of the run, in a labelled grid.
     #[arg(long, value_name = "FILE.png")]
@@ -119,14 +119,14 @@ pub struct RenderArgs {
     #[arg(long, value_name = "FILE.exr")]
     pub checkpoint: Option<PathBuf>,
     /// Also save a checkpoint every SECONDS of rendering.
-    #[arg(long, value_name = "SECONDS")]
+    #[arg(long, value_name = "SECONDS", allow_negative_numbers = true)]
     pub checkpoint_every: Option<f64>,
     /// Continue the render saved in CHECKPOINT (same scene and settings) to the target --spp.
     #[arg(long, value_name = "CHECKPOINT", conflicts_with_all = ["shard", "focus_sweep", "aperture_sweep"])]
     pub resume: Option<PathBuf>,
     /// Render only the I-th (0-based) of N disjoint sample subsets, to a partial EXR that
     /// `realcam merge` combines (one shard per render-farm task).
-    #[arg(long, value_name = "I/N", conflicts_with_all = ["focus_sweep", "aperture_sweep"])]
+    #[arg(long, value_name = "I/N", allow_hyphen_values = true, conflicts_with_all = ["focus_sweep", "aperture_sweep"])]
     pub shard: Option<Shard>,
     /// Where a shard's partial goes [default: `<out stem>.shard-I-of-N.exr`].
     #[arg(long, value_name = "FILE.exr", requires = "shard")]
@@ -208,6 +208,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<ExitCode> {
             embedded: Some(DEFAULT_SCENE_GLB),
         },
     };
+    let source_path = source.path.clone();
     renderer.set_scene(source);
     renderer.update()?;
     for warning in &renderer.world.resource::<SceneWarnings>().0 {
@@ -240,7 +241,8 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<ExitCode> {
         .collect::<Result<Vec<_>, _>>()?;
     let (world_from_camera, framed_focus) = if placement.frame_bounds {
         let aperture = args.lens_options.aperture(ApertureSetting::Full);
-        frame_scene(&mut renderer, &prescriptions[0], aperture, film_diagonal)?
+        frame_scene(&mut renderer, &prescriptions[0], aperture, film_diagonal)
+            .with_context(|| source_path.display().to_string())?
     } else {
         (placement.world_from_camera, placement.default_focus_m)
     };

@@ -46,11 +46,14 @@ pub enum FocusError {
         "cannot focus at {requested_m:.4} m: the closest this lens can focus is {closest_m:.4} m (film plane to object)"
     )]
     TooClose { requested_m: f64, closest_m: f64 },
-    #[error("focus distance {0} m is not a positive finite number")]
+    #[error("focus distance {0} m is not a positive number (or inf)")]
     Invalid(f64),
     #[error("no real rays from the on-axis object point pass the lens; cannot find the best focus")]
     NoRays,
 }
+
+/// Focus distances at or beyond this (mm; 10⁶ km) are treated as infinity focus.
+pub const INFINITY_FOCUS_MM: f64 = 1e12;
 
 /// Closest focus distance (film plane → object), mm.
 pub fn closest_focus_mm(system: &LensSystem, first_order: &FirstOrder) -> f64 {
@@ -65,9 +68,13 @@ pub fn paraxial_film_distance(
     first_order: &FirstOrder,
     focus_distance_mm: f64,
 ) -> Result<f64, FocusError> {
-    if !(focus_distance_mm.is_finite() && focus_distance_mm > 0.0) {
+    if !(focus_distance_mm > 0.0) {
         return Err(FocusError::Invalid(focus_distance_mm / 1000.0));
     }
+    // Beyond a million kilometres every lens is focused at infinity to far better than f64's
+    // precision in the film distance; clamping there lets `inf` mean infinity focus and keeps
+    // (C·L)² below overflow for any requested distance.
+    let focus_distance_mm = focus_distance_mm.min(INFINITY_FOCUS_MM);
     let too_close = || FocusError::TooClose {
         requested_m: focus_distance_mm / 1000.0,
         closest_m: closest_focus_mm(system, first_order) / 1000.0,
