@@ -15,7 +15,7 @@ use clap::Args;
 
 use crate::film::Image;
 use crate::film::checkpoint::{CheckpointInfo, read_checkpoint};
-use crate::film::output::{auto_exposure, check_writable, write_exr, write_png};
+use crate::film::output::{auto_exposure, check_writable, same_file, write_exr, write_png};
 
 #[derive(Args, Debug, Clone)]
 pub struct MergeArgs {
@@ -121,13 +121,6 @@ fn validate(args: &MergeArgs) -> anyhow::Result<()> {
         check_writable(output)?;
     }
     Ok(())
-}
-
-fn same_file(a: &Path, b: &Path) -> bool {
-    match (a.canonicalize(), b.canonicalize()) {
-        (Ok(a), Ok(b)) => a == b,
-        _ => false,
-    }
 }
 
 /// What a partial says about itself. Its pixels are added up as soon as it is read and then

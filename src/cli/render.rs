@@ -19,12 +19,12 @@ use super::plan::{Frame, FrameRequest, Shard, Sweep, plan_frames, sidecar};
 use super::setup::{
     Placement, autofocus, choose_environment, frame_scene, parse_vec3, place_camera,
 };
-use crate::film::Image;
 use crate::film::checkpoint::{CheckpointInfo, FORMAT_VERSION, read_checkpoint, write_checkpoint};
 use crate::film::contact_sheet::{Thumbnail, contact_sheet};
 use crate::film::output::{
-    auto_exposure, check_writable, to_srgb8, write_atomically, write_exr, write_png,
+    auto_exposure, check_writable, same_file, to_srgb8, write_atomically, write_exr, write_png,
 };
+use crate::film::{Image, MAX_IMAGE_SIDE};
 use crate::lens::Prescription;
 use crate::lens::aperture::ApertureSetting;
 use crate::lens::bundled::{DEFAULT_LENS, load_lens};
@@ -668,9 +668,9 @@ fn validate(args: &RenderArgs) -> anyhow::Result<()> {
     }
     for (name, value) in [("width", args.width), ("height", args.height)] {
         if let Some(v) = value
-            && !(1..=16384).contains(&v)
+            && !(1..=MAX_IMAGE_SIDE).contains(&v)
         {
-            bail!("--{name} must be between 1 and 16384 pixels, got {v}");
+            bail!("--{name} must be between 1 and {MAX_IMAGE_SIDE} pixels, got {v}");
         }
     }
     if args.max_depth == 0 {
@@ -753,13 +753,6 @@ fn refuse_overwriting_scene_files(
         }
     }
     Ok(())
-}
-
-fn same_file(a: &Path, b: &Path) -> bool {
-    match (a.canonicalize(), b.canonicalize()) {
-        (Ok(a), Ok(b)) => a == b,
-        _ => false,
-    }
 }
 
 fn progress_bar(spp: u32, pixels: u32) -> ProgressBar {

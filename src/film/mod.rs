@@ -10,6 +10,10 @@ pub mod output;
 
 use bevy_ecs::component::Component;
 
+/// The largest image side realcam renders, in pixels: 16K, far beyond any display, while a
+/// 16384² film's sums still fit comfortably in memory (3 GiB).
+pub const MAX_IMAGE_SIDE: u32 = 16_384;
+
 /// A rectangle of the image with its accumulation buffers.
 #[derive(Component, Clone, Debug)]
 pub struct FilmTile {

@@ -75,6 +75,15 @@ pub fn write_exr(path: &Path, image: &Image) -> anyhow::Result<()> {
 }
 
 /// Checks before a long render that `path` can be written: its folder exists and is writable.
+/// True when both paths name one existing file (through links, `..` and the like): an output
+/// must never be written over one of the inputs.
+pub fn same_file(a: &Path, b: &Path) -> bool {
+    match (a.canonicalize(), b.canonicalize()) {
+        (Ok(a), Ok(b)) => a == b,
+        _ => false,
+    }
+}
+
 pub fn check_writable(path: &Path) -> anyhow::Result<()> {
     if path.is_dir() {
         bail!(

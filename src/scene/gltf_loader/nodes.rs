@@ -8,6 +8,7 @@ use gltf::json::validation::Checked;
 use serde::Deserialize;
 
 use super::{MAX_NODE_DEPTH, MAX_NODE_VISITS};
+use crate::film::MAX_IMAGE_SIDE;
 use crate::lens::prescription::MAX_LENGTH_MM;
 use crate::scene::{CameraHints, PunctualLight, SceneCamera};
 
@@ -234,9 +235,6 @@ fn camera_hints(
     }
     CameraHints::default()
 }
-
-/// The largest image side a hint may ask for, as `realcam render --width/--height` allow.
-const MAX_IMAGE_SIDE: u32 = 16_384;
 
 /// `hints` without the values no flag would accept, each dropped with a warning: a file's
 /// hint is checked like the flag it stands in for (a 100 000 × 100 000 hint would otherwise
