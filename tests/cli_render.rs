@@ -141,6 +141,109 @@ fn same_seed_same_image_with_one_or_two_threads() {
     );
 }
 
+/// Starts `realcam render --out cut.png` with `args`, a checkpoint every 0.05 s, sends SIGINT
+/// once `checkpoint` (in `dir`) appears, and returns the checkpoint saved on the way out.
+fn render_until_interrupted(
+    dir: &std::path::Path,
+    args: &[&str],
+    checkpoint: &str,
+) -> (
+    realcam::film::Image,
+    realcam::film::checkpoint::CheckpointInfo,
+) {
+    let child = Command::new(env!("CARGO_BIN_EXE_realcam"))
+        .args(["render", "--out", "cut.png", "--checkpoint-every", "0.05"])
+        .args(args)
+        .current_dir(dir)
+        .stdin(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let checkpoint = dir.join(checkpoint);
+    let deadline = Instant::now() + Duration::from_secs(60);
+    while !checkpoint.exists() {
+        assert!(Instant::now() < deadline, "no checkpoint appeared");
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    let output = child.wait_with_output().unwrap();
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert_eq!(output.status.code(), Some(130), "{stderr}");
+    let (partial, info) = read_checkpoint(&checkpoint).unwrap();
+    assert!(
+        partial.samples > 0 && !info.remaining.is_empty(),
+        "stopped mid-way: {} done",
+        partial.samples
+    );
+    (partial, info)
+}
+
+#[test]
+fn interrupted_shard_resumes_to_the_uninterrupted_partial() {
+    let dir = tempfile::tempdir().unwrap();
+    let common = [
+        "--spp",
+        "30000",
+        "--width",
+        "8",
+        "--height",
+        "8",
+        "--max-depth",
+        "1",
+        "--seed",
+        "5",
+    ];
+    let mut shard = common.to_vec();
+    shard.extend(["--shard", "1/3"]);
+    // Each shard of a frame saves to a checkpoint of its own by default.
+    let (partial, info) =
+        render_until_interrupted(dir.path(), &shard, "cut.shard-1-of-3.checkpoint.exr");
+    assert_eq!(info.shard, Some((1, 3)));
+    assert_eq!(partial.samples as usize + info.remaining.len(), 10000);
+
+    // The checkpoint refuses to continue as the whole frame or as another shard.
+    for (flags, phrase) in [
+        (vec![], "resume it with --shard 1/3"),
+        (vec!["--shard", "2/3"], "not of shard 2/3"),
+    ] {
+        let mut args = vec![
+            "render",
+            "--out",
+            "cut.png",
+            "--resume",
+            "cut.shard-1-of-3.checkpoint.exr",
+        ];
+        args.extend(common);
+        args.extend(flags);
+        let run = realcam(dir.path(), &args);
+        assert_eq!(run.status.code(), Some(1));
+        assert!(String::from_utf8_lossy(&run.stderr).contains(phrase));
+    }
+
+    let mut resume = vec![
+        "render",
+        "--out",
+        "cut.png",
+        "--partial",
+        "resumed.exr",
+        "--resume",
+        "cut.shard-1-of-3.checkpoint.exr",
+    ];
+    resume.extend(&shard);
+    ok(&realcam(dir.path(), &resume));
+    let mut whole = vec!["render", "--out", "whole.png", "--partial", "whole.exr"];
+    whole.extend(&shard);
+    ok(&realcam(dir.path(), &whole));
+    let (resumed, resumed_info) = read_checkpoint(&dir.path().join("resumed.exr")).unwrap();
+    let (uninterrupted, _) = read_checkpoint(&dir.path().join("whole.exr")).unwrap();
+    assert!(resumed_info.remaining.is_empty());
+    assert_eq!(resumed.samples, 10000);
+    assert_eq!(resumed.sums, uninterrupted.sums);
+}
+
 #[test]
 fn interrupted_render_resumes_to_the_uninterrupted_image() {
     let dir = tempfile::tempdir().unwrap();
@@ -157,37 +260,12 @@ fn interrupted_render_resumes_to_the_uninterrupted_image() {
         "--seed",
         "5",
     ];
-    let child = Command::new(env!("CARGO_BIN_EXE_realcam"))
-        .args(["render", "--out", "cut.png", "--checkpoint-every", "0.05"])
-        .args(common)
-        .current_dir(dir.path())
-        .stdin(Stdio::null())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    let checkpoint = dir.path().join("cut.checkpoint.exr");
-    let deadline = Instant::now() + Duration::from_secs(60);
-    while !checkpoint.exists() {
-        assert!(Instant::now() < deadline, "no checkpoint appeared");
-        std::thread::sleep(Duration::from_millis(10));
-    }
-    Command::new("kill")
-        .args(["-INT", &child.id().to_string()])
-        .status()
-        .unwrap();
-    let output = child.wait_with_output().unwrap();
-    let stderr = String::from_utf8_lossy(&output.stderr);
-    assert_eq!(output.status.code(), Some(130), "{stderr}");
+    let (partial, info) = render_until_interrupted(dir.path(), &common, "cut.checkpoint.exr");
     assert!(
         dir.path().join("cut.png").exists(),
         "the image so far is written"
     );
-    let (partial, info) = read_checkpoint(&checkpoint).unwrap();
-    assert!(
-        partial.samples > 0 && !info.remaining.is_empty(),
-        "stopped mid-way: {} done",
-        partial.samples
-    );
+    assert!(info.shard.is_none());
     assert_eq!(partial.samples as usize + info.remaining.len(), 30000);
 
     let mut resume = vec![

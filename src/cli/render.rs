@@ -115,14 +115,15 @@ pub struct RenderArgs {
     #[arg(long, value_name = "FILE.png")]
     pub contact_sheet: Option<PathBuf>,
     /// Where Ctrl-C, SIGTERM and --checkpoint-every save the render so far [default:
-    /// `<out stem>.checkpoint.exr`].
+    /// `<out stem>.checkpoint.exr`, for a shard `<out stem>.shard-I-of-N.checkpoint.exr`].
     #[arg(long, value_name = "FILE.exr")]
     pub checkpoint: Option<PathBuf>,
     /// Also save a checkpoint every SECONDS of rendering.
     #[arg(long, value_name = "SECONDS", allow_negative_numbers = true)]
     pub checkpoint_every: Option<f64>,
-    /// Continue the render saved in CHECKPOINT (same scene and settings) to the target --spp.
-    #[arg(long, value_name = "CHECKPOINT", conflicts_with_all = ["shard", "focus_sweep", "aperture_sweep"])]
+    /// Continue the render saved in CHECKPOINT (same scene and settings, and the same --shard
+    /// for a shard's checkpoint) to the target --spp.
+    #[arg(long, value_name = "CHECKPOINT", conflicts_with_all = ["focus_sweep", "aperture_sweep"])]
     pub resume: Option<PathBuf>,
     /// Render only the I-th (0-based) of N disjoint sample subsets, to a partial EXR that
     /// `realcam merge` combines (one shard per render-farm task).
@@ -465,16 +466,20 @@ fn render_frame(
     );
 
     let settings = settings_fingerprint(context, renderer, lens, frame);
-    let checkpoint_path = args
-        .checkpoint
-        .clone()
-        .unwrap_or_else(|| sidecar(&frame.out, "checkpoint"));
+    // Shards of one frame share its --out, so each keeps its own checkpoint beside it.
+    let checkpoint_path = args.checkpoint.clone().unwrap_or_else(|| match args.shard {
+        Some(shard) => sidecar(
+            &frame.out,
+            &format!("shard-{}-of-{}.checkpoint", shard.index, shard.count),
+        ),
+        None => sidecar(&frame.out, "checkpoint"),
+    });
     let planned: Vec<u32> = match args.shard {
         Some(shard) => shard.samples(args.spp),
         None => (0..args.spp).collect(),
     };
     let (start_image, samples) = match &args.resume {
-        Some(path) => resume_from(path, &settings, args.spp)?,
+        Some(path) => resume_from(path, &settings, args.spp, args.shard)?,
         None => (None, planned.clone()),
     };
     renderer.begin_film(start_image.as_ref())?;
@@ -620,13 +625,32 @@ fn resume_from(
     path: &Path,
     settings: &Value,
     spp: u32,
+    shard: Option<Shard>,
 ) -> anyhow::Result<(Option<Image>, Vec<u32>)> {
     let (image, info) = read_checkpoint(path)?;
-    if info.shard.is_some() {
-        bail!(
-            "{}: is a shard partial, not a checkpoint; combine partials with `realcam merge`",
+    let shard = shard.map(|s| (s.index, s.count));
+    match (info.shard, shard) {
+        (Some(_), None) if info.remaining.is_empty() => bail!(
+            "{}: is a finished shard partial, not a checkpoint; combine partials with `realcam merge`",
             path.display()
-        );
+        ),
+        (Some((index, count)), None) => bail!(
+            "{}: is the checkpoint of shard {index}/{count}; resume it with --shard {index}/{count}",
+            path.display()
+        ),
+        (None, Some((index, count))) => bail!(
+            "{}: is the checkpoint of a whole frame, not of shard {index}/{count}; resume it without --shard",
+            path.display()
+        ),
+        (Some(theirs), Some(ours)) if theirs != ours => bail!(
+            "{}: is the checkpoint of shard {}/{}, not of shard {}/{}",
+            path.display(),
+            theirs.0,
+            theirs.1,
+            ours.0,
+            ours.1
+        ),
+        _ => {}
     }
     if &info.settings != settings {
         let differing: Vec<String> = match (&info.settings, settings) {
