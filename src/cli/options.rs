@@ -89,7 +89,7 @@ impl LensOptions {
             _ => Ok(()),
         };
         if let Some(metres) = self.focus_distance
-            && !(metres > 0.0)
+            && (metres.is_nan() || metres <= 0.0)
         {
             anyhow::bail!(
                 "--focus-distance must be a positive number of metres or inf, got {metres}"

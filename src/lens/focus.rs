@@ -68,7 +68,7 @@ pub fn paraxial_film_distance(
     first_order: &FirstOrder,
     focus_distance_mm: f64,
 ) -> Result<f64, FocusError> {
-    if !(focus_distance_mm > 0.0) {
+    if focus_distance_mm.is_nan() || focus_distance_mm <= 0.0 {
         return Err(FocusError::Invalid(focus_distance_mm / 1000.0));
     }
     // Beyond a million kilometres every lens is focused at infinity to far better than f64's
