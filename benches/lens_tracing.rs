@@ -1,14 +1,17 @@
 //! Lens ray tracing, one thread: the scalar per-ray path (the reference tracer in f32, array of
 //! structs) against SoA batches of 64 … 4096 rays with both kernels (auto-vectorised, on each
 //! instruction set, and explicit 8-lane `wide`), for every bundled lens; and the exit-pupil
-//! bounds of every lens.
+//! bounds of every lens; and whole camera-ray generation (sample patterns, exit pupil, lens,
+//! world frame) for one tile.
 //! The rays are film → scene camera rays as the renderer makes them (see
 //! `realcam::cli::bench::LensWorkload`, which `realcam bench` measures too).
 
 use divan::{Bencher, black_box};
+use glam::Mat4;
 use realcam::batch::RayBatch;
 use realcam::cli::bench::LensWorkload;
 use realcam::lens::bundled::BUNDLED;
+use realcam::lens::camera::{CameraRays, FilmGeometry, LensCamera};
 use realcam::lens::pupil::{ExitPupil, PupilSampling};
 use realcam::lens::trace_batch::{Isa, Kernel};
 
@@ -81,4 +84,31 @@ fn exit_pupil_bounds(bencher: Bencher, lens: &str) {
             PupilSampling::Bounds,
         )
     });
+}
+
+/// Camera rays for a 32 × 32 tile (the renderer's tile) of a 512 × 512 film, one pass of a
+/// 32 spp plan (stratified patterns) and one pass past it (independent numbers), one thread.
+#[divan::bench(args = ["dgauss.50mm", "fisheye.10mm"], consts = [0, 32], sample_count = 40)]
+fn camera_generate<const PASS: u32>(bencher: Bencher, lens: &str) {
+    let w = workload(lens);
+    let pupil = ExitPupil::compute(
+        &w.system,
+        w.film_distance,
+        LensWorkload::FILM_DIAGONAL_MM,
+        PupilSampling::Bounds,
+    );
+    let camera = LensCamera {
+        system: &w.system,
+        pupil: &pupil,
+        film: FilmGeometry::new(512, 512, LensWorkload::FILM_DIAGONAL_MM),
+        world_from_camera: Mat4::IDENTITY,
+        samples_per_pixel: 32,
+    };
+    let pixels: Vec<(u32, u32)> = (0..32)
+        .flat_map(|y| (0..32).map(move |x| (240 + x, 240 + y)))
+        .collect();
+    let mut out = CameraRays::default();
+    bencher
+        .counter(divan::counter::ItemsCount::new(pixels.len()))
+        .bench_local(|| camera.generate(pixels.iter().copied(), PASS, 7, black_box(&mut out)));
 }

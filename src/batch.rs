@@ -70,6 +70,27 @@ impl RayBatch {
         self.alive.clear();
     }
 
+    /// Sets every array to `n` rays; new rays have unit throughput and are alive, with zero
+    /// origin, direction, pixel and sample, for a stage that fills them in place by index.
+    pub fn resize(&mut self, n: usize) {
+        for v in [
+            &mut self.ox,
+            &mut self.oy,
+            &mut self.oz,
+            &mut self.dx,
+            &mut self.dy,
+            &mut self.dz,
+        ] {
+            v.resize(n, 0.0);
+        }
+        for v in [&mut self.tr, &mut self.tg, &mut self.tb] {
+            v.resize(n, 1.0);
+        }
+        self.pixel.resize(n, 0);
+        self.sample.resize(n, 0);
+        self.alive.resize(n, true);
+    }
+
     /// Appends one ray with unit throughput.
     pub fn push(&mut self, origin: [f32; 3], direction: [f32; 3], pixel: u32, sample: u32) {
         self.ox.push(origin[0]);

@@ -8,14 +8,14 @@
 //! inverts the image, the pixel at the image's top right is the film point at bottom left
 //! (−x, −y); mapping pixels that way gives an upright, unmirrored picture.
 
-use glam::{Mat4, Vec3};
+use glam::Mat4;
 
-use super::pupil::ExitPupil;
+use super::pupil::{ExitPupil, FilmRays};
 use super::system::LensSystem;
 use super::trace::Travel;
-use super::trace_batch::trace_batch;
+use super::trace_batch::{Isa, trace_batch};
 use crate::batch::RayBatch;
-use crate::sampling::{Rng, correlated_multi_jitter};
+use crate::sampling::{CorrelatedMultiJitter, Rng, hash32};
 
 /// The film's size in pixels and millimetres.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -40,10 +40,39 @@ impl FilmGeometry {
     }
 
     /// Lens-frame film point (x, y, mm) of the continuous pixel position (`px`, `py`).
+    #[inline(always)]
     pub fn film_point(&self, px: f32, py: f32) -> [f32; 2] {
-        let u = px / self.width as f32 - 0.5;
-        let v = py / self.height as f32 - 0.5;
-        [-u * self.width_mm, v * self.height_mm]
+        self.film_map().apply(px, py)
+    }
+
+    /// Pixel position → film point as a scale per axis about the image centre, so a loop over
+    /// many pixels does not divide by the film size each time.
+    #[inline(always)]
+    fn film_map(&self) -> FilmMap {
+        FilmMap {
+            scale: [
+                -self.width_mm / self.width as f32,
+                self.height_mm / self.height as f32,
+            ],
+            centre: [0.5 * self.width as f32, 0.5 * self.height as f32],
+        }
+    }
+}
+
+/// `film = scale · (pixel − centre)`, per axis (x flipped: see the module docs).
+#[derive(Clone, Copy, Debug)]
+struct FilmMap {
+    scale: [f32; 2],
+    centre: [f32; 2],
+}
+
+impl FilmMap {
+    #[inline(always)]
+    fn apply(&self, px: f32, py: f32) -> [f32; 2] {
+        [
+            self.scale[0] * (px - self.centre[0]),
+            self.scale[1] * (py - self.centre[1]),
+        ]
     }
 }
 
@@ -56,7 +85,8 @@ pub struct LensCamera<'a> {
     /// Rigid transform from the camera frame (see module docs) to the world.
     pub world_from_camera: Mat4,
     /// The render's target spp: samples 0..this are stratified together; beyond it (or when
-    /// 0) samples are independent.
+    /// 0) samples are independent. Plans beyond [`CorrelatedMultiJitter::MAX_COUNT`] stratify
+    /// that many.
     pub samples_per_pixel: u32,
 }
 
@@ -66,7 +96,23 @@ pub struct CameraRays {
     pub rays: RayBatch,
     /// Camera-measurement weight (see [`super::pupil::PupilSample`]); 0 for blocked rays.
     pub weight: Vec<f32>,
+    scratch: Scratch,
 }
+
+/// Per-pixel inputs of a batch, structure of arrays, kept to reuse their allocations.
+#[derive(Clone, Debug, Default)]
+struct Scratch {
+    pixel: Vec<u32>,
+    px: Vec<f32>,
+    py: Vec<f32>,
+    /// Pattern keys: film, pupil.
+    keys: [Vec<u32>; 2],
+    /// The 4D camera sample: film jitter x, y; pupil u, v.
+    u: [Vec<f32>; 4],
+}
+
+/// Seed key of the camera's sample patterns, apart from the shading streams.
+const CAMERA_KEY: u64 = 0x4341_4d45_5241_5f4b; // "CAMERA_K"
 
 impl LensCamera<'_> {
     fn film_z(&self) -> f32 {
@@ -74,7 +120,7 @@ impl LensCamera<'_> {
     }
 
     /// Generates sample `sample` of each pixel in `pixels` (x, y) into `out`, replacing its
-    /// contents: film point and pupil point from the sample's own random stream, traced through
+    /// contents: film point and pupil point from the sample's own numbers, traced through
     /// the lens as one SoA batch, then moved to the world frame.
     pub fn generate(
         &self,
@@ -83,78 +129,148 @@ impl LensCamera<'_> {
         seed: u64,
         out: &mut CameraRays,
     ) {
-        let film_z = self.film_z();
-        let rays = &mut out.rays;
-        rays.clear();
-        out.weight.clear();
+        let scratch = &mut out.scratch;
+        scratch.pixel.clear();
+        scratch.px.clear();
+        scratch.py.clear();
         for (x, y) in pixels {
-            let pixel = y * self.film.width + x;
-            let (jitter, pupil_u) = self.camera_sample(seed, pixel, sample);
-            let [fx, fy] = self
-                .film
-                .film_point(x as f32 + jitter[0], y as f32 + jitter[1]);
-            match self.pupil.sample(fx, fy, pupil_u) {
-                Some(s) => {
-                    let d = [s.point[0] - fx, s.point[1] - fy, s.point[2] - film_z];
-                    let inv = 1.0 / (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
-                    rays.push(
-                        [fx, fy, film_z],
-                        [d[0] * inv, d[1] * inv, d[2] * inv],
-                        pixel,
-                        sample,
-                    );
-                    out.weight.push(s.weight);
-                }
-                None => {
-                    rays.push([fx, fy, film_z], [0.0, 0.0, -1.0], pixel, sample);
-                    let last = rays.len() - 1;
-                    rays.alive[last] = false;
-                    out.weight.push(0.0);
-                }
-            }
+            scratch.pixel.push(y * self.film.width + x);
+            scratch.px.push(x as f32);
+            scratch.py.push(y as f32);
         }
-        trace_batch(&self.system.f32s, rays, Travel::FilmToScene);
-        self.to_world(film_z, out);
+        let n = scratch.pixel.len();
+        for v in &mut scratch.keys {
+            v.resize(n, 0);
+        }
+        for v in &mut scratch.u {
+            v.resize(n, 0.0);
+        }
+        out.rays.clear();
+        out.rays.resize(n);
+        out.weight.clear();
+        out.weight.resize(n, 0.0);
+        // The per-pixel loops are compiled again for wider vector units and the widest this
+        // CPU has is chosen, as for the lens kernel.
+        match Isa::detect() {
+            Isa::Baseline => self.generate_prepared(sample, seed, out),
+            // SAFETY (both): `Isa::detect` found the instructions on this CPU.
+            #[cfg(target_arch = "x86_64")]
+            Isa::Avx2 => unsafe { self.generate_prepared_avx2(sample, seed, out) },
+            #[cfg(target_arch = "x86_64")]
+            Isa::Avx512 => unsafe { self.generate_prepared_avx512(sample, seed, out) },
+            #[cfg(not(target_arch = "x86_64"))]
+            _ => unreachable!("Isa::detect finds only the baseline here"),
+        }
     }
 
-    /// The 4D camera sample (film jitter, pupil point) of `sample` in `pixel`: two correlated
-    /// multi-jittered 2D patterns over the planned samples, keyed per pixel and per pair of
-    /// dimensions; independent random numbers past the plan.
-    fn camera_sample(&self, seed: u64, pixel: u32, sample: u32) -> ([f32; 2], [f32; 2]) {
-        const CAMERA_KEY: u64 = 0x4341_4d45_5241_5f4b; // "CAMERA_K"
-        if sample < self.samples_per_pixel {
-            let mut keys = Rng::for_sample(seed ^ CAMERA_KEY, pixel, u32::MAX);
-            let (film_key, pupil_key) = (keys.next_u32(), keys.next_u32());
-            let count = self.samples_per_pixel;
-            (
-                correlated_multi_jitter(sample, count, film_key),
-                correlated_multi_jitter(sample, count, pupil_key),
-            )
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn generate_prepared_avx2(&self, sample: u32, seed: u64, out: &mut CameraRays) {
+        self.generate_prepared(sample, seed, out)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f,avx512vl,avx512bw,avx512dq")]
+    fn generate_prepared_avx512(&self, sample: u32, seed: u64, out: &mut CameraRays) {
+        self.generate_prepared(sample, seed, out)
+    }
+
+    /// [`Self::generate`] once the pixels are in the scratch arrays and the outputs sized.
+    #[inline(always)]
+    fn generate_prepared(&self, sample: u32, seed: u64, out: &mut CameraRays) {
+        let film_z = self.film_z();
+        self.camera_samples(sample, seed, &mut out.scratch);
+        self.film_to_pupil(sample, film_z, out);
+        trace_batch(&self.system.f32s, &mut out.rays, Travel::FilmToScene);
+        self.move_to_world(film_z, out);
+    }
+
+    /// The 4D camera sample (film jitter, pupil point) of `sample` in every scratch pixel: two
+    /// correlated multi-jittered 2D patterns over the planned samples, keyed per pixel and per
+    /// pair of dimensions; independent random numbers past the plan.
+    #[inline(always)]
+    fn camera_samples(&self, sample: u32, seed: u64, scratch: &mut Scratch) {
+        let planned = self.samples_per_pixel.min(CorrelatedMultiJitter::MAX_COUNT);
+        let [film_u, film_v, pupil_u, pupil_v] = &mut scratch.u;
+        if sample < planned {
+            let mut seed_keys = Rng::for_sample(seed ^ CAMERA_KEY, u32::MAX, u32::MAX);
+            let (film_seed, pupil_seed) = (seed_keys.next_u32(), seed_keys.next_u32());
+            let [film_keys, pupil_keys] = &mut scratch.keys;
+            // hash32 is a bijection: distinct pixels get distinct keys, and the pupil key is
+            // a further hash of the film key, so the two patterns of a pixel are unrelated.
+            for ((&pixel, film), pupil) in scratch
+                .pixel
+                .iter()
+                .zip(film_keys.iter_mut())
+                .zip(pupil_keys.iter_mut())
+            {
+                *film = hash32(pixel ^ film_seed);
+                *pupil = hash32(*film ^ pupil_seed);
+            }
+            let pattern = CorrelatedMultiJitter::new(planned);
+            pattern.fill(sample, film_keys, film_u, film_v);
+            pattern.fill(sample, pupil_keys, pupil_u, pupil_v);
         } else {
-            let mut rng = Rng::for_sample(seed, pixel, sample);
-            (rng.next_2d(), rng.next_2d())
+            for (i, &pixel) in scratch.pixel.iter().enumerate() {
+                let mut rng = Rng::for_sample(seed, pixel, sample);
+                [film_u[i], film_v[i]] = rng.next_2d();
+                [pupil_u[i], pupil_v[i]] = rng.next_2d();
+            }
         }
+    }
+
+    /// Film point and pupil point of every ray, as the lens-frame ray between them, with its
+    /// camera weight; rays from film points no ray leaves are blocked at once.
+    #[inline(always)]
+    fn film_to_pupil(&self, sample: u32, film_z: f32, out: &mut CameraRays) {
+        let film = self.film.film_map();
+        let s = &out.scratch;
+        let rays = &mut out.rays;
+        let n = s.pixel.len();
+        let [film_u, film_v, pupil_u, pupil_v] = &s.u;
+        let (px, py, film_u, film_v) = (&s.px[..n], &s.py[..n], &film_u[..n], &film_v[..n]);
+        let (ox, oy) = (&mut rays.ox[..n], &mut rays.oy[..n]);
+        for i in 0..n {
+            [ox[i], oy[i]] = film.apply(px[i] + film_u[i], py[i] + film_v[i]);
+        }
+        rays.oz.fill(film_z);
+        rays.pixel.copy_from_slice(&s.pixel);
+        rays.sample.fill(sample);
+        self.pupil.sampler().sample(FilmRays {
+            x: &rays.ox,
+            y: &rays.oy,
+            u: pupil_u,
+            v: pupil_v,
+            dx: &mut rays.dx,
+            dy: &mut rays.dy,
+            dz: &mut rays.dz,
+            weight: &mut out.weight,
+            passes: &mut rays.alive,
+        });
     }
 
     /// Lens frame (mm) → camera frame (m) → world, for every ray; zero weight for the blocked.
-    fn to_world(&self, film_z: f32, out: &mut CameraRays) {
-        let m = self.world_from_camera;
-        let (cx, cy, cz, ct) = (m.x_axis, m.y_axis, m.z_axis, m.w_axis);
+    #[inline(always)]
+    fn move_to_world(&self, film_z: f32, out: &mut CameraRays) {
+        let m = self.world_from_camera.to_cols_array_2d();
         let rays = &mut out.rays;
-        for i in 0..rays.len() {
-            let p = Vec3::new(rays.ox[i], rays.oy[i], rays.oz[i] - film_z) * 1e-3;
-            let d = Vec3::new(rays.dx[i], rays.dy[i], rays.dz[i]);
-            let wp =
-                cx.truncate() * p.x + cy.truncate() * p.y + cz.truncate() * p.z + ct.truncate();
-            let wd = cx.truncate() * d.x + cy.truncate() * d.y + cz.truncate() * d.z;
-            rays.ox[i] = wp.x;
-            rays.oy[i] = wp.y;
-            rays.oz[i] = wp.z;
-            rays.dx[i] = wd.x;
-            rays.dy[i] = wd.y;
-            rays.dz[i] = wd.z;
-            if !rays.alive[i] {
-                out.weight[i] = 0.0;
+        let n = rays.len();
+        let (ox, oy, oz) = (&mut rays.ox[..n], &mut rays.oy[..n], &mut rays.oz[..n]);
+        let (dx, dy, dz) = (&mut rays.dx[..n], &mut rays.dy[..n], &mut rays.dz[..n]);
+        let (alive, weight) = (&rays.alive[..n], &mut out.weight[..n]);
+        for i in 0..n {
+            let p = [ox[i] * 1e-3, oy[i] * 1e-3, (oz[i] - film_z) * 1e-3];
+            let d = [dx[i], dy[i], dz[i]];
+            let world =
+                |v: [f32; 3], row: usize| m[0][row] * v[0] + m[1][row] * v[1] + m[2][row] * v[2];
+            ox[i] = world(p, 0) + m[3][0];
+            oy[i] = world(p, 1) + m[3][1];
+            oz[i] = world(p, 2) + m[3][2];
+            dx[i] = world(d, 0);
+            dy[i] = world(d, 1);
+            dz[i] = world(d, 2);
+            if !alive[i] {
+                weight[i] = 0.0;
             }
         }
     }

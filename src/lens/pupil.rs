@@ -197,15 +197,145 @@ impl ExitPupil {
                 )
             }
         };
-        let film_z = (self.rear_z + self.film_distance) as f32;
-        let to = [px - x, py - y, self.rear_z as f32 - film_z];
-        let cos_theta = to[2].abs() / (to[0] * to[0] + to[1] * to[1] + to[2] * to[2]).sqrt();
         let z = self.film_distance as f32;
-        let weight = cos_theta.powi(4) * area / (z * z);
+        let to = [px - x, py - y, -z];
         Some(PupilSample {
             point: [px, py, self.rear_z as f32],
-            weight,
+            weight: camera_weight(to, area, 1.0 / (z * z)),
         })
+    }
+
+    /// The f32 sampler of this pupil, for the loops of camera-ray generation.
+    pub fn sampler(&self) -> PupilSampler {
+        let mut segments = [[0.0; 4]; SEGMENTS];
+        let mut areas = [0.0; SEGMENTS];
+        for (k, rect) in self.segments.iter().enumerate() {
+            if !rect.is_empty() {
+                let extent = [rect.max[0] - rect.min[0], rect.max[1] - rect.min[1]];
+                segments[k] = [rect.min[0], rect.min[1], extent[0], extent[1]].map(|v| v as f32);
+                areas[k] = rect.area() as f32;
+            }
+        }
+        let z = self.film_distance as f32;
+        PupilSampler {
+            sampling: self.sampling,
+            segment_scale: (SEGMENTS as f64 / self.film_radius) as f32,
+            segments,
+            areas,
+            rear_radius: self.rear_radius as f32,
+            film_distance: z,
+            inv_z2: 1.0 / (z * z),
+        }
+    }
+}
+
+/// cos⁴θ · A / z² for a ray along `to` (film point → rear-plane point, any length) out of an
+/// area `A` sampled uniformly, with `inv_z2` = 1 / z²: see [`PupilSample::weight`].
+#[inline(always)]
+fn camera_weight(to: [f32; 3], area: f32, inv_z2: f32) -> f32 {
+    let cos2 = to[2] * to[2] / (to[0] * to[0] + to[1] * to[1] + to[2] * to[2]);
+    cos2 * cos2 * area * inv_z2
+}
+
+/// [`ExitPupil::sample`] in f32 over whole batches, with what depends only on the lens worked
+/// out once: the segment found with a multiply, each segment's bounds as corner and extent.
+/// Rays from the same film point and `u` agree with the f64 sampler to f32 rounding, except
+/// within rounding of a segment boundary, where either neighbour's bounds are valid.
+#[derive(Clone, Debug)]
+pub struct PupilSampler {
+    sampling: PupilSampling,
+    /// SEGMENTS / film radius.
+    segment_scale: f32,
+    /// Per segment: min x, min y, extent x, extent y (all 0 when no ray passes).
+    segments: [[f32; 4]; SEGMENTS],
+    /// Per segment: the bounds' area, 0 when no ray passes.
+    areas: [f32; SEGMENTS],
+    rear_radius: f32,
+    film_distance: f32,
+    inv_z2: f32,
+}
+
+/// Film points and the camera rays out of them, structure of arrays (lens frame, mm).
+pub struct FilmRays<'a> {
+    pub x: &'a [f32],
+    pub y: &'a [f32],
+    /// Uniform numbers choosing each ray's point in the pupil.
+    pub u: &'a [f32],
+    pub v: &'a [f32],
+    /// Out: unit direction toward the rear-plane point; (0, 0, −1) where no ray passes.
+    pub dx: &'a mut [f32],
+    pub dy: &'a mut [f32],
+    pub dz: &'a mut [f32],
+    /// Out: [`PupilSample::weight`]; 0 where no ray passes.
+    pub weight: &'a mut [f32],
+    /// Out: false for film points no ray leaves.
+    pub passes: &'a mut [bool],
+}
+
+impl PupilSampler {
+    /// One camera ray per film point of `rays`, as [`ExitPupil::sample`] picks them. A loop
+    /// without branches, so it vectorises (in the bounds scheme: the rear-element scheme's
+    /// disk mapping calls sin and cos).
+    #[inline(always)]
+    pub fn sample(&self, rays: FilmRays) {
+        match self.sampling {
+            PupilSampling::Bounds => {
+                self.sample_with(rays, |x, y, u, v| self.in_bounds(x, y, u, v))
+            }
+            PupilSampling::RearElement => {
+                self.sample_with(rays, |_, _, u, v| self.on_rear_element(u, v))
+            }
+        }
+    }
+
+    #[inline(always)]
+    fn sample_with(&self, rays: FilmRays, point: impl Fn(f32, f32, f32, f32) -> ([f32; 2], f32)) {
+        let n = rays.x.len();
+        let (x, y, u, v) = (&rays.x[..n], &rays.y[..n], &rays.u[..n], &rays.v[..n]);
+        let (dx, dy, dz) = (&mut rays.dx[..n], &mut rays.dy[..n], &mut rays.dz[..n]);
+        let (weight, passes) = (&mut rays.weight[..n], &mut rays.passes[..n]);
+        for i in 0..n {
+            let ([px, py], area) = point(x[i], y[i], u[i], v[i]);
+            let to = [px - x[i], py - y[i], -self.film_distance];
+            let inv_len = 1.0 / (to[0] * to[0] + to[1] * to[1] + to[2] * to[2]).sqrt();
+            let passing = area > 0.0;
+            let d = to.map(|c| c * inv_len);
+            dx[i] = if passing { d[0] } else { 0.0 };
+            dy[i] = if passing { d[1] } else { 0.0 };
+            dz[i] = if passing { d[2] } else { -1.0 };
+            weight[i] = camera_weight(d, area, self.inv_z2);
+            passes[i] = passing;
+        }
+    }
+
+    /// Uniformly in the bounds of the film point's segment: the point and the area sampled (0
+    /// in a segment no ray passes).
+    #[inline(always)]
+    fn in_bounds(&self, x: f32, y: f32, u: f32, v: f32) -> ([f32; 2], f32) {
+        let r = (x * x + y * y).sqrt();
+        let k = ((r * self.segment_scale) as usize).min(SEGMENTS - 1);
+        let [min_x, min_y, extent_x, extent_y] = self.segments[k];
+        let bx = min_x + extent_x * u;
+        let by = min_y + extent_y * v;
+        // The bounds were found for a film point on +x: rotate by the point's angle.
+        let inv_r = 1.0 / r;
+        let (sin, cos) = if r > 0.0 {
+            (y * inv_r, x * inv_r)
+        } else {
+            (0.0, 1.0)
+        };
+        ([cos * bx - sin * by, sin * bx + cos * by], self.areas[k])
+    }
+
+    /// Uniformly over the rear element's clear aperture.
+    #[inline(always)]
+    fn on_rear_element(&self, u: f32, v: f32) -> ([f32; 2], f32) {
+        let [dx, dy] = concentric_disk([u, v]);
+        let radius = self.rear_radius;
+        (
+            [dx * radius, dy * radius],
+            std::f32::consts::PI * radius * radius,
+        )
     }
 }
 
@@ -329,4 +459,75 @@ fn passing_bounds(
         }
     }
     bounds
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::cli::bench::LensWorkload;
+    use crate::lens::bundled::BUNDLED;
+    use crate::sampling::Rng;
+
+    /// The f32 sampler of the camera loop against the f64 reference: the same ray and weight,
+    /// and the same verdict on film points no ray leaves (fisheye corners).
+    #[test]
+    fn f32_sampler_agrees_with_f64_reference() {
+        const N: usize = 2000;
+        let mut rng = Rng::new(3, 4);
+        let mut compared = 0;
+        for (lens, _) in BUNDLED {
+            let w = LensWorkload::new(lens, 1).unwrap();
+            for sampling in [PupilSampling::Bounds, PupilSampling::RearElement] {
+                let diagonal = LensWorkload::FILM_DIAGONAL_MM;
+                let pupil = ExitPupil::compute(&w.system, w.film_distance, diagonal, sampling);
+                // Beyond the film diagonal too: the last segment's bounds serve there.
+                let scale = 1.2 * diagonal as f32;
+                let mut film = || (rng.next_f32() - 0.5) * scale;
+                let (x, y): (Vec<f32>, Vec<f32>) = (0..N).map(|_| (film(), film())).unzip();
+                let (u, v): (Vec<f32>, Vec<f32>) = (0..N).map(|_| rng.next_2d().into()).unzip();
+                let (mut dx, mut dy, mut dz, mut weight) =
+                    (vec![0.0; N], vec![0.0; N], vec![0.0; N], vec![0.0; N]);
+                let mut passes = vec![false; N];
+                pupil.sampler().sample(FilmRays {
+                    x: &x,
+                    y: &y,
+                    u: &u,
+                    v: &v,
+                    dx: &mut dx,
+                    dy: &mut dy,
+                    dz: &mut dz,
+                    weight: &mut weight,
+                    passes: &mut passes,
+                });
+                for i in 0..N {
+                    let k = (x[i] as f64).hypot(y[i] as f64) / pupil.film_radius * SEGMENTS as f64;
+                    if (k - k.round()).abs() < 1e-4 {
+                        continue; // At a segment boundary either neighbour's bounds are right.
+                    }
+                    let fast = [dx[i], dy[i], dz[i]];
+                    let context = format!("{lens} {sampling:?} ({}, {}): {fast:?}", x[i], y[i]);
+                    let Some(reference) = pupil.sample(x[i], y[i], [u[i], v[i]]) else {
+                        assert!(!passes[i] && weight[i] == 0.0, "{context}");
+                        assert_eq!(fast, [0.0, 0.0, -1.0], "{context}");
+                        continue;
+                    };
+                    assert!(passes[i], "{context}");
+                    let [px, py, _] = reference.point;
+                    let to = [px - x[i], py - y[i], -pupil.film_distance as f32];
+                    let len = (to[0] * to[0] + to[1] * to[1] + to[2] * to[2]).sqrt();
+                    for axis in 0..3 {
+                        let expected = to[axis] / len;
+                        assert!(
+                            (fast[axis] - expected).abs() < 1e-5,
+                            "{context}: {expected}"
+                        );
+                    }
+                    let relative = (weight[i] - reference.weight).abs() / reference.weight;
+                    assert!(relative < 1e-5, "{context}: {} vs {reference:?}", weight[i]);
+                    compared += 1;
+                }
+            }
+        }
+        assert!(compared > 10_000, "{compared}");
+    }
 }
