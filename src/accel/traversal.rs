@@ -24,7 +24,8 @@ pub enum Traversal {
     /// obvhs's own traversal, at the build's baseline instruction set: portable, and the
     /// reference the others must reproduce.
     Obvhs,
-    /// The 8-wide node test, x86-64 AVX2.
+    /// The 8-wide node test, x86-64 AVX2 (with the bit instructions every AVX2 CPU has:
+    /// BMI1/2, LZCNT and POPCNT, which the traversal's child indexing uses).
     Avx2,
 }
 
@@ -32,7 +33,12 @@ impl Traversal {
     /// The fastest traversal this CPU runs.
     pub fn detect() -> Traversal {
         #[cfg(target_arch = "x86_64")]
-        if std::arch::is_x86_feature_detected!("avx2") {
+        if std::arch::is_x86_feature_detected!("avx2")
+            && std::arch::is_x86_feature_detected!("bmi1")
+            && std::arch::is_x86_feature_detected!("bmi2")
+            && std::arch::is_x86_feature_detected!("lzcnt")
+            && std::arch::is_x86_feature_detected!("popcnt")
+        {
             return Traversal::Avx2;
         }
         Traversal::Obvhs
@@ -59,7 +65,7 @@ impl Traversal {
 /// `tmax`, so `test` sees the closest hit so far in the ray it is given.
 /// Callable where the CPU supports AVX2 ([`Traversal::detect`] found it).
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
+#[target_feature(enable = "avx2,bmi1,bmi2,lzcnt,popcnt")]
 pub(super) fn ray_traverse_avx2(bvh: &CwBvh, ray: Ray, mut test: impl FnMut(&Ray, usize) -> f32) {
     let mut ray = ray;
     let mut state = bvh.new_traversal(ray.direction);
@@ -83,7 +89,7 @@ pub(super) fn ray_traverse_avx2(bvh: &CwBvh, ray: Ray, mut test: impl FnMut(&Ray
 /// `ray.tmax`. Stops at the first such primitive.
 /// Callable where the CPU supports AVX2 ([`Traversal::detect`] found it).
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
+#[target_feature(enable = "avx2,bmi1,bmi2,lzcnt,popcnt")]
 pub(super) fn ray_traverse_miss_avx2(
     bvh: &CwBvh,
     ray: Ray,
@@ -154,7 +160,7 @@ mod avx2 {
     /// The hit mask of `node`'s children in obvhs's layout (`CwBvhNode::intersect_ray`): for a hit
     /// inner child, its traversal-priority bit in bits 24..32; for a hit leaf, its primitives'
     /// bits in 0..24.
-    #[target_feature(enable = "avx2")]
+    #[target_feature(enable = "avx2,bmi1,bmi2,lzcnt,popcnt")]
     #[inline]
     pub(super) fn intersect_node(
         node: &CwBvhNode,
