@@ -3,9 +3,9 @@
 //!
 //! obvhs's node test (`CwBvhNode::intersect_ray_simd`) is compiled for the build's baseline
 //! (SSE2): it converts the 48 quantised plane bytes of a node to floats one `_mm_set_ps` lane at
-//! a time, tests the children four at a time, and assembles the hit mask child by child. That
-//! test is most of a ray's cost. Here one AVX2 instruction widens and converts each plane of all
-//! eight children, and the hit mask is built with vector shifts.
+//! a time, tests the children four at a time, and assembles the hit mask child by child: about
+//! half of a ray's instructions on the helmet (callgrind). Here one AVX2 instruction widens and
+//! converts each plane of all eight children, and the hit mask is built with vector shifts.
 //!
 //! The traversal loop itself is obvhs's (`obvhs::traverse!`), and the slab arithmetic repeats
 //! obvhs's operation for operation (separate multiply and add, no FMA, same min/max order, same
@@ -24,8 +24,9 @@ pub enum Traversal {
     /// obvhs's own traversal, at the build's baseline instruction set: portable, and the
     /// reference the others must reproduce.
     Obvhs,
-    /// The 8-wide node test, x86-64 AVX2 (with the bit instructions every AVX2 CPU has:
-    /// BMI1/2, LZCNT and POPCNT, which the traversal's child indexing uses).
+    /// The 8-wide node test, x86-64 AVX2, plus BMI1/2, LZCNT and POPCNT (CPUs with AVX2 have
+    /// them in practice; checked anyway): without POPCNT the child indexing of the traversal
+    /// loop counts bits in software.
     Avx2,
 }
 
