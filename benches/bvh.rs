@@ -6,6 +6,11 @@
 //! (`batch`, `SceneAccel::intersect_batch` on a one-thread pool), and the rays sorted for
 //! coherence first, sort included (`sorted`). obvhs traverses one ray at a time (no packets),
 //! so sorting is the batching that can help.
+//!
+//! The per-ray benchmarks run every traversal this CPU has (`SceneAccel::intersect_with`):
+//! obvhs's own, the reference, beside the AVX2 one the renderer uses, in the same run so that
+//! their ratio is measured on the same machine state. The other benchmarks use the renderer's
+//! default (the fastest).
 
 mod common;
 
@@ -17,7 +22,7 @@ use glam::Vec3A;
 use obvhs::BvhBuildParams;
 use obvhs::cwbvh::builder::build_cwbvh_from_tris;
 use obvhs::ray::{Ray, RayHit};
-use realcam::accel::SceneAccel;
+use realcam::accel::{SceneAccel, Traversal};
 use realcam::batch::{HitBatch, RayBatch};
 
 /// Primary rays per side of the image: 256² = 65,536 primary rays.
@@ -66,19 +71,44 @@ fn rays(scene: &SceneAccel, kind: Kind) -> WorldRays {
 }
 
 /// Traces `rays` one at a time: closest hits, or any hit for shadow rays. Returns hits found.
-fn trace_each(scene: &SceneAccel, rays: &WorldRays, kind: Kind) -> usize {
+fn trace_each(scene: &SceneAccel, traversal: Traversal, rays: &WorldRays, kind: Kind) -> usize {
     let mut found = 0;
     for i in 0..rays.len() {
         let (o, d, t) = (rays.origin[i], rays.direction[i], rays.t_max[i]);
         found += usize::from(match kind {
-            Kind::Shadow => scene.occluded(o, d, t),
-            _ => scene.intersect(o, d, t).is_some(),
+            Kind::Shadow => scene.occluded_with(traversal, o, d, t),
+            _ => scene.intersect_with(traversal, o, d, t).is_some(),
         });
     }
     found
 }
 
-fn traversal(bencher: Bencher, scene: &str, kind: Kind, sorted: bool) {
+/// A scene and a traversal to trace it with, named "scene, traversal" in divan's output.
+#[derive(Clone, Copy)]
+struct Case {
+    scene: &'static str,
+    traversal: Traversal,
+}
+
+impl std::fmt::Display for Case {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}, {}", self.scene, self.traversal.name())
+    }
+}
+
+/// Every scene with every traversal this CPU runs, the reference (obvhs) first.
+fn cases() -> Vec<Case> {
+    SCENES
+        .iter()
+        .flat_map(|&scene| {
+            Traversal::available()
+                .into_iter()
+                .map(move |traversal| Case { scene, traversal })
+        })
+        .collect()
+}
+
+fn traversal(bencher: Bencher, scene: &str, traversal: Traversal, kind: Kind, sorted: bool) {
     let Some(accel) = scene_accel(scene) else {
         return;
     };
@@ -88,41 +118,41 @@ fn traversal(bencher: Bencher, scene: &str, kind: Kind, sorted: bool) {
         .bench_local(|| {
             if sorted {
                 let order = coherent_order(&rays, accel);
-                trace_each(accel, &rays.permuted(&order), kind)
+                trace_each(accel, traversal, &rays.permuted(&order), kind)
             } else {
-                trace_each(accel, black_box(&rays), kind)
+                trace_each(accel, traversal, black_box(&rays), kind)
             }
         });
 }
 
-#[divan::bench(args = SCENES, sample_count = 10)]
-fn closest_primary_per_ray(bencher: Bencher, scene: &str) {
-    traversal(bencher, scene, Kind::Primary, false);
+#[divan::bench(args = cases(), sample_count = 10)]
+fn closest_primary_per_ray(bencher: Bencher, case: Case) {
+    traversal(bencher, case.scene, case.traversal, Kind::Primary, false);
 }
 
 #[divan::bench(args = SCENES, sample_count = 10)]
 fn closest_primary_sorted(bencher: Bencher, scene: &str) {
-    traversal(bencher, scene, Kind::Primary, true);
+    traversal(bencher, scene, Traversal::detect(), Kind::Primary, true);
 }
 
-#[divan::bench(args = SCENES, sample_count = 10)]
-fn closest_bounce_per_ray(bencher: Bencher, scene: &str) {
-    traversal(bencher, scene, Kind::Bounce, false);
+#[divan::bench(args = cases(), sample_count = 10)]
+fn closest_bounce_per_ray(bencher: Bencher, case: Case) {
+    traversal(bencher, case.scene, case.traversal, Kind::Bounce, false);
 }
 
 #[divan::bench(args = SCENES, sample_count = 10)]
 fn closest_bounce_sorted(bencher: Bencher, scene: &str) {
-    traversal(bencher, scene, Kind::Bounce, true);
+    traversal(bencher, scene, Traversal::detect(), Kind::Bounce, true);
 }
 
-#[divan::bench(args = SCENES, sample_count = 10)]
-fn shadow_any_hit_per_ray(bencher: Bencher, scene: &str) {
-    traversal(bencher, scene, Kind::Shadow, false);
+#[divan::bench(args = cases(), sample_count = 10)]
+fn shadow_any_hit_per_ray(bencher: Bencher, case: Case) {
+    traversal(bencher, case.scene, case.traversal, Kind::Shadow, false);
 }
 
 #[divan::bench(args = SCENES, sample_count = 10)]
 fn shadow_any_hit_sorted(bencher: Bencher, scene: &str) {
-    traversal(bencher, scene, Kind::Shadow, true);
+    traversal(bencher, scene, Traversal::detect(), Kind::Shadow, true);
 }
 
 /// Primary rays through the renderer's batch call (SoA in, SoA hits out) on one thread.

@@ -8,10 +8,15 @@
 //! order). Triangle data is stored in BVH order, so the index obvhs reports *is* the triangle
 //! index ([`Hit::triangle`]). Ray directions are expected to be unit vectors; hit distances are
 //! in metres along them.
+//!
+//! Traversal is obvhs's stack traversal with, where the CPU has AVX2, an 8-wide node test
+//! compiled for it (see [`traversal`]); obvhs's own code is the portable path and the reference
+//! the fast one reproduces exactly ([`SceneAccel::intersect_with`]).
 
 mod alpha_mask;
 pub mod spawn;
 mod surface;
+mod traversal;
 mod triangles;
 
 #[cfg(test)]
@@ -32,6 +37,7 @@ use crate::batch::{HitBatch, RayBatch};
 use crate::scene::{Bounds, MaterialLibrary, MeshInstance};
 
 use alpha_mask::AlphaMasks;
+pub use traversal::Traversal;
 use triangles::{
     NO_MATERIAL, TriangleHit, TrianglePrimitive, TriangleRecord, WorldVertices, attributes,
 };
@@ -85,6 +91,8 @@ pub struct SceneAccel {
     bounds: Bounds,
     dropped_triangles: usize,
     build_time: Duration,
+    /// The fastest traversal this CPU runs, detected once at build.
+    fastest: Traversal,
 }
 
 impl SceneAccel {
@@ -156,6 +164,7 @@ impl SceneAccel {
             bounds: soup.bounds,
             dropped_triangles: soup.dropped,
             build_time: start.elapsed(),
+            fastest: Traversal::detect(),
         })
     }
 
@@ -184,20 +193,42 @@ impl SceneAccel {
 
     /// Closest hit in (t_min, t_max), skipping alpha-masked holes.
     pub fn intersect(&self, origin: Vec3, direction: Vec3, t_max: f32) -> Option<Hit> {
+        self.intersect_with(self.fastest, origin, direction, t_max)
+    }
+
+    /// [`SceneAccel::intersect`] through the given traversal (capped at what this CPU runs).
+    /// Every traversal gives the identical answer; this is for comparing them.
+    pub fn intersect_with(
+        &self,
+        traversal: Traversal,
+        origin: Vec3,
+        direction: Vec3,
+        t_max: f32,
+    ) -> Option<Hit> {
         let bvh = self.bvh.as_ref()?;
         let ray = self.bvh_ray(origin, direction, t_max)?;
         let mut closest: Option<(usize, TriangleHit)> = None;
-        let mut ray_hit = RayHit::none();
-        bvh.ray_traverse(ray, &mut ray_hit, |ray, index| {
+        let test = |ray: &Ray, index| {
             match self.hit_triangle(ray, index) {
-                // obvhs accepts t < tmax only; the triangle test is inclusive, so check here too.
+                // Traversal accepts t < tmax only; the triangle test is inclusive, so check
+                // here too.
                 Some(hit) if hit.t < ray.tmax => {
                     closest = Some((index, hit));
                     hit.t
                 }
                 _ => f32::INFINITY,
             }
-        });
+        };
+        match traversal.min(self.fastest) {
+            Traversal::Obvhs => {
+                bvh.ray_traverse(ray, &mut RayHit::none(), test);
+            }
+            // SAFETY: `self.fastest` is what `Traversal::detect` found on this CPU.
+            #[cfg(target_arch = "x86_64")]
+            Traversal::Avx2 => unsafe { traversal::ray_traverse_avx2(bvh, ray, test) },
+            #[cfg(not(target_arch = "x86_64"))]
+            _ => unreachable!("Traversal::detect finds only obvhs here"),
+        }
         closest.map(|(index, hit)| Hit {
             t: hit.t / self.bvh_scale,
             triangle: index as u32,
@@ -208,17 +239,37 @@ impl SceneAccel {
 
     /// Any hit in (t_min, t_max), skipping alpha-masked holes (shadow rays).
     ///
-    /// Stops at the first opaque hit found (obvhs `ray_traverse_miss`; its `ray_traverse_anyhit`
-    /// visits every hit without stopping).
+    /// Stops at the first opaque hit found (like obvhs `ray_traverse_miss`; its
+    /// `ray_traverse_anyhit` visits every hit without stopping).
     pub fn occluded(&self, origin: Vec3, direction: Vec3, t_max: f32) -> bool {
+        self.occluded_with(self.fastest, origin, direction, t_max)
+    }
+
+    /// [`SceneAccel::occluded`] through the given traversal (capped at what this CPU runs).
+    pub fn occluded_with(
+        &self,
+        traversal: Traversal,
+        origin: Vec3,
+        direction: Vec3,
+        t_max: f32,
+    ) -> bool {
         let (Some(bvh), Some(ray)) = (self.bvh.as_ref(), self.bvh_ray(origin, direction, t_max))
         else {
             return false;
         };
-        !bvh.ray_traverse_miss(ray, |ray, index| {
+        let test = |ray: &Ray, index| {
             self.hit_triangle(ray, index)
                 .map_or(f32::INFINITY, |hit| hit.t)
-        })
+        };
+        let missed = match traversal.min(self.fastest) {
+            Traversal::Obvhs => bvh.ray_traverse_miss(ray, test),
+            // SAFETY: `self.fastest` is what `Traversal::detect` found on this CPU.
+            #[cfg(target_arch = "x86_64")]
+            Traversal::Avx2 => unsafe { traversal::ray_traverse_miss_avx2(bvh, ray, test) },
+            #[cfg(not(target_arch = "x86_64"))]
+            _ => unreachable!("Traversal::detect finds only obvhs here"),
+        };
+        !missed
     }
 
     /// Closest hits of every alive ray of the batch (dead rays get a miss).

@@ -551,3 +551,220 @@ fn rays_leaving_a_wall_next_to_a_corner_hit_the_adjacent_wall() {
     assert_eq!(accel.triangle_material(hit.triangle), Some(1));
     assert!((hit.t - 2e-5 * 2f32.sqrt()).abs() < 1e-7, "t = {}", hit.t);
 }
+
+/// A sample scene of `tests/data` (or `$REALCAM_SAMPLE_SCENES`), loaded.
+fn sample_scene(relative: &str) -> crate::scene::LoadedScene {
+    let root = std::env::var_os("REALCAM_SAMPLE_SCENES")
+        .map(std::path::PathBuf::from)
+        .unwrap_or_else(|| std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data"));
+    let path = root.join(relative);
+    crate::scene::load_gltf(&path).unwrap_or_else(|e| panic!("{}: {e:#}", path.display()))
+}
+
+/// `materials` with every material (and the default) alpha-masked by a 16×16 checkerboard of
+/// opaque and transparent texels, so that real meshes get holes wherever they have UVs (UV
+/// (0, 0), which meshes without UVs read, is opaque).
+fn checker_masked(materials: &MaterialLibrary) -> MaterialLibrary {
+    let texels = (0..256)
+        .map(|i| [1.0, 1.0, 1.0, ((i / 16 + i % 16 + 1) % 2) as f32])
+        .collect();
+    let checker = Texture {
+        width: 16,
+        height: 16,
+        texels,
+        wrap_s: WrapMode::Repeat,
+        wrap_t: WrapMode::Repeat,
+        nearest: true,
+    };
+    let mut masked = materials.clone();
+    masked.textures.push(Arc::new(checker));
+    let texture = masked.textures.len() - 1;
+    for material in masked
+        .materials
+        .iter_mut()
+        .chain(std::iter::once(&mut masked.default_material))
+    {
+        material.alpha_mode = AlphaMode::Mask(0.5);
+        material.base_color.w = 1.0;
+        material.base_color_texture = Some(TextureRef {
+            texture,
+            tex_coord: 0,
+        });
+    }
+    masked
+}
+
+/// Hits closer than this (BVH space) may or may not be found: traversal skips child boxes the
+/// ray leaves within obvhs's 1e-4 of its origin (see `triangles::bvh_space_scale`).
+const BLIND_ZONE: f32 = 1e-3;
+
+/// The closest hit in [BLIND_ZONE, t_max) over every triangle, alpha holes skipped: what every
+/// traversal must reproduce (or find a hit inside the blind zone).
+fn brute_force_closest(
+    accel: &SceneAccel,
+    origin: Vec3,
+    direction: Vec3,
+    t_max: f32,
+) -> Option<(f32, u32)> {
+    let scale = accel.bvh_scale;
+    let mut best: Option<(f32, u32)> = None;
+    for (i, primitive) in accel.primitives.iter().enumerate() {
+        let Some(hit) = primitive.intersect(
+            (origin * scale).into(),
+            direction.into(),
+            BLIND_ZONE,
+            t_max * scale,
+        ) else {
+            continue;
+        };
+        if hit.t < t_max * scale
+            && !accel.is_alpha_hole(i as u32, hit.u, hit.v)
+            && best.is_none_or(|(t, _)| hit.t / scale < t)
+        {
+            best = Some((hit.t / scale, i as u32));
+        }
+    }
+    best
+}
+
+/// True when the ray runs inside a plane that bounds `triangle` on one axis (a zero direction
+/// component, the origin's coordinate at the triangle's extreme). The slab test puts the exit
+/// from a leaf box bounded by that plane at t = 0, so the BVH may not see what brute force
+/// counts as a hit on the triangle's edge. obvhs behaves so; the fast traversal reproduces it.
+fn grazes(accel: &SceneAccel, triangle: u32, origin: Vec3, direction: Vec3) -> bool {
+    let [a, b, c] = accel.triangle_vertices(triangle);
+    (0..3).any(|k| {
+        let extremes = [a[k].min(b[k]).min(c[k]), a[k].max(b[k]).max(c[k])];
+        direction[k] == 0.0 && extremes.contains(&origin[k])
+    })
+}
+
+/// Rays that probe the cases traversal gets wrong most easily, around a scene's bounds: from
+/// inside and from outside, along the axes and in coordinate planes (zero direction
+/// components, infinite reciprocals), and leaving triangles from points on them.
+fn probe_rays(accel: &SceneAccel, count: usize, rng: &mut Rng) -> Vec<(Vec3, Vec3)> {
+    let bounds = accel.bounds();
+    let (centre, size) = (bounds.center(), bounds.max - bounds.min);
+    let unit = |rng: &mut Rng| Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32());
+    let axes = [
+        Vec3::X,
+        Vec3::Y,
+        Vec3::Z,
+        Vec3::NEG_X,
+        Vec3::NEG_Y,
+        Vec3::NEG_Z,
+    ];
+    (0..count)
+        .map(|i| {
+            let mut direction = (unit(rng) - 0.5).normalize_or(Vec3::X);
+            match i % 4 {
+                // Along an axis, or with one component zeroed.
+                0 => direction = axes[rng.next_u32() as usize % 6],
+                1 => {
+                    direction[rng.next_u32() as usize % 3] = 0.0;
+                    direction = direction.normalize_or(Vec3::Z);
+                }
+                _ => {}
+            }
+            let origin = match (i / 4) % 3 {
+                // Anywhere in (a margin around) the bounds.
+                0 => bounds.min + (unit(rng) * 1.2 - 0.1) * size,
+                // Outside, aimed at the scene with some spread.
+                1 => {
+                    let from = centre - direction * bounds.diagonal();
+                    return (from, (centre + (unit(rng) - 0.5) * size - from).normalize());
+                }
+                // On a triangle.
+                _ => {
+                    let triangle = rng.next_u32() % accel.triangle_count() as u32;
+                    let [a, b, c] = accel.triangle_vertices(triangle);
+                    let (u, v) = (rng.next_f32(), rng.next_f32());
+                    let (u, v) = if u + v > 1.0 {
+                        (1.0 - u, 1.0 - v)
+                    } else {
+                        (u, v)
+                    };
+                    a + (b - a) * u + (c - a) * v
+                }
+            };
+            (origin, direction)
+        })
+        .collect()
+}
+
+/// Every traversal agrees exactly with obvhs's (closest triangle, t, u, v; occlusion at
+/// several distances) and, to rounding, with brute force.
+fn assert_traversals_agree(accel: &SceneAccel, rays: &[(Vec3, Vec3)]) -> usize {
+    let mut hits = 0;
+    for &(origin, direction) in rays {
+        let reference = accel.intersect_with(Traversal::Obvhs, origin, direction, f32::INFINITY);
+        for traversal in Traversal::available() {
+            let found = accel.intersect_with(traversal, origin, direction, f32::INFINITY);
+            assert_eq!(
+                found, reference,
+                "{traversal:?} vs obvhs from {origin:?} along {direction:?}"
+            );
+        }
+        let expected = brute_force_closest(accel, origin, direction, f32::INFINITY);
+        match (expected, reference) {
+            (None, None) => {}
+            (_, Some(hit)) if hit.t * accel.bvh_scale < BLIND_ZONE => hits += 1,
+            (Some((_, triangle)), _) if grazes(accel, triangle, origin, direction) => {}
+            (Some((t, triangle)), Some(hit)) => {
+                hits += 1;
+                assert!((hit.t - t).abs() <= 1e-5 * t.max(1.0), "t {} vs {t}", hit.t);
+                assert!(hit.triangle == triangle || (hit.t - t).abs() < 1e-6);
+            }
+            other => panic!(
+                "BVH and brute force disagree from {origin:?} along {direction:?}: {other:?}"
+            ),
+        }
+        let diagonal = accel.bounds().diagonal();
+        let distances = match reference {
+            Some(hit) => vec![hit.t, hit.t * 0.999, hit.t * 1.001, hit.t * 0.5],
+            None => vec![diagonal * 3.0],
+        };
+        for t_max in distances.into_iter().chain([f32::INFINITY, diagonal * 0.1]) {
+            let occluded = accel.occluded_with(Traversal::Obvhs, origin, direction, t_max);
+            for traversal in Traversal::available() {
+                assert_eq!(
+                    accel.occluded_with(traversal, origin, direction, t_max),
+                    occluded,
+                    "{traversal:?} vs obvhs from {origin:?} along {direction:?} to {t_max}"
+                );
+            }
+            // Occlusion is exactly "the closest hit is nearer than t_max".
+            let closest = accel.intersect_with(Traversal::Obvhs, origin, direction, t_max);
+            assert_eq!(occluded, closest.is_some(), "to {t_max}");
+        }
+    }
+    hits
+}
+
+#[test]
+fn traversals_agree_on_sample_meshes() {
+    for (relative, rays) in [
+        ("Box/Box.gltf", 3000),
+        ("Duck/Duck.gltf", 1500),
+        ("CornellBox/cornellBox-2.80-Eevee-gltf.gltf", 1500),
+    ] {
+        let scene = sample_scene(relative);
+        let mut rng = Rng::new(relative.len() as u64, 7);
+        for materials in [scene.materials.clone(), checker_masked(&scene.materials)] {
+            let accel = SceneAccel::build(&scene.instances, &materials).expect("build");
+            let hits = assert_traversals_agree(&accel, &probe_rays(&accel, rays, &mut rng));
+            assert!(
+                hits > rays / 5,
+                "{relative}: only {hits} hits of {rays} rays"
+            );
+        }
+    }
+}
+
+#[test]
+fn traversals_agree_on_random_soup() {
+    let mut rng = Rng::new(5, 3);
+    let accel = build(&random_soup(4000, &mut rng));
+    let hits = assert_traversals_agree(&accel, &probe_rays(&accel, 2000, &mut rng));
+    assert!(hits > 400, "only {hits} hits");
+}
