@@ -14,6 +14,8 @@
 //! the fast one reproduces exactly ([`SceneAccel::intersect_with`]).
 
 mod alpha_mask;
+#[cfg(target_arch = "x86_64")]
+mod packet;
 pub mod spawn;
 mod surface;
 mod traversal;
@@ -37,6 +39,13 @@ use crate::batch::{HitBatch, RayBatch};
 use crate::scene::{Bounds, MaterialLibrary, MeshInstance};
 
 use alpha_mask::AlphaMasks;
+/// The packet traversal's stack type, a placeholder where there is no packet traversal.
+mod packet_stack {
+    #[cfg(target_arch = "x86_64")]
+    pub type Entry = super::packet::StackEntry;
+    #[cfg(not(target_arch = "x86_64"))]
+    pub type Entry = ();
+}
 pub use traversal::Traversal;
 use triangles::{
     NO_MATERIAL, TriangleHit, TrianglePrimitive, TriangleRecord, WorldVertices, attributes,
@@ -272,24 +281,26 @@ impl SceneAccel {
         !missed
     }
 
-    /// Closest hits of every alive ray of the batch (dead rays get a miss).
+    /// Closest hits of every alive ray of the batch (dead rays get a miss): the same hits
+    /// [`SceneAccel::intersect`] gives each ray.
+    ///
+    /// Rays are traced in packets of eight consecutive rays where the CPU has AVX2 (see
+    /// [`packet`]): the renderer's camera rays are neighbouring pixels, coherent enough that a
+    /// packet walks nearly the nodes each of its rays would. A packet whose rays disagree in
+    /// direction octant, or with a single alive ray, goes one ray at a time.
     pub fn intersect_batch(&self, rays: &RayBatch, hits: &mut HitBatch) {
         let n = rays.len();
-        let mut found: Vec<Option<Hit>> = Vec::with_capacity(n);
-        (0..n)
-            .into_par_iter()
-            .with_min_len(64)
-            .map(|i| {
-                if !rays.alive[i] {
-                    return None;
+        let mut found: Vec<Option<Hit>> = vec![None; n];
+        // Packets never straddle tasks (the chunk length is a multiple of the packet size),
+        // so the packets, and the hits, do not depend on how rayon splits the batch.
+        found
+            .par_chunks_mut(64)
+            .enumerate()
+            .for_each_init(Vec::new, |stack, (chunk, found)| {
+                for (p, packet) in found.chunks_mut(8).enumerate() {
+                    self.intersect_packet(rays, chunk * 64 + p * 8, packet, stack);
                 }
-                self.intersect(
-                    Vec3::from(rays.origin(i)),
-                    Vec3::from(rays.direction(i)),
-                    f32::INFINITY,
-                )
-            })
-            .collect_into_vec(&mut found);
+            });
         hits.resize(n);
         for (i, hit) in found.into_iter().enumerate() {
             if let Some(hit) = hit {
@@ -298,6 +309,84 @@ impl SceneAccel {
                 hits.u[i] = hit.u;
                 hits.v[i] = hit.v;
             }
+        }
+    }
+
+    /// Closest hits of rays `first..first + found.len()` (at most eight) of the batch.
+    #[cfg_attr(not(target_arch = "x86_64"), allow(unused_variables))]
+    fn intersect_packet(
+        &self,
+        rays: &RayBatch,
+        first: usize,
+        found: &mut [Option<Hit>],
+        stack: &mut Vec<packet_stack::Entry>,
+    ) {
+        let single = |i: usize| {
+            rays.alive[i]
+                .then(|| {
+                    self.intersect(
+                        Vec3::from(rays.origin(i)),
+                        Vec3::from(rays.direction(i)),
+                        f32::INFINITY,
+                    )
+                })
+                .flatten()
+        };
+        #[cfg(target_arch = "x86_64")]
+        if self.fastest >= Traversal::Avx2
+            && let Some(bvh) = self.bvh.as_ref()
+        {
+            let mut lanes = [None; packet::LANES];
+            for (lane, ray) in lanes.iter_mut().zip(first..first + found.len()) {
+                if rays.alive[ray] {
+                    *lane = self.bvh_ray(
+                        Vec3::from(rays.origin(ray)),
+                        Vec3::from(rays.direction(ray)),
+                        f32::INFINITY,
+                    );
+                }
+            }
+            let octant = |r: &Ray| {
+                let d = r.direction;
+                (d.x < 0.0, d.y < 0.0, d.z < 0.0)
+            };
+            let mut alive = lanes.iter().flatten();
+            if let Some(lead) = alive.next()
+                && alive.next().is_some()
+                && lanes.iter().flatten().all(|r| octant(r) == octant(lead))
+            {
+                let lead = *lead;
+                let active = lanes
+                    .iter()
+                    .enumerate()
+                    .fold(0, |bits, (i, r)| bits | (u32::from(r.is_some()) << i));
+                // Lanes without a ray carry a copy of an alive one, masked off.
+                let packet = lanes.map(|r| r.unwrap_or(lead));
+                // SAFETY: `self.fastest` is what `Traversal::detect` found on this CPU.
+                let hits = unsafe {
+                    packet::intersect_packet_avx2(
+                        bvh,
+                        &self.primitives,
+                        &packet,
+                        active,
+                        self.alpha_masks.any(),
+                        |index, u, v| self.is_alpha_hole(index as u32, u, v),
+                        stack,
+                    )
+                };
+                for (lane, out) in found.iter_mut().enumerate() {
+                    *out = (hits.triangle[lane] != u32::MAX).then(|| Hit {
+                        t: hits.t[lane] / self.bvh_scale,
+                        triangle: hits.triangle[lane],
+                        u: hits.u[lane],
+                        v: hits.v[lane],
+                    });
+                }
+                return;
+            }
+        }
+        for (i, out) in found.iter_mut().enumerate() {
+            *out = single(first + i);
         }
     }
 

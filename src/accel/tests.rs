@@ -692,6 +692,32 @@ fn probe_rays(accel: &SceneAccel, count: usize, rng: &mut Rng) -> Vec<(Vec3, Vec
         .collect()
 }
 
+/// `found` is the closest hit brute force finds, to rounding (or one in the blind zone, or
+/// none for a grazing ray, see [`grazes`]). True when `found` is a hit.
+fn assert_matches_brute_force(
+    accel: &SceneAccel,
+    origin: Vec3,
+    direction: Vec3,
+    found: Option<Hit>,
+) -> bool {
+    let expected = brute_force_closest(accel, origin, direction, f32::INFINITY);
+    match (expected, found) {
+        (None, None) => false,
+        (_, Some(hit)) if hit.t * accel.bvh_scale < BLIND_ZONE => true,
+        (Some((_, triangle)), found) if grazes(accel, triangle, origin, direction) => {
+            found.is_some()
+        }
+        (Some((t, triangle)), Some(hit)) => {
+            assert!((hit.t - t).abs() <= 1e-5 * t.max(1.0), "t {} vs {t}", hit.t);
+            assert!(hit.triangle == triangle || (hit.t - t).abs() < 1e-6);
+            true
+        }
+        other => {
+            panic!("BVH and brute force disagree from {origin:?} along {direction:?}: {other:?}")
+        }
+    }
+}
+
 /// Every traversal agrees exactly with obvhs's (closest triangle, t, u, v; occlusion at
 /// several distances) and, to rounding, with brute force.
 fn assert_traversals_agree(accel: &SceneAccel, rays: &[(Vec3, Vec3)]) -> usize {
@@ -705,20 +731,9 @@ fn assert_traversals_agree(accel: &SceneAccel, rays: &[(Vec3, Vec3)]) -> usize {
                 "{traversal:?} vs obvhs from {origin:?} along {direction:?}"
             );
         }
-        let expected = brute_force_closest(accel, origin, direction, f32::INFINITY);
-        match (expected, reference) {
-            (None, None) => {}
-            (_, Some(hit)) if hit.t * accel.bvh_scale < BLIND_ZONE => hits += 1,
-            (Some((_, triangle)), _) if grazes(accel, triangle, origin, direction) => {}
-            (Some((t, triangle)), Some(hit)) => {
-                hits += 1;
-                assert!((hit.t - t).abs() <= 1e-5 * t.max(1.0), "t {} vs {t}", hit.t);
-                assert!(hit.triangle == triangle || (hit.t - t).abs() < 1e-6);
-            }
-            other => panic!(
-                "BVH and brute force disagree from {origin:?} along {direction:?}: {other:?}"
-            ),
-        }
+        hits += usize::from(assert_matches_brute_force(
+            accel, origin, direction, reference,
+        ));
         let diagonal = accel.bounds().diagonal();
         let distances = match reference {
             Some(hit) => vec![hit.t, hit.t * 0.999, hit.t * 1.001, hit.t * 0.5],
@@ -767,4 +782,165 @@ fn traversals_agree_on_random_soup() {
     let accel = build(&random_soup(4000, &mut rng));
     let hits = assert_traversals_agree(&accel, &probe_rays(&accel, 2000, &mut rng));
     assert!(hits > 400, "only {hits} hits");
+}
+
+/// `intersect_batch` (packets) gives every ray exactly obvhs's single-ray hit, and brute
+/// force's to rounding. Returns the number of hits.
+fn assert_batch_agrees(accel: &SceneAccel, rays: &RayBatch) -> usize {
+    let mut hits = HitBatch::default();
+    accel.intersect_batch(rays, &mut hits);
+    assert_eq!(hits.len(), rays.len());
+    let mut found = 0;
+    for i in 0..rays.len() {
+        let (origin, direction) = (Vec3::from(rays.origin(i)), Vec3::from(rays.direction(i)));
+        let batch = (hits.triangle[i] != HitBatch::MISS).then(|| Hit {
+            t: hits.t[i],
+            triangle: hits.triangle[i],
+            u: hits.u[i],
+            v: hits.v[i],
+        });
+        if !rays.alive[i] {
+            assert_eq!(batch, None, "dead ray {i}");
+            assert_eq!(hits.t[i], f32::INFINITY);
+            continue;
+        }
+        let reference = accel.intersect_with(Traversal::Obvhs, origin, direction, f32::INFINITY);
+        assert_eq!(
+            batch, reference,
+            "ray {i} from {origin:?} along {direction:?}"
+        );
+        if batch.is_none() {
+            assert_eq!(hits.t[i], f32::INFINITY);
+        }
+        found += usize::from(assert_matches_brute_force(accel, origin, direction, batch));
+    }
+    found
+}
+
+/// Camera rays as the renderer batches them: a `side`² grid of pixels row-major, each ray
+/// from a point of a lens aperture `aperture` wide (0: a pinhole) through its pixel's point on
+/// a focus plane at the scene's centre. Looking from `from` (a direction from the centre).
+fn camera_rays(
+    accel: &SceneAccel,
+    from: Vec3,
+    side: u32,
+    aperture: f32,
+    rng: &mut Rng,
+) -> RayBatch {
+    let bounds = accel.bounds();
+    let centre = bounds.center();
+    let eye = centre + from.normalize() * bounds.diagonal();
+    let forward = (centre - eye).normalize();
+    let right = forward.any_orthonormal_vector();
+    let up = right.cross(forward);
+    let half = bounds.diagonal() * 0.4;
+    let mut rays = RayBatch::with_capacity((side * side) as usize);
+    for y in 0..side {
+        for x in 0..side {
+            let (jx, jy) = (rng.next_f32(), rng.next_f32());
+            let sx = ((x as f32 + jx) / side as f32 * 2.0 - 1.0) * half;
+            let sy = (1.0 - (y as f32 + jy) / side as f32 * 2.0) * half;
+            let focus = centre + right * sx + up * sy;
+            let lens = (Vec2::new(rng.next_f32(), rng.next_f32()) - 0.5) * aperture;
+            let origin = eye + right * lens.x + up * lens.y;
+            let direction = (focus - origin).normalize();
+            rays.push(origin.into(), direction.into(), y * side + x, 0);
+        }
+    }
+    rays
+}
+
+#[test]
+fn packets_agree_on_sample_meshes() {
+    for relative in [
+        "Box/Box.gltf",
+        "Duck/Duck.gltf",
+        "CornellBox/cornellBox-2.80-Eevee-gltf.gltf",
+    ] {
+        let scene = sample_scene(relative);
+        let mut rng = Rng::new(relative.len() as u64, 11);
+        for materials in [scene.materials.clone(), checker_masked(&scene.materials)] {
+            let accel = SceneAccel::build(&scene.instances, &materials).expect("build");
+            let diagonal = accel.bounds().diagonal();
+            // Coherent packets from pinholes and lenses, one view along an axis so that the
+            // middle packets mix direction octants (and some components are exactly zero).
+            let mut hits = 0;
+            for (from, aperture) in [
+                (Vec3::new(0.3, 0.5, 1.0), 0.0),
+                (Vec3::new(-1.0, 0.2, -0.4), 0.02 * diagonal),
+                (Vec3::Z, 0.0),
+            ] {
+                hits +=
+                    assert_batch_agrees(&accel, &camera_rays(&accel, from, 40, aperture, &mut rng));
+            }
+            assert!(hits > 1000, "{relative}: only {hits} camera-ray hits");
+            // Incoherent packets: the probe rays, mixed octants, from inside and outside.
+            let mut probes = RayBatch::default();
+            for (i, (origin, direction)) in
+                probe_rays(&accel, 803, &mut rng).into_iter().enumerate()
+            {
+                probes.push(origin.into(), direction.into(), i as u32, 0);
+            }
+            assert!(assert_batch_agrees(&accel, &probes) > 100, "{relative}");
+        }
+    }
+}
+
+#[test]
+fn packets_with_dead_rays_and_partial_packets() {
+    let mut rng = Rng::new(8, 2);
+    let accel = build(&random_soup(3000, &mut rng));
+    // 37² is not a multiple of 8, so the batch ends in a partial packet.
+    let mut rays = camera_rays(&accel, Vec3::new(0.2, -0.3, 1.0), 37, 0.05, &mut rng);
+    for i in 0..rays.len() {
+        // Scattered dead rays, a whole dead packet, and packets left with one alive ray.
+        if i % 5 == 0 || (64..72).contains(&i) || ((128..136).contains(&i) && i != 131) {
+            rays.alive[i] = false;
+        }
+    }
+    let hits = assert_batch_agrees(&accel, &rays);
+    assert!(hits > 200, "only {hits} hits");
+    // A batch shorter than one packet.
+    rays.ox.truncate(5);
+    for v in [
+        &mut rays.oy,
+        &mut rays.oz,
+        &mut rays.dx,
+        &mut rays.dy,
+        &mut rays.dz,
+    ] {
+        v.truncate(5);
+    }
+    rays.alive.truncate(5);
+    assert_batch_agrees(&accel, &rays);
+}
+
+#[test]
+fn packets_agree_on_random_soup_with_random_rays() {
+    let mut rng = Rng::new(6, 4);
+    let accel = build(&random_soup(4000, &mut rng));
+    let mut rays = RayBatch::default();
+    for (i, (origin, direction)) in probe_rays(&accel, 2000, &mut rng).into_iter().enumerate() {
+        rays.push(origin.into(), direction.into(), i as u32, 0);
+    }
+    assert!(assert_batch_agrees(&accel, &rays) > 400);
+    let rays = camera_rays(&accel, Vec3::new(1.0, 1.0, 0.5), 48, 0.1, &mut rng);
+    assert!(assert_batch_agrees(&accel, &rays) > 500);
+}
+
+#[test]
+fn batch_hits_do_not_depend_on_thread_count() {
+    let mut rng = Rng::new(2, 2);
+    let accel = build(&random_soup(2000, &mut rng));
+    let rays = camera_rays(&accel, Vec3::new(0.4, 0.1, 1.0), 50, 0.05, &mut rng);
+    let trace = |threads| {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .expect("pool");
+        let mut hits = HitBatch::default();
+        pool.install(|| accel.intersect_batch(&rays, &mut hits));
+        (hits.t, hits.triangle, hits.u, hits.v)
+    };
+    assert_eq!(trace(1), trace(3));
 }

@@ -143,6 +143,12 @@ impl NearFar {
     }
 }
 
+/// obvhs's child-box entry clamp (`cwbvh::node::EPSILON`, crate-private): boxes the ray
+/// leaves before this distance are skipped. `triangles::bvh_space_scale` sizes BVH space so
+/// that it is negligible.
+#[cfg(target_arch = "x86_64")]
+pub(super) const ENTRY_EPSILON: f32 = 0.0001;
+
 #[cfg(target_arch = "x86_64")]
 mod avx2 {
     use std::arch::x86_64::*;
@@ -151,12 +157,7 @@ mod avx2 {
     use obvhs::cwbvh::node::CwBvhNode;
     use obvhs::ray::Ray;
 
-    use super::NearFar;
-
-    /// obvhs's child-box entry clamp (`cwbvh::node::EPSILON`, crate-private): boxes the ray
-    /// leaves before this distance are skipped. `triangles::bvh_space_scale` sizes BVH space so
-    /// that it is negligible.
-    const ENTRY_EPSILON: f32 = 0.0001;
+    use super::{ENTRY_EPSILON, NearFar};
 
     /// The hit mask of `node`'s children in obvhs's layout (`CwBvhNode::intersect_ray`): for a hit
     /// inner child, its traversal-priority bit in bits 24..32; for a hit leaf, its primitives'
