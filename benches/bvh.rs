@@ -7,6 +7,12 @@
 //! coherence first, sort included (`sorted`). obvhs traverses one ray at a time (no packets),
 //! so sorting is the batching that can help.
 //!
+//! `closest_primary_tiles` feeds primary rays the way the renderer does: per 32×32 film tile,
+//! row-major within the tile, so that 8 consecutive rays are neighbouring pixels; from a
+//! pinhole, and from points spread over a lens aperture focused on the scene (`lens`). It
+//! compares the batch call (8-ray packets where the CPU has AVX2) with both single-ray
+//! traversals on the same rays.
+//!
 //! The per-ray benchmarks run every traversal this CPU has (`SceneAccel::intersect_with`):
 //! obvhs's own, the reference, beside the AVX2 one the renderer uses, in the same run so that
 //! their ratio is measured on the same machine state. The other benchmarks use the renderer's
@@ -18,7 +24,7 @@ use common::{HELMET, SCENES, TraversalRays, WorldRays, coherent_order, scene_acc
 use std::time::Duration;
 
 use divan::{Bencher, black_box};
-use glam::Vec3A;
+use glam::{Vec3, Vec3A};
 use obvhs::BvhBuildParams;
 use obvhs::cwbvh::builder::build_cwbvh_from_tris;
 use obvhs::ray::{Ray, RayHit};
@@ -171,6 +177,102 @@ fn closest_primary_batch(bencher: Bencher, scene: &str) {
     bencher
         .counter(divan::counter::ItemsCount::new(rays.len()))
         .bench_local(|| pool.install(|| accel.intersect_batch(black_box(&batch), &mut hits)));
+}
+
+/// Film tile side, as the renderer's (see `render::tile`).
+const TILE: u32 = 32;
+
+/// How `closest_primary_tiles` traces: the batch call or one ray at a time.
+#[derive(Clone, Copy)]
+enum Method {
+    Batch,
+    PerRay(Traversal),
+}
+
+/// Primary rays from a pinhole or a lens, traced by one method, on the helmet.
+#[derive(Clone, Copy)]
+struct TileCase {
+    lens: bool,
+    method: Method,
+}
+
+impl std::fmt::Display for TileCase {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let camera = if self.lens { "lens" } else { "pinhole" };
+        match self.method {
+            Method::Batch => write!(f, "{camera}, batch (packets)"),
+            Method::PerRay(t) => write!(f, "{camera}, per ray {}", t.name()),
+        }
+    }
+}
+
+fn tile_cases() -> Vec<TileCase> {
+    let methods = Traversal::available()
+        .into_iter()
+        .map(Method::PerRay)
+        .chain([Method::Batch]);
+    methods
+        .flat_map(|method| [false, true].map(|lens| TileCase { lens, method }))
+        .collect()
+}
+
+/// The primary rays of [`TraversalRays`] (a `SIDE`² row-major image) in tile order, each
+/// moved, for `lens`, to a point of an aperture and re-aimed at its pixel's point on the focus
+/// plane through the scene's centre. The aperture is as wide relative to the focus distance as
+/// the renderer's 8 mm at 4.5 m.
+fn tile_rays(scene: &SceneAccel, lens: bool) -> WorldRays {
+    let rays = rays(scene, Kind::Primary);
+    let order: Vec<u32> = (0..SIDE / TILE)
+        .flat_map(|ty| (0..SIDE / TILE).map(move |tx| (tx, ty)))
+        .flat_map(|(tx, ty)| {
+            (0..TILE)
+                .flat_map(move |y| (0..TILE).map(move |x| (ty * TILE + y) * SIDE + tx * TILE + x))
+        })
+        .collect();
+    let mut rays = rays.permuted(&order);
+    if lens {
+        let eye = rays.origin[0];
+        let focus = (scene.bounds().center() - eye).length();
+        let axis = (scene.bounds().center() - eye) / focus;
+        let (right, up) = axis.any_orthonormal_pair();
+        let aperture = focus * 0.008 / 4.5;
+        let mut rng = realcam::sampling::Rng::new(9, 1);
+        for i in 0..rays.len() {
+            let d = rays.direction[i];
+            let target = eye + d * (focus / d.dot(axis));
+            let [a, b] = rng.next_2d();
+            let origin: Vec3 = eye + (right * (a - 0.5) + up * (b - 0.5)) * aperture;
+            rays.origin[i] = origin;
+            rays.direction[i] = (target - origin).normalize();
+        }
+    }
+    rays
+}
+
+/// Helmet primary rays in the renderer's tile order: packets against single rays.
+#[divan::bench(args = tile_cases(), sample_count = 10)]
+fn closest_primary_tiles(bencher: Bencher, case: TileCase) {
+    let Some(accel) = scene_accel(HELMET) else {
+        return;
+    };
+    let rays = tile_rays(accel, case.lens);
+    let mut batch = RayBatch::with_capacity(rays.len());
+    for i in 0..rays.len() {
+        batch.push(rays.origin[i].into(), rays.direction[i].into(), 0, 0);
+    }
+    let mut hits = HitBatch::default();
+    let pool = thread_pool(1);
+    bencher
+        .counter(divan::counter::ItemsCount::new(rays.len()))
+        .bench_local(|| match case.method {
+            Method::Batch => {
+                pool.install(|| accel.intersect_batch(black_box(&batch), &mut hits));
+                hits.triangle.len()
+            }
+            Method::PerRay(traversal) => {
+                trace_each(accel, traversal, black_box(&rays), Kind::Primary)
+            }
+        });
 }
 
 /// obvhs build presets for realcam's BVH (no spatial splits: realcam needs one leaf entry per
