@@ -257,7 +257,20 @@ fn intersect_node(
         (node.child_min_y, node.child_max_y),
         (node.child_min_z, node.child_max_z),
     ];
-    // Entry and exit plane of every child per axis, as floats: decoded once for the packet.
+    // Entry and exit plane of every child per axis, as floats, and every child's mask bits:
+    // decoded once for the packet.
+    let widen = |bytes: u64| _mm256_cvtepu8_epi32(_mm_cvtsi64_si128(bytes as i64));
+    let floats = |bytes: [u8; 8]| {
+        let mut out = [0f32; 8];
+        // SAFETY: `out` holds 8 floats; unaligned store.
+        unsafe {
+            _mm256_storeu_ps(
+                out.as_mut_ptr(),
+                _mm256_cvtepi32_ps(widen(u64::from_le_bytes(bytes))),
+            )
+        };
+        out
+    };
     let mut near = [[0f32; 8]; 3];
     let mut far = [[0f32; 8]; 3];
     for axis in 0..3 {
@@ -267,11 +280,19 @@ fn intersect_node(
         } else {
             (min, max)
         };
-        near[axis] = n.map(f32::from);
-        far[axis] = f.map(f32::from);
+        near[axis] = floats(n);
+        far[axis] = floats(f);
     }
-
     let (child_bits8, bit_index8) = node.get_child_and_index_bits(oct_inv4);
+    let mut contributions = [0u32; 8];
+    // SAFETY: `contributions` holds 8 u32s; unaligned store.
+    unsafe {
+        _mm256_storeu_si256(
+            contributions.as_mut_ptr().cast(),
+            _mm256_sllv_epi32(widen(child_bits8), widen(bit_index8)),
+        )
+    };
+
     let epsilon = _mm256_set1_ps(ENTRY_EPSILON);
     let mut masks = _mm256_setzero_si256();
     let mut children = child_bits8;
@@ -279,8 +300,7 @@ fn intersect_node(
         // Empty slots have no child bits and would contribute nothing.
         let c = (children.trailing_zeros() / 8) as usize;
         children &= !(0xffu64 << (c * 8));
-        let contribution =
-            ((child_bits8 >> (c * 8)) as u32 & 0xff) << ((bit_index8 >> (c * 8)) as u32 & 0xff);
+        let contribution = contributions[c];
         let slab = |q: f32, axis: usize| {
             _mm256_add_ps(_mm256_mul_ps(_mm256_set1_ps(q), scale[axis]), offset[axis])
         };
