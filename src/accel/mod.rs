@@ -336,32 +336,34 @@ impl SceneAccel {
         if self.fastest >= Traversal::Avx2
             && let Some(bvh) = self.bvh.as_ref()
         {
-            let mut lanes = [None; packet::LANES];
-            for (lane, ray) in lanes.iter_mut().zip(first..first + found.len()) {
-                if rays.alive[ray] {
-                    *lane = self.bvh_ray(
-                        Vec3::from(rays.origin(ray)),
-                        Vec3::from(rays.direction(ray)),
-                        f32::INFINITY,
-                    );
+            let mut packet = packet::PacketRays::default();
+            let mut active = 0u32;
+            let mut octants = 0u8;
+            for (lane, ray) in (first..first + found.len()).enumerate() {
+                if !rays.alive[ray] {
+                    continue;
+                }
+                let d = rays.direction(ray);
+                if let Some(r) =
+                    self.bvh_ray(Vec3::from(rays.origin(ray)), Vec3::from(d), f32::INFINITY)
+                {
+                    packet.set(lane, &r);
+                    active |= 1 << lane;
+                    // obvhs's octant test: `d < 0` per axis.
+                    octants |= 1
+                        << (u8::from(d[0] < 0.0)
+                            | u8::from(d[1] < 0.0) << 1
+                            | u8::from(d[2] < 0.0) << 2);
                 }
             }
-            let octant = |r: &Ray| {
-                let d = r.direction;
-                (d.x < 0.0, d.y < 0.0, d.z < 0.0)
-            };
-            let mut alive = lanes.iter().flatten();
-            if let Some(lead) = alive.next()
-                && alive.next().is_some()
-                && lanes.iter().flatten().all(|r| octant(r) == octant(lead))
-            {
-                let lead = *lead;
-                let active = lanes
-                    .iter()
-                    .enumerate()
-                    .fold(0, |bits, (i, r)| bits | (u32::from(r.is_some()) << i));
+            if active.count_ones() > 1 && octants.count_ones() == 1 {
                 // Lanes without a ray carry a copy of an alive one, masked off.
-                let packet = lanes.map(|r| r.unwrap_or(lead));
+                let lead = active.trailing_zeros() as usize;
+                for lane in 0..packet::LANES {
+                    if active & (1 << lane) == 0 {
+                        packet.copy_lane(lead, lane);
+                    }
+                }
                 // SAFETY: `self.fastest` is what `Traversal::detect` found on this CPU.
                 let hits = unsafe {
                     packet::intersect_packet_avx2(

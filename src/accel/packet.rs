@@ -39,6 +39,40 @@ pub(super) struct PacketHits {
     pub v: [f32; LANES],
 }
 
+/// The rays of a packet in BVH space, one lane each, as obvhs's `Ray`s hold them: rays built
+/// by `Ray::new`, so that each lane's arithmetic is the single-ray traversal's.
+#[derive(Clone, Copy, Debug, Default)]
+pub(super) struct PacketRays {
+    origin: [[f32; LANES]; 3],
+    direction: [[f32; LANES]; 3],
+    inv_direction: [[f32; LANES]; 3],
+    tmax: [f32; LANES],
+}
+
+impl PacketRays {
+    /// Puts `ray` (`tmin` = 0) in `lane`.
+    #[inline]
+    pub fn set(&mut self, lane: usize, ray: &Ray) {
+        for axis in 0..3 {
+            self.origin[axis][lane] = ray.origin[axis];
+            self.direction[axis][lane] = ray.direction[axis];
+            self.inv_direction[axis][lane] = ray.inv_direction[axis];
+        }
+        self.tmax[lane] = ray.tmax;
+    }
+
+    /// Copies lane `from` into `to`.
+    #[inline]
+    pub fn copy_lane(&mut self, from: usize, to: usize) {
+        for axis in 0..3 {
+            self.origin[axis][to] = self.origin[axis][from];
+            self.direction[axis][to] = self.direction[axis][from];
+            self.inv_direction[axis][to] = self.inv_direction[axis][from];
+        }
+        self.tmax[to] = self.tmax[from];
+    }
+}
+
 /// A node whose children some rays of the packet still have to visit.
 #[derive(Clone, Copy)]
 pub(super) struct StackEntry {
@@ -68,7 +102,7 @@ struct Lanes {
 pub(super) fn intersect_packet_avx2(
     bvh: &CwBvh,
     primitives: &[TrianglePrimitive],
-    rays: &[Ray; LANES],
+    rays: &PacketRays,
     active: u32,
     check_holes: bool,
     is_hole: impl Fn(usize, f32, f32) -> bool,
@@ -84,35 +118,18 @@ pub(super) fn intersect_packet_avx2(
     if active == 0 || bvh.nodes.is_empty() {
         return hits;
     }
-    let lead = &rays[active.trailing_zeros() as usize];
-    let gather = |f: &dyn Fn(&Ray) -> f32| {
-        let lane: [f32; LANES] = std::array::from_fn(|i| f(&rays[i]));
+    let lead = active.trailing_zeros() as usize;
+    let load = |lane: &[f32; LANES]| {
         // SAFETY: `[f32; 8]` and `__m256` have the same size; unaligned load.
         unsafe { _mm256_loadu_ps(lane.as_ptr()) }
     };
     let mut lanes = Lanes {
-        origin: [
-            gather(&|r| r.origin.x),
-            gather(&|r| r.origin.y),
-            gather(&|r| r.origin.z),
-        ],
-        direction: [
-            gather(&|r| r.direction.x),
-            gather(&|r| r.direction.y),
-            gather(&|r| r.direction.z),
-        ],
-        inv_direction: [
-            gather(&|r| r.inv_direction.x),
-            gather(&|r| r.inv_direction.y),
-            gather(&|r| r.inv_direction.z),
-        ],
-        tmax: gather(&|r| r.tmax),
+        origin: rays.origin.each_ref().map(load),
+        direction: rays.direction.each_ref().map(load),
+        inv_direction: rays.inv_direction.each_ref().map(load),
+        tmax: load(&rays.tmax),
     };
-    let negative = [
-        lead.direction.x < 0.0,
-        lead.direction.y < 0.0,
-        lead.direction.z < 0.0,
-    ];
+    let negative = rays.direction.map(|d| d[lead] < 0.0);
     // The octant code of `obvhs::cwbvh::ray_get_octant_inv4` (crate-private).
     let oct_inv4 = (if negative[0] { 0 } else { 0x0404_0404 })
         | (if negative[1] { 0 } else { 0x0202_0202 })
