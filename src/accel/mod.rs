@@ -286,7 +286,7 @@ impl SceneAccel {
     /// [`SceneAccel::intersect`] gives each ray.
     ///
     /// Rays are traced in packets of eight consecutive rays where the CPU has AVX2 (see
-    /// [`packet`]): the renderer's camera rays are neighbouring pixels, coherent enough that a
+    /// module `packet`): the renderer's camera rays are neighbouring pixels, coherent enough that a
     /// packet walks nearly the nodes each of its rays would. A packet whose rays disagree in
     /// direction octant, or with a single alive ray, goes one ray at a time.
     pub fn intersect_batch(&self, rays: &RayBatch, hits: &mut HitBatch) {
