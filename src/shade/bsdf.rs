@@ -75,19 +75,33 @@ impl MetalRoughBsdf {
 
     /// BRDF value f(wo, wi) (no cosine); zero unless both directions are above the surface.
     pub fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
+        self.eval_and_pdf(wo, wi).0
+    }
+
+    /// [`MetalRoughBsdf::eval`] and [`MetalRoughBsdf::pdf`] together: they share the half
+    /// vector and D(h), and a path vertex needs both.
+    pub fn eval_and_pdf(&self, wo: Vec3, wi: Vec3) -> (Vec3, f32) {
         if wo.z <= 0.0 || wi.z <= 0.0 {
-            return Vec3::ZERO;
+            return (Vec3::ZERO, 0.0);
         }
+        self.eval_and_pdf_above(wo, wi, self.specular_probability(wo))
+    }
+
+    /// [`MetalRoughBsdf::eval_and_pdf`] for directions both above the surface, given the
+    /// specular lobe's selection probability at `wo`.
+    fn eval_and_pdf_above(&self, wo: Vec3, wi: Vec3, p_specular: f32) -> (Vec3, f32) {
         let h = (wo + wi).normalize_or_zero();
         if h == Vec3::ZERO {
-            return Vec3::ZERO;
+            return (Vec3::ZERO, 0.0);
         }
         let cos_oh = wo.dot(h);
+        let distribution = self.ggx.distribution(h);
         // fresnel_mix: the diffuse base sees what the dielectric coating transmits.
         let diffuse = self.diffuse * ((1.0 - schlick_scalar(DIELECTRIC_F0, cos_oh)) * FRAC_1_PI);
-        let specular =
-            schlick(self.f0, cos_oh) * (self.ggx.distribution(h) * self.ggx.visibility(wo, wi));
-        diffuse + specular
+        let specular = schlick(self.f0, cos_oh) * (distribution * self.ggx.visibility(wo, wi));
+        let pdf = p_specular * self.ggx.reflection_pdf_at(wo, h, distribution)
+            + (1.0 - p_specular) * cosine_hemisphere_pdf(wi.z);
+        (diffuse + specular, pdf)
     }
 
     /// Probability of drawing from the specular lobe, by each lobe's rough share of the
@@ -103,12 +117,7 @@ impl MetalRoughBsdf {
 
     /// Density of [`MetalRoughBsdf::sample`] drawing `wi` (solid angle), both lobes combined.
     pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
-        if wo.z <= 0.0 || wi.z <= 0.0 {
-            return 0.0;
-        }
-        let p_specular = self.specular_probability(wo);
-        p_specular * self.ggx.reflection_pdf(wo, wi)
-            + (1.0 - p_specular) * cosine_hemisphere_pdf(wi.z)
+        self.eval_and_pdf(wo, wi).1
     }
 
     /// Draws wi: a lobe by `u_lobe`, then a visible GGX normal or a cosine-weighted direction by
@@ -118,19 +127,19 @@ impl MetalRoughBsdf {
         if wo.z <= 0.0 {
             return None;
         }
-        let wi = if u_lobe < self.specular_probability(wo) {
+        let p_specular = self.specular_probability(wo);
+        let wi = if u_lobe < p_specular {
             reflect(wo, self.ggx.sample_visible_normal(wo, u))
         } else {
             cosine_hemisphere(u)
         };
-        let pdf = self.pdf(wo, wi);
-        if wi.z <= 0.0 || !(pdf > 0.0 && pdf.is_finite()) {
+        if wi.z <= 0.0 {
             return None;
         }
-        Some(BsdfSample {
-            wi,
-            value: self.eval(wo, wi),
-            pdf,
-        })
+        let (value, pdf) = self.eval_and_pdf_above(wo, wi, p_specular);
+        if !(pdf > 0.0 && pdf.is_finite()) {
+            return None;
+        }
+        Some(BsdfSample { wi, value, pdf })
     }
 }

@@ -110,11 +110,17 @@ impl Ggx {
     /// D_wo(h) / (4 wo·h), the Jacobian of reflection.
     pub fn reflection_pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
         let h = (wo + wi).normalize_or_zero();
-        let cos_oh = wo.dot(h);
-        if cos_oh <= 0.0 {
+        self.reflection_pdf_at(wo, h, self.distribution(h))
+    }
+
+    /// [`Ggx::reflection_pdf`] given the half vector `h` of (wo, wi) and D(h), for callers that
+    /// already have them. The wo·h of the visible-normal density cancels the Jacobian's:
+    /// G1(wo) D(h) / (4 n·wo).
+    pub fn reflection_pdf_at(&self, wo: Vec3, h: Vec3, distribution: f32) -> f32 {
+        if wo.z <= 0.0 || wo.dot(h) <= 0.0 {
             return 0.0;
         }
-        self.visible_normal_pdf(wo, h) / (4.0 * cos_oh)
+        self.masking(wo) * distribution / (4.0 * wo.z)
     }
 }
 

@@ -204,14 +204,15 @@ impl Shader<'_> {
             return Vec3::ZERO;
         }
         let (wo_local, wi_local) = (shading.frame.to_local(wo), shading.frame.to_local(wi));
-        let reflected = shading.bsdf.eval(wo_local, wi_local) * light.radiance * wi_local.z;
+        let (value, bsdf_pdf) = shading.bsdf.eval_and_pdf(wo_local, wi_local);
+        let reflected = value * light.radiance * wi_local.z;
         if reflected.max_element() <= 0.0 {
             return Vec3::ZERO;
         }
         let weight = if light.is_delta {
             1.0
         } else {
-            strategy.light_weight(light.pdf, shading.bsdf.pdf(wo_local, wi_local))
+            strategy.light_weight(light.pdf, bsdf_pdf)
         };
         if weight <= 0.0 {
             return Vec3::ZERO;
