@@ -162,6 +162,39 @@ fn shadow_any_hit_sorted(bencher: Bencher, scene: &str) {
     traversal(bencher, scene, Traversal::detect(), Kind::Shadow, true);
 }
 
+/// Bounce rays through the batch call (8-ray packets where a packet's rays share a direction
+/// octant): in image order, and sorted by octant and origin first (sort included), which makes
+/// nearly every packet one octant with neighbouring origins.
+#[divan::bench(args = SCENES, consts = [false, true], sample_count = 10)]
+fn closest_bounce_batch<const SORTED: bool>(bencher: Bencher, scene: &str) {
+    let Some(accel) = scene_accel(scene) else {
+        return;
+    };
+    let rays = rays(accel, Kind::Bounce);
+    let to_batch = |rays: &WorldRays| {
+        let mut batch = RayBatch::with_capacity(rays.len());
+        for i in 0..rays.len() {
+            batch.push(rays.origin[i].into(), rays.direction[i].into(), 0, 0);
+        }
+        batch
+    };
+    let unsorted = to_batch(&rays);
+    let mut hits = HitBatch::default();
+    let pool = thread_pool(1);
+    bencher
+        .counter(divan::counter::ItemsCount::new(rays.len()))
+        .bench_local(|| {
+            pool.install(|| {
+                if SORTED {
+                    let order = coherent_order(&rays, accel);
+                    accel.intersect_batch(&to_batch(&rays.permuted(&order)), &mut hits)
+                } else {
+                    accel.intersect_batch(black_box(&unsorted), &mut hits)
+                }
+            })
+        });
+}
+
 /// Primary rays through the renderer's batch call (SoA in, SoA hits out) on one thread.
 #[divan::bench(args = SCENES, sample_count = 10)]
 fn closest_primary_batch(bencher: Bencher, scene: &str) {
