@@ -77,6 +77,51 @@ pub fn power_heuristic(chosen: f32, other: f32) -> f32 {
     if weight.is_finite() { weight } else { 0.0 }
 }
 
+/// What a path carries from one vertex to the next.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Path {
+    /// Unit direction of the path's current ray.
+    pub direction: Vec3,
+    radiance: Vec3,
+    throughput: Vec3,
+    /// Density with which the BSDF drew `direction`; `None` for the camera ray.
+    bsdf_pdf: Option<f32>,
+    bounces: u32,
+}
+
+impl Path {
+    /// A path whose first ray leaves `origin` along `direction`; `None` when no ray can be
+    /// made of them.
+    pub fn start(origin: Vec3, direction: Vec3) -> Option<Path> {
+        let direction = direction.normalize_or_zero();
+        (direction != Vec3::ZERO && origin.is_finite()).then_some(Path {
+            direction,
+            radiance: Vec3::ZERO,
+            throughput: Vec3::ONE,
+            bsdf_pdf: None,
+            bounces: 0,
+        })
+    }
+
+    /// Radiance gathered so far; 0 if it is not finite.
+    pub fn radiance(&self) -> Vec3 {
+        if self.radiance.is_finite() {
+            self.radiance
+        } else {
+            Vec3::ZERO
+        }
+    }
+}
+
+/// What [`Shader::advance`] made of a path.
+pub(super) enum Step {
+    /// Trace the path's next ray from `origin` along its direction.
+    Continue {
+        origin: Vec3,
+    },
+    Done,
+}
+
 impl Shader<'_> {
     /// Radiance (nits) arriving at `origin` from `direction` (world frame), given the ray's
     /// closest hit, which the caller has already traced. Non-finite results are returned as 0.
@@ -90,7 +135,9 @@ impl Shader<'_> {
         self.path_radiance(origin, direction, first_hit, rng, &mut 0, Strategy::Mis)
     }
 
-    /// [`Shader::radiance`], counting the rays it traces into `rays_traced`.
+    /// [`Shader::radiance`], counting the rays it traces into `rays_traced`: the reference,
+    /// depth first, one ray at a time. [`Shader::shade_batch`] takes the same steps
+    /// ([`Shader::advance`]) for a whole batch of paths, tracing their bounce rays together.
     pub(super) fn path_radiance(
         &self,
         origin: Vec3,
@@ -100,82 +147,89 @@ impl Shader<'_> {
         rays_traced: &mut u64,
         strategy: Strategy,
     ) -> Vec3 {
-        let mut direction = direction.normalize_or_zero();
-        if direction == Vec3::ZERO || !origin.is_finite() {
+        let Some(mut path) = Path::start(origin, direction) else {
             return Vec3::ZERO;
-        }
-        let mut radiance = Vec3::ZERO;
-        let mut throughput = Vec3::ONE;
+        };
         let mut hit = first_hit;
-        // Density with which the BSDF drew `direction`; `None` for the camera ray.
-        let mut bsdf_pdf: Option<f32> = None;
-        let mut bounces = 0;
-        loop {
-            let Some(current) = hit else {
-                let weight = bsdf_pdf.map_or(1.0, |pdf| {
-                    strategy.bsdf_weight(
-                        pdf,
-                        self.lights.environment_pdf(self.environment, direction),
-                    )
-                });
-                radiance += throughput * self.environment.radiance(direction) * weight;
-                break;
-            };
-            let surface = self.accel.surface(&current, direction);
-            let wo = -direction;
-            let material = self.materials.get(surface.material);
-            let shading = shading_point(material, &self.materials.textures, &surface, wo);
-
-            if shading.emission != Vec3::ZERO {
-                let weight = bsdf_pdf.map_or(1.0, |pdf| {
-                    let cos_light = surface.geometric_normal.dot(wo);
-                    strategy.bsdf_weight(
-                        pdf,
-                        self.lights
-                            .triangle_pdf(current.triangle, current.t, cos_light),
-                    )
-                });
-                radiance += throughput * shading.emission * weight;
-            }
-
-            bounces += 1;
-            if bounces > self.max_depth {
-                break;
-            }
-            radiance +=
-                throughput * self.direct_light(&surface, &shading, wo, rng, rays_traced, strategy);
-
-            let wo_local = shading.frame.to_local(wo);
-            let Some(sample) = shading.bsdf.sample(wo_local, rng.next_f32(), rng.next_2d()) else {
-                break;
-            };
-            let wi = shading.frame.to_world(sample.wi);
-            // A shading normal can send a sample under the real surface: it would leak light.
-            if wi.dot(surface.geometric_normal) <= 0.0 {
-                break;
-            }
-            throughput *= sample.value * (sample.wi.z / sample.pdf);
-            if !throughput.is_finite() {
-                break;
-            }
-            if bounces >= RUSSIAN_ROULETTE_START {
-                let survival = throughput.max_element().min(MAX_SURVIVAL);
-                if !(survival > 0.0) || rng.next_f32() >= survival {
-                    break;
-                }
-                throughput /= survival;
-            }
-
-            let origin = surface.spawn_origin(wi);
-            direction = wi;
-            bsdf_pdf = Some(sample.pdf);
-            hit = self.accel.intersect(origin, wi, f32::INFINITY);
+        while let Step::Continue { origin } =
+            self.advance(&mut path, hit, rng, rays_traced, strategy)
+        {
+            hit = self.accel.intersect(origin, path.direction, f32::INFINITY);
             *rays_traced += 1;
         }
-        if radiance.is_finite() {
-            radiance
-        } else {
-            Vec3::ZERO
+        path.radiance()
+    }
+
+    /// One path vertex: takes the closest hit of the path's current ray (`None`: it escaped),
+    /// adds the emission and direct light found there, and either ends the path or turns it
+    /// into the next ray, leaving from the returned origin along `path.direction`.
+    pub(super) fn advance(
+        &self,
+        path: &mut Path,
+        hit: Option<Hit>,
+        rng: &mut Rng,
+        rays_traced: &mut u64,
+        strategy: Strategy,
+    ) -> Step {
+        let direction = path.direction;
+        let Some(current) = hit else {
+            let weight = path.bsdf_pdf.map_or(1.0, |pdf| {
+                strategy.bsdf_weight(
+                    pdf,
+                    self.lights.environment_pdf(self.environment, direction),
+                )
+            });
+            path.radiance += path.throughput * self.environment.radiance(direction) * weight;
+            return Step::Done;
+        };
+        let surface = self.accel.surface(&current, direction);
+        let wo = -direction;
+        let material = self.materials.get(surface.material);
+        let shading = shading_point(material, &self.materials.textures, &surface, wo);
+
+        if shading.emission != Vec3::ZERO {
+            let weight = path.bsdf_pdf.map_or(1.0, |pdf| {
+                let cos_light = surface.geometric_normal.dot(wo);
+                strategy.bsdf_weight(
+                    pdf,
+                    self.lights
+                        .triangle_pdf(current.triangle, current.t, cos_light),
+                )
+            });
+            path.radiance += path.throughput * shading.emission * weight;
+        }
+
+        path.bounces += 1;
+        if path.bounces > self.max_depth {
+            return Step::Done;
+        }
+        path.radiance +=
+            path.throughput * self.direct_light(&surface, &shading, wo, rng, rays_traced, strategy);
+
+        let wo_local = shading.frame.to_local(wo);
+        let Some(sample) = shading.bsdf.sample(wo_local, rng.next_f32(), rng.next_2d()) else {
+            return Step::Done;
+        };
+        let wi = shading.frame.to_world(sample.wi);
+        // A shading normal can send a sample under the real surface: it would leak light.
+        if wi.dot(surface.geometric_normal) <= 0.0 {
+            return Step::Done;
+        }
+        path.throughput *= sample.value * (sample.wi.z / sample.pdf);
+        if !path.throughput.is_finite() {
+            return Step::Done;
+        }
+        if path.bounces >= RUSSIAN_ROULETTE_START {
+            let survival = path.throughput.max_element().min(MAX_SURVIVAL);
+            if !(survival > 0.0) || rng.next_f32() >= survival {
+                return Step::Done;
+            }
+            path.throughput /= survival;
+        }
+        path.direction = wi;
+        path.bsdf_pdf = Some(sample.pdf);
+        Step::Continue {
+            origin: surface.spawn_origin(wi),
         }
     }
 

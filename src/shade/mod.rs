@@ -32,7 +32,7 @@ use crate::accel::{Hit, SceneAccel};
 use crate::batch::{HitBatch, RayBatch};
 use crate::sampling::Rng;
 use crate::scene::MaterialLibrary;
-use integrator::Strategy;
+use integrator::{Path, Step, Strategy};
 
 pub use environment::{Environment, EnvironmentMap, load_environment};
 pub use lights::{EnvironmentSampling, LightSet};
@@ -75,6 +75,13 @@ impl Shader<'_> {
     ///
     /// The batch's throughput (`tr`, `tg`, `tb`) is *not* applied: `out` holds radiance, and
     /// the caller weights it. A ray without an entry in `hits` is traced here.
+    ///
+    /// The paths advance together, one vertex at a time (a wavefront): every path takes its
+    /// next step ([`Shader::advance`], the same step the one-ray reference
+    /// [`Shader::path_radiance`] takes), then all the bounce rays are traced as one batch,
+    /// grouped by direction octant so that the batch call's 8-ray packets hold rays of one
+    /// octant leaving neighbouring pixels. The hits are exactly those of single rays and each
+    /// path keeps its own random stream, so the result is the reference's, bit for bit.
     pub fn shade_batch(
         &self,
         rays: &RayBatch,
@@ -83,52 +90,146 @@ impl Shader<'_> {
         stats: &mut ShadeStats,
     ) {
         let n = rays.len();
-        let mut shaded: Vec<(Vec3, u64)> = Vec::with_capacity(n);
-        (0..n)
+        out.r.clear();
+        out.r.resize(n, 0.0);
+        out.g.clear();
+        out.g.resize(n, 0.0);
+        out.b.clear();
+        out.b.resize(n, 0.0);
+        // The paths still going, in the order their rays are traced.
+        let mut live: Vec<PathSlot> = (0..n)
             .into_par_iter()
-            .with_min_len(16)
-            .map(|i| {
+            .with_min_len(64)
+            .filter_map(|i| {
                 if !rays.alive[i] {
-                    return (Vec3::ZERO, 0);
+                    return None;
                 }
-                let (origin, direction) =
-                    (Vec3::from(rays.origin(i)), Vec3::from(rays.direction(i)));
-                let mut rays_traced = 0;
-                let first_hit = match hits.triangle.get(i) {
-                    Some(&HitBatch::MISS) => None,
-                    Some(&triangle) => Some(Hit {
-                        t: hits.t[i],
-                        triangle,
-                        u: hits.u[i],
-                        v: hits.v[i],
-                    }),
-                    None => {
-                        rays_traced += 1;
-                        self.accel.intersect(origin, direction, f32::INFINITY)
-                    }
+                let origin = Vec3::from(rays.origin(i));
+                let path = Path::start(origin, Vec3::from(rays.direction(i)))?;
+                let (hit, rays_traced) = match hits.triangle.get(i) {
+                    Some(&HitBatch::MISS) => (None, 0),
+                    Some(&triangle) => (
+                        Some(Hit {
+                            t: hits.t[i],
+                            triangle,
+                            u: hits.u[i],
+                            v: hits.v[i],
+                        }),
+                        0,
+                    ),
+                    None => (
+                        self.accel.intersect(origin, path.direction, f32::INFINITY),
+                        1,
+                    ),
                 };
-                let mut rng =
-                    Rng::for_sample(self.seed ^ SHADE_STREAM_KEY, rays.pixel[i], rays.sample[i]);
-                let radiance = self.path_radiance(
-                    origin,
-                    direction,
-                    first_hit,
-                    &mut rng,
-                    &mut rays_traced,
+                Some(PathSlot {
+                    index: i as u32,
+                    path,
+                    rng: Rng::for_sample(
+                        self.seed ^ SHADE_STREAM_KEY,
+                        rays.pixel[i],
+                        rays.sample[i],
+                    ),
+                    hit,
+                    next: None,
+                    rays_traced,
+                })
+            })
+            .collect();
+
+        let mut bounce = BounceRays::default();
+        while !live.is_empty() {
+            live.par_iter_mut().with_min_len(16).for_each(|slot| {
+                let step = self.advance(
+                    &mut slot.path,
+                    slot.hit.take(),
+                    &mut slot.rng,
+                    &mut slot.rays_traced,
                     Strategy::Mis,
                 );
-                (radiance, rays_traced)
-            })
-            .collect_into_vec(&mut shaded);
+                slot.next = match step {
+                    Step::Continue { origin } => Some(origin),
+                    Step::Done => None,
+                };
+            });
+            live.retain(|slot| {
+                if slot.next.is_none() {
+                    let radiance = slot.path.radiance();
+                    let i = slot.index as usize;
+                    (out.r[i], out.g[i], out.b[i]) = (radiance.x, radiance.y, radiance.z);
+                    stats.rays_traced += slot.rays_traced;
+                }
+                slot.next.is_some()
+            });
+            bounce.trace(self.accel, &mut live);
+        }
+    }
+}
 
-        out.r.clear();
-        out.g.clear();
-        out.b.clear();
-        for &(radiance, rays_traced) in &shaded {
-            out.r.push(radiance.x);
-            out.g.push(radiance.y);
-            out.b.push(radiance.z);
-            stats.rays_traced += rays_traced;
+/// A path of the wavefront and what its next step needs.
+struct PathSlot {
+    /// The ray of the batch the path started from.
+    index: u32,
+    path: Path,
+    rng: Rng,
+    /// The closest hit of the path's current ray, once traced.
+    hit: Option<Hit>,
+    /// After a step: where the next ray leaves from (`None`: the path has ended).
+    next: Option<Vec3>,
+    rays_traced: u64,
+}
+
+/// The bounce rays of one wavefront step, as a batch.
+#[derive(Default)]
+struct BounceRays {
+    /// Indices into the live paths, grouped by direction octant.
+    order: Vec<u32>,
+    rays: RayBatch,
+    hits: HitBatch,
+}
+
+impl BounceRays {
+    /// Traces the next ray of every path in `live` (all have one) and hands each its hit.
+    /// The rays are grouped by direction octant, stably (a counting sort), so that within an
+    /// octant they stay in pixel order: the 8-ray packets then hold one octant's rays from
+    /// neighbouring pixels.
+    fn trace(&mut self, accel: &SceneAccel, live: &mut [PathSlot]) {
+        let octant = |slot: &PathSlot| {
+            let d = slot.path.direction;
+            (d.x < 0.0) as usize | ((d.y < 0.0) as usize) << 1 | ((d.z < 0.0) as usize) << 2
+        };
+        let mut starts = [0usize; 9];
+        for slot in live.iter() {
+            starts[octant(slot) + 1] += 1;
+        }
+        for k in 1..9 {
+            starts[k] += starts[k - 1];
+        }
+        self.order.resize(live.len(), 0);
+        for (k, slot) in live.iter().enumerate() {
+            let o = octant(slot);
+            self.order[starts[o]] = k as u32;
+            starts[o] += 1;
+        }
+        let rays = &mut self.rays;
+        rays.resize(live.len());
+        for (j, &k) in self.order.iter().enumerate() {
+            let slot = &live[k as usize];
+            let origin = slot.next.expect("live paths have a next ray");
+            let direction = slot.path.direction;
+            (rays.ox[j], rays.oy[j], rays.oz[j]) = (origin.x, origin.y, origin.z);
+            (rays.dx[j], rays.dy[j], rays.dz[j]) = (direction.x, direction.y, direction.z);
+        }
+        accel.intersect_batch(rays, &mut self.hits);
+        for (j, &k) in self.order.iter().enumerate() {
+            let slot = &mut live[k as usize];
+            slot.hit = (self.hits.triangle[j] != HitBatch::MISS).then(|| Hit {
+                t: self.hits.t[j],
+                triangle: self.hits.triangle[j],
+                u: self.hits.u[j],
+                v: self.hits.v[j],
+            });
+            slot.rays_traced += 1;
         }
     }
 }

@@ -5,6 +5,7 @@ mod bsdf;
 mod environment;
 mod lighting;
 mod robustness;
+mod wavefront;
 
 use std::sync::Arc;
 
