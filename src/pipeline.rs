@@ -328,6 +328,8 @@ type ActiveLensQuery<'w, 's> = Query<
 >;
 
 /// GenerateRays: camera rays of this pass for every tile, traced through the active lens.
+// A system's parameters are its explicit queries and resources (bevy style), not a bundle.
+#[allow(clippy::too_many_arguments)]
 pub fn generate_rays(
     mut commands: Commands,
     lens: ActiveLensQuery,

@@ -362,14 +362,17 @@ fn rays_are_reversible() {
             let returned = trace(&system.f64s, start, Travel::SceneToFilm).unwrap();
             // The returned ray lies on the original line, heading the opposite way.
             let t = (origin[2] - returned.origin[2]) / returned.direction[2];
-            for k in 0..2 {
-                assert!(
-                    (returned.origin[k] + t * returned.direction[k] - origin[k]).abs() < 1e-6,
-                    "{name}"
-                );
+            for ((p, d), start) in returned
+                .origin
+                .iter()
+                .zip(returned.direction)
+                .zip(origin)
+                .take(2)
+            {
+                assert!((p + t * d - start).abs() < 1e-6, "{name}");
             }
-            for k in 0..3 {
-                assert!((returned.direction[k] + d[k]).abs() < 1e-9, "{name}");
+            for (back, forward) in returned.direction.iter().zip(d) {
+                assert!((back + forward).abs() < 1e-9, "{name}");
             }
             checked += 1;
         }

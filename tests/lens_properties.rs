@@ -17,11 +17,11 @@ use realcam::lens::{LensFormat, LensSystem, Prescription};
 fn exercise(text: &str, format: Option<LensFormat>) {
     if let Ok(p) = Prescription::parse(text, Path::new("fuzz.dat"), format) {
         let system = LensSystem::new(&p.rows, None);
-        if let Ok(fo) = FirstOrder::compute(&system) {
-            if let Ok(film) = paraxial_film_distance(&system, &fo, 3000.0) {
-                let pupil = ExitPupil::compute(&system, film, 35.0, PupilSampling::Bounds);
-                let _ = pupil.sample(1.0, 2.0, [0.5, 0.5]);
-            }
+        if let Ok(fo) = FirstOrder::compute(&system)
+            && let Ok(film) = paraxial_film_distance(&system, &fo, 3000.0)
+        {
+            let pupil = ExitPupil::compute(&system, film, 35.0, PupilSampling::Bounds);
+            let _ = pupil.sample(1.0, 2.0, [0.5, 0.5]);
         }
     }
 }

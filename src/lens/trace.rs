@@ -272,8 +272,8 @@ mod tests {
             Travel::SceneToFilm,
         )
         .unwrap();
-        for k in 0..3 {
-            assert!((out.direction[k] - d[k]).abs() < 1e-12);
+        for (got, want) in out.direction.iter().zip(d) {
+            assert!((got - want).abs() < 1e-12);
         }
     }
 
