@@ -162,6 +162,15 @@ fn shadow_any_hit_sorted(bencher: Bencher, scene: &str) {
     traversal(bencher, scene, Traversal::detect(), Kind::Shadow, true);
 }
 
+/// The rays as the renderer's SoA batch (all alive).
+fn ray_batch(rays: &WorldRays) -> RayBatch {
+    let mut batch = RayBatch::with_capacity(rays.len());
+    for i in 0..rays.len() {
+        batch.push(rays.origin[i].into(), rays.direction[i].into(), 0, 0);
+    }
+    batch
+}
+
 /// Bounce rays through the batch call (8-ray packets where a packet's rays share a direction
 /// octant): in image order, and sorted by octant and origin first (sort included), which makes
 /// nearly every packet one octant with neighbouring origins.
@@ -171,14 +180,7 @@ fn closest_bounce_batch<const SORTED: bool>(bencher: Bencher, scene: &str) {
         return;
     };
     let rays = rays(accel, Kind::Bounce);
-    let to_batch = |rays: &WorldRays| {
-        let mut batch = RayBatch::with_capacity(rays.len());
-        for i in 0..rays.len() {
-            batch.push(rays.origin[i].into(), rays.direction[i].into(), 0, 0);
-        }
-        batch
-    };
-    let unsorted = to_batch(&rays);
+    let unsorted = ray_batch(&rays);
     let mut hits = HitBatch::default();
     let pool = thread_pool(1);
     bencher
@@ -187,7 +189,7 @@ fn closest_bounce_batch<const SORTED: bool>(bencher: Bencher, scene: &str) {
             pool.install(|| {
                 if SORTED {
                     let order = coherent_order(&rays, accel);
-                    accel.intersect_batch(&to_batch(&rays.permuted(&order)), &mut hits)
+                    accel.intersect_batch(&ray_batch(&rays.permuted(&order)), &mut hits)
                 } else {
                     accel.intersect_batch(black_box(&unsorted), &mut hits)
                 }
@@ -202,10 +204,7 @@ fn closest_primary_batch(bencher: Bencher, scene: &str) {
         return;
     };
     let rays = rays(accel, Kind::Primary);
-    let mut batch = RayBatch::with_capacity(rays.len());
-    for i in 0..rays.len() {
-        batch.push(rays.origin[i].into(), rays.direction[i].into(), 0, 0);
-    }
+    let batch = ray_batch(&rays);
     let mut hits = HitBatch::default();
     let pool = thread_pool(1);
     bencher
@@ -290,10 +289,7 @@ fn closest_primary_tiles(bencher: Bencher, case: TileCase) {
         return;
     };
     let rays = tile_rays(accel, case.lens);
-    let mut batch = RayBatch::with_capacity(rays.len());
-    for i in 0..rays.len() {
-        batch.push(rays.origin[i].into(), rays.direction[i].into(), 0, 0);
-    }
+    let batch = ray_batch(&rays);
     let mut hits = HitBatch::default();
     let pool = thread_pool(1);
     bencher

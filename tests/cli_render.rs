@@ -141,6 +141,21 @@ fn same_seed_same_image_with_one_or_two_threads() {
     );
 }
 
+/// Many cheap sample passes (an 8×8 image, direct light only), so that a signal lands
+/// mid-render.
+const CHEAP_PASSES: [&str; 10] = [
+    "--spp",
+    "30000",
+    "--width",
+    "8",
+    "--height",
+    "8",
+    "--max-depth",
+    "1",
+    "--seed",
+    "5",
+];
+
 /// Starts `realcam render --out cut.png` with `args`, a checkpoint every 0.05 s, sends SIGINT
 /// once `checkpoint` (in `dir`) appears, and returns the checkpoint saved on the way out.
 fn render_until_interrupted(
@@ -184,18 +199,7 @@ fn render_until_interrupted(
 #[test]
 fn interrupted_shard_resumes_to_the_uninterrupted_partial() {
     let dir = tempfile::tempdir().unwrap();
-    let common = [
-        "--spp",
-        "30000",
-        "--width",
-        "8",
-        "--height",
-        "8",
-        "--max-depth",
-        "1",
-        "--seed",
-        "5",
-    ];
+    let common = CHEAP_PASSES;
     let mut shard = common.to_vec();
     shard.extend(["--shard", "1/3"]);
     // Each shard of a frame saves to a checkpoint of its own by default.
@@ -247,19 +251,7 @@ fn interrupted_shard_resumes_to_the_uninterrupted_partial() {
 #[test]
 fn interrupted_render_resumes_to_the_uninterrupted_image() {
     let dir = tempfile::tempdir().unwrap();
-    // Many cheap passes, so the signal lands mid-render.
-    let common = [
-        "--spp",
-        "30000",
-        "--width",
-        "8",
-        "--height",
-        "8",
-        "--max-depth",
-        "1",
-        "--seed",
-        "5",
-    ];
+    let common = CHEAP_PASSES;
     let (partial, info) = render_until_interrupted(dir.path(), &common, "cut.checkpoint.exr");
     assert!(
         dir.path().join("cut.png").exists(),
