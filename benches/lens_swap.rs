@@ -2,8 +2,10 @@
 //! surfaces, first-order data, focus, exit-pupil bounds) against rendering a 64 spp 512×512
 //! frame of the default scene. Target: a swap under 5 % of a frame.
 
+use bevy_ecs::entity::Entity;
 use divan::Bencher;
 use glam::Vec3;
+use realcam::lens::Prescription;
 use realcam::lens::aperture::ApertureSetting;
 use realcam::lens::bundled::load_lens;
 use realcam::lens::elements::FocusSetting;
@@ -56,19 +58,23 @@ fn focus() -> FocusSetting {
     }
 }
 
+/// Spawns `prescription`'s lens entities, makes them the active lens and derives them.
+fn activate(renderer: &mut Renderer, prescription: &Prescription) -> Entity {
+    let lens = renderer.add_lens(prescription, focus(), ApertureSetting::Full);
+    renderer.set_active_lens(lens);
+    renderer.update().unwrap();
+    lens
+}
+
 /// Despawn the active lens set, spawn another, derive everything the renderer needs from it.
 #[divan::bench(args = LENSES, sample_count = 20)]
 fn swap_lens(bencher: Bencher, lens: &str) {
     let prescription = load_lens(lens, None).unwrap();
     let mut renderer = default_scene(512, 512);
-    let mut current = renderer.add_lens(&prescription, focus(), ApertureSetting::Full);
-    renderer.set_active_lens(current);
-    renderer.update().unwrap();
+    let mut current = activate(&mut renderer, &prescription);
     bencher.bench_local(|| {
         renderer.world.despawn(current);
-        current = renderer.add_lens(&prescription, focus(), ApertureSetting::Full);
-        renderer.set_active_lens(current);
-        renderer.update().unwrap();
+        current = activate(&mut renderer, &prescription);
     });
 }
 
@@ -76,13 +82,7 @@ fn swap_lens(bencher: Bencher, lens: &str) {
 #[divan::bench(sample_count = 20)]
 fn refocus(bencher: Bencher) {
     let mut renderer = default_scene(512, 512);
-    let lens = renderer.add_lens(
-        &load_lens("dgauss.50mm", None).unwrap(),
-        focus(),
-        ApertureSetting::Full,
-    );
-    renderer.set_active_lens(lens);
-    renderer.update().unwrap();
+    let lens = activate(&mut renderer, &load_lens("dgauss.50mm", None).unwrap());
     let mut metres = 3.0;
     bencher.bench_local(|| {
         metres = if metres == 3.0 { 5.0 } else { 3.0 };
@@ -98,12 +98,6 @@ fn refocus(bencher: Bencher) {
 #[divan::bench(sample_count = 2, sample_size = 1)]
 fn frame_64spp_512(bencher: Bencher) {
     let mut renderer = default_scene(512, 512);
-    let lens = renderer.add_lens(
-        &load_lens("dgauss.50mm", None).unwrap(),
-        focus(),
-        ApertureSetting::Full,
-    );
-    renderer.set_active_lens(lens);
-    renderer.update().unwrap();
+    activate(&mut renderer, &load_lens("dgauss.50mm", None).unwrap());
     bencher.bench_local(|| renderer.render(64, |_, _| true).unwrap());
 }

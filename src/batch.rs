@@ -4,6 +4,8 @@
 //! compiler can vectorise them. The same type carries rays in the lens frame (mm, see
 //! [`crate::lens`]) and in the world frame (metres, see [`crate::scene`]); each stage says which.
 
+use crate::accel::Hit;
+
 /// A batch of rays with per-ray throughput, pixel and liveness.
 #[derive(Clone, Debug, Default)]
 pub struct RayBatch {
@@ -148,6 +150,16 @@ impl HitBatch {
 
     pub fn len(&self) -> usize {
         self.t.len()
+    }
+
+    /// The closest hit of ray `i`, `None` for a miss.
+    pub fn hit(&self, i: usize) -> Option<Hit> {
+        (self.triangle[i] != Self::MISS).then(|| Hit {
+            t: self.t[i],
+            triangle: self.triangle[i],
+            u: self.u[i],
+            v: self.v[i],
+        })
     }
 
     pub fn is_empty(&self) -> bool {

@@ -280,24 +280,9 @@ fn interrupted_render_resumes_to_the_uninterrupted_image() {
     );
 
     // A checkpoint refuses other settings, naming what differs.
-    let mut other = vec![
-        "render",
-        "--out",
-        "x.png",
-        "--resume",
-        "cut.checkpoint.exr",
-        "--spp",
-        "30000",
-        "--width",
-        "8",
-        "--height",
-        "8",
-        "--max-depth",
-        "1",
-        "--seed",
-        "6",
-    ];
-    other.truncate(other.len());
+    let mut other = vec!["render", "--out", "x.png", "--resume", "cut.checkpoint.exr"];
+    other.extend(CHEAP_PASSES);
+    *other.last_mut().unwrap() = "6"; // --seed
     let output = realcam(dir.path(), &other);
     assert_eq!(output.status.code(), Some(1));
     assert!(

@@ -793,12 +793,7 @@ fn assert_batch_agrees(accel: &SceneAccel, rays: &RayBatch) -> usize {
     let mut found = 0;
     for i in 0..rays.len() {
         let (origin, direction) = (Vec3::from(rays.origin(i)), Vec3::from(rays.direction(i)));
-        let batch = (hits.triangle[i] != HitBatch::MISS).then(|| Hit {
-            t: hits.t[i],
-            triangle: hits.triangle[i],
-            u: hits.u[i],
-            v: hits.v[i],
-        });
+        let batch = hits.hit(i);
         if !rays.alive[i] {
             assert_eq!(batch, None, "dead ray {i}");
             assert_eq!(hits.t[i], f32::INFINITY);

@@ -106,21 +106,13 @@ impl Shader<'_> {
                 }
                 let origin = Vec3::from(rays.origin(i));
                 let path = Path::start(origin, Vec3::from(rays.direction(i)))?;
-                let (hit, rays_traced) = match hits.triangle.get(i) {
-                    Some(&HitBatch::MISS) => (None, 0),
-                    Some(&triangle) => (
-                        Some(Hit {
-                            t: hits.t[i],
-                            triangle,
-                            u: hits.u[i],
-                            v: hits.v[i],
-                        }),
-                        0,
-                    ),
-                    None => (
+                let (hit, rays_traced) = if i < hits.len() {
+                    (hits.hit(i), 0)
+                } else {
+                    (
                         self.accel.intersect(origin, path.direction, f32::INFINITY),
                         1,
-                    ),
+                    )
                 };
                 Some(PathSlot {
                     index: i as u32,
@@ -223,12 +215,7 @@ impl BounceRays {
         accel.intersect_batch(rays, &mut self.hits);
         for (j, &k) in self.order.iter().enumerate() {
             let slot = &mut live[k as usize];
-            slot.hit = (self.hits.triangle[j] != HitBatch::MISS).then(|| Hit {
-                t: self.hits.t[j],
-                triangle: self.hits.triangle[j],
-                u: self.hits.u[j],
-                v: self.hits.v[j],
-            });
+            slot.hit = self.hits.hit(j);
             slot.rays_traced += 1;
         }
     }
