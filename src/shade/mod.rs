@@ -131,7 +131,9 @@ impl Shader<'_> {
 
         let mut bounce = BounceRays::default();
         while !live.is_empty() {
-            live.par_iter_mut().with_min_len(16).for_each(|slot| {
+            // Deep paths leave few live ones per step; tasks of fewer than 64 paths cost
+            // more to split than they save (default scene, depth 8: 6 % slower at 16).
+            live.par_iter_mut().with_min_len(64).for_each(|slot| {
                 let step = self.advance(
                     &mut slot.path,
                     slot.hit.take(),
