@@ -151,3 +151,28 @@ fn bad_requests_fail_with_a_clear_message() {
     let (code, _, _) = realcam(&[]);
     assert_eq!(code, 2, "no glass, no --near, no --list: a usage error");
 }
+
+#[test]
+fn readme_mentions_every_option() {
+    let (code, help, _) = realcam(&["--help"]);
+    assert_eq!(code, 0);
+    let readme =
+        std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/README.md")).unwrap();
+    let section = readme
+        .split("## Optical glass")
+        .nth(1)
+        .expect("README has an Optical glass section");
+    let options: Vec<&str> = help
+        .split_whitespace()
+        .filter(|w| w.starts_with("--") && w.len() > 2)
+        .map(|w| w.trim_end_matches(|c: char| !c.is_ascii_alphanumeric()))
+        .filter(|w| *w != "--help")
+        .collect();
+    assert!(options.len() >= 6, "{options:?}");
+    for option in options {
+        assert!(
+            section.contains(&format!("`{option}")),
+            "README lacks {option}"
+        );
+    }
+}
