@@ -707,6 +707,7 @@ fn write_partial(dir: &Path, name: &str, shard: (u32, u32), seed: u64) -> PathBu
         planned: 2,
         shard: Some(shard),
         settings: json!({"seed": seed, "width": 4, "height": 2}),
+        invocation: None,
     };
     write_checkpoint(&path, &image, &info).unwrap();
     path

@@ -14,7 +14,7 @@ use anyhow::{Context, bail};
 use clap::Args;
 
 use crate::film::Image;
-use crate::film::checkpoint::{CheckpointInfo, read_checkpoint};
+use crate::film::checkpoint::{CheckpointInfo, Invocation, read_checkpoint};
 use crate::film::output::{auto_exposure, check_writable, same_file, write_exr, write_png};
 
 #[derive(Args, Debug, Clone)]
@@ -48,9 +48,19 @@ pub struct Merged {
     pub merged: Vec<u32>,
     /// Shard indices of 0..N-1 with no partial (only with `allow_missing`).
     pub missing: Vec<u32>,
-    /// Partials whose shard had samples left to render, with how many (only with
+    /// Checkpoints of stopped shards, which had samples left to render (only with
     /// `allow_missing`).
-    pub unfinished: Vec<(PathBuf, usize)>,
+    pub unfinished: Vec<Unfinished>,
+}
+
+/// A stopped shard's checkpoint given to merge.
+#[derive(Debug, PartialEq)]
+pub struct Unfinished {
+    pub path: PathBuf,
+    /// Samples per pixel the shard still had to render.
+    pub remaining: usize,
+    /// The shell command that finishes the shard: its own command line with `--resume`.
+    pub finish_command: String,
 }
 
 pub fn run(args: &MergeArgs) -> anyhow::Result<ExitCode> {
@@ -65,10 +75,12 @@ pub fn run(args: &MergeArgs) -> anyhow::Result<ExitCode> {
             merged.merged.len()
         );
     }
-    for (path, remaining) in &merged.unfinished {
+    for shard in &merged.unfinished {
         eprintln!(
-            "warning: {}: unfinished shard ({remaining} samples not rendered); merging the samples it has",
-            path.display()
+            "warning: {}: unfinished shard ({} samples not rendered); merging the samples it has; finish it with `{}`",
+            shard.path.display(),
+            shard.remaining,
+            shard.finish_command
         );
     }
     let image = &merged.image;
@@ -181,18 +193,24 @@ pub fn merge_partials(paths: &[PathBuf], allow_missing: bool) -> anyhow::Result<
             given.join(", "),
         );
     }
-    let unfinished: Vec<(PathBuf, usize)> = by_index
+    let unfinished: Vec<Unfinished> = by_index
         .values()
         .map(|&at| &partials[at])
         .filter(|partial| !partial.info.remaining.is_empty())
-        .map(|partial| (partial.path.clone(), partial.info.remaining.len()))
+        .map(|partial| Unfinished {
+            path: partial.path.clone(),
+            remaining: partial.info.remaining.len(),
+            finish_command: finish_command(partial),
+        })
         .collect();
-    if let Some((path, remaining)) = unfinished.first()
+    if let Some(shard) = unfinished.first()
         && !allow_missing
     {
         bail!(
-            "{}: this shard is unfinished (it was stopped with {remaining} of its samples not rendered); render the shard again, or pass --allow-missing to merge the samples it has",
-            path.display()
+            "{}: this shard is unfinished (it was stopped with {} of its samples not rendered); finish it with `{}` and merge the partial that writes, or pass --allow-missing to merge the samples it has",
+            shard.path.display(),
+            shard.remaining,
+            shard.finish_command
         );
     }
 
@@ -228,6 +246,52 @@ fn read_partial(path: &Path) -> anyhow::Result<(Partial, Image)> {
         height: image.height,
     };
     Ok((partial, image))
+}
+
+/// The command that continues a stopped shard from its checkpoint: the command line that wrote
+/// the checkpoint, run in the same directory, with `--resume` naming the checkpoint (by its
+/// canonical path, so the command works from anywhere).
+fn finish_command(partial: &Partial) -> String {
+    let checkpoint = partial
+        .path
+        .canonicalize()
+        .or_else(|_| std::path::absolute(&partial.path))
+        .unwrap_or_else(|_| partial.path.clone());
+    let checkpoint = checkpoint.to_string_lossy();
+    let Some(Invocation { directory, args }) = &partial.info.invocation else {
+        // A checkpoint of an older realcam, which did not record its command line.
+        return format!(
+            "realcam render <the shard's own scene and options> --shard {}/{} --resume {}",
+            partial.index,
+            partial.count,
+            shell_word(&checkpoint)
+        );
+    };
+    let mut words: Vec<&str> = Vec::with_capacity(args.len() + 2);
+    let mut arguments = args.iter();
+    while let Some(arg) = arguments.next() {
+        if arg == "--resume" {
+            arguments.next();
+        } else if !arg.starts_with("--resume=") {
+            words.push(arg);
+        }
+    }
+    words.extend(["--resume", &checkpoint]);
+    let command: Vec<String> = words.into_iter().map(shell_word).collect();
+    format!("cd {} && {}", shell_word(directory), command.join(" "))
+}
+
+/// `word` as one word for a POSIX shell: as it is when that is safe, else in single quotes.
+fn shell_word(word: &str) -> String {
+    let plain = !word.is_empty()
+        && word
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || "-_./=:,+@%^".contains(c));
+    if plain {
+        word.to_string()
+    } else {
+        format!("'{}'", word.replace('\'', r"'\''"))
+    }
 }
 
 /// Partials of one frame share the shard count, the image size and every setting.
@@ -385,6 +449,7 @@ mod tests {
             planned: samples,
             shard: Some((index, count)),
             settings: json!({"seed": 7, "spp": 8, "lens": "dgauss.50mm"}),
+            invocation: None,
         }
     }
 
@@ -505,14 +570,45 @@ mod tests {
         };
         let mut unfinished = info(1, 2, 2);
         unfinished.remaining = vec![5, 7];
+        unfinished.invocation = Some(Invocation {
+            directory: "/farm/job 7".into(),
+            args: [
+                "/opt/realcam",
+                "render",
+                "/scenes/it's.glb",
+                "--shard",
+                "1/2",
+                "--resume",
+                "old.exr",
+                "--spp",
+                "8",
+                "--resume=older.exr",
+            ]
+            .map(String::from)
+            .to_vec(),
+        });
         let b = write(dir.path(), "half.exr", &image, unfinished);
         let message = error(&[a.clone(), b.clone()]);
         assert!(
             message.contains("half.exr") && message.contains("unfinished"),
             "{message}"
         );
+        // The shard's own command line, in its directory, resuming this checkpoint (and no
+        // earlier one), quoted for a shell.
+        let finish = format!(
+            "cd '/farm/job 7' && /opt/realcam render '/scenes/it'\\''s.glb' --shard 1/2 --spp 8 --resume {}",
+            b.canonicalize().unwrap().display()
+        );
+        assert!(message.contains(&format!("`{finish}`")), "{message}");
         let merged = merge_partials(&[a.clone(), b.clone()], true).unwrap();
-        assert_eq!(merged.unfinished, [(b, 2)]);
+        assert_eq!(
+            merged.unfinished,
+            [Unfinished {
+                path: b,
+                remaining: 2,
+                finish_command: finish
+            }]
+        );
         assert_eq!(merged.image.samples, 6);
 
         let mut plain = info(0, 1, 2);

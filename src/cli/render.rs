@@ -19,7 +19,9 @@ use super::plan::{Frame, FrameRequest, Shard, Sweep, plan_frames, sidecar};
 use super::setup::{
     Placement, autofocus, choose_environment, frame_scene, parse_vec3, place_camera,
 };
-use crate::film::checkpoint::{CheckpointInfo, FORMAT_VERSION, read_checkpoint, write_checkpoint};
+use crate::film::checkpoint::{
+    CheckpointInfo, FORMAT_VERSION, Invocation, read_checkpoint, write_checkpoint,
+};
 use crate::film::contact_sheet::{Thumbnail, contact_sheet};
 use crate::film::output::{
     auto_exposure, check_writable, same_file, to_srgb8, write_atomically, write_exr, write_png,
@@ -490,6 +492,7 @@ fn render_frame(
         planned: args.spp,
         shard: args.shard.map(|s| (s.index, s.count)),
         settings: settings.clone(),
+        invocation: Invocation::current(),
     };
     let (width, height) = {
         let s = renderer.world.resource::<RenderSettings>();

@@ -35,6 +35,34 @@ pub struct CheckpointInfo {
     pub shard: Option<(u32, u32)>,
     /// Settings that must match to resume or merge: seed, resolution, lens, scene, … as JSON.
     pub settings: serde_json::Value,
+    /// The command line that wrote the file, so that `realcam merge` can name the command that
+    /// finishes a stopped shard (absent in files of older versions).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub invocation: Option<Invocation>,
+}
+
+/// A command line and the directory it ran in (its relative paths are relative to that).
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Invocation {
+    pub directory: String,
+    /// The program as invoked, then its arguments.
+    pub args: Vec<String>,
+}
+
+impl Invocation {
+    /// This process's command line, or `None` when a part of it is not UTF-8 (a lossy copy
+    /// would name a command that does something else).
+    pub fn current() -> Option<Invocation> {
+        let directory = std::env::current_dir()
+            .ok()?
+            .into_os_string()
+            .into_string()
+            .ok()?;
+        let args = std::env::args_os()
+            .map(|arg| arg.into_string().ok())
+            .collect::<Option<Vec<String>>>()?;
+        Some(Invocation { directory, args })
+    }
 }
 
 /// Writes `image` (sums) with `info`, atomically.
@@ -144,6 +172,15 @@ mod tests {
             planned: 10,
             shard: Some((1, 3)),
             settings: serde_json::json!({"seed": 5}),
+            invocation: Some(Invocation {
+                directory: "/farm/frames".into(),
+                args: vec![
+                    "realcam".into(),
+                    "render".into(),
+                    "--shard".into(),
+                    "1/3".into(),
+                ],
+            }),
         };
         write_checkpoint(&path, &image, &info).unwrap();
         let (back, back_info) = read_checkpoint(&path).unwrap();
