@@ -42,7 +42,8 @@ const CHEAP_PASSES: [&str; 10] = [
 
 /// Starts `realcam render ARGS` in `dir` (stdin not a terminal, as under a scheduler) and
 /// returns once it has begun rendering (it prints the lens line just before the first pass),
-/// with the rest of its stderr.
+/// with the rest of its stderr. The caller waits for the child.
+#[allow(clippy::zombie_processes)]
 fn start_rendering(dir: &Path, args: &[&str]) -> (Child, BufReader<std::process::ChildStderr>) {
     let mut child = Command::new(env!("CARGO_BIN_EXE_realcam"))
         .args(args)
