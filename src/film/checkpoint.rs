@@ -11,11 +11,12 @@ use std::path::Path;
 use anyhow::{Context, bail};
 use exr::meta::attribute::{AttributeValue, Text};
 use exr::prelude::{
-    Encoding, Image as ExrImage, Layer, LayerAttributes, ReadChannels, ReadLayers,
-    SpecificChannels, WritableImage, read,
+    Image as ExrImage, Layer, LayerAttributes, ReadChannels, ReadLayers, SpecificChannels,
+    WritableImage, read,
 };
 
 use super::Image;
+use super::format::EXR_ENCODING;
 use super::output::write_atomically;
 
 const ATTRIBUTE: &str = "realcam";
@@ -79,7 +80,7 @@ pub fn write_checkpoint(path: &Path, image: &Image, info: &CheckpointInfo) -> an
     let layer = Layer::new(
         (image.width as usize, image.height as usize),
         attributes,
-        Encoding::SMALL_LOSSLESS,
+        EXR_ENCODING,
         SpecificChannels::rgba(|p: exr::math::Vec2<usize>| {
             let s = sums[p.y() * width + p.x()];
             (s[0], s[1], s[2], 1.0f32)

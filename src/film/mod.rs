@@ -6,6 +6,7 @@
 
 pub mod checkpoint;
 pub mod contact_sheet;
+pub mod format;
 pub mod output;
 
 use bevy_ecs::component::Component;

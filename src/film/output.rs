@@ -1,11 +1,44 @@
-//! Writing images: sRGB PNG with exposure, linear EXR; always atomically.
+//! Writing outputs: sRGB tone mapping, and putting bytes where an output path says, safely.
+//!
+//! Every output path goes through [`write_output`] (or [`write_atomically`] for one that must
+//! be a file):
+//!
+//! - a regular file, or a name that does not exist yet, is written atomically: a temporary
+//!   file beside it, then a rename, so readers never see half an image, even if realcam is
+//!   killed mid-write;
+//! - a symbolic link is written *through*: its final target is replaced atomically and the
+//!   link stays a link;
+//! - a FIFO or a character device (`/dev/null`, a terminal, `/dev/stdout`) is written in
+//!   place, never renamed over, so a device node is never replaced by a regular file;
+//! - a directory, a block device or a socket is refused;
+//! - `-` is standard output ([`write_output`] only).
+//!
+//! A write that fails (a full disk, a reader that went away) is an error naming the path.
 
-use std::io::{BufWriter, Write};
+use std::io::{IsTerminal, Write};
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, bail};
 
 use super::Image;
+use super::format::{ImageFormat, Tone, encode_image};
+
+/// The output path that means standard output.
+pub const STDOUT: &str = "-";
+
+/// Whether `path` means standard output (`-`).
+pub fn is_stdout(path: &Path) -> bool {
+    path.as_os_str() == STDOUT
+}
+
+/// How messages name an output: its path, or "standard output" for `-`.
+pub fn shown(path: &Path) -> String {
+    if is_stdout(path) {
+        "standard output".to_string()
+    } else {
+        path.display().to_string()
+    }
+}
 
 /// Rec. 709 luminance of linear RGB.
 pub fn luminance(c: [f32; 3]) -> f32 {
@@ -51,30 +84,25 @@ pub fn to_srgb8(pixels: &[[f32; 3]], exposure: f32) -> Vec<u8> {
 
 /// Writes `image`'s means as an sRGB PNG scaled by `exposure`.
 pub fn write_png(path: &Path, image: &Image, exposure: f32) -> anyhow::Result<()> {
-    let bytes = to_srgb8(&image.mean(), exposure);
-    let buffer = image::RgbImage::from_raw(image.width, image.height, bytes)
-        .context("image size mismatch")?;
-    write_atomically(path, |w| {
-        buffer.write_to(&mut std::io::Cursor::new(&mut *w), image::ImageFormat::Png)?;
-        Ok(())
-    })
+    write_image(path, image, ImageFormat::Png, Tone::exposure(exposure))
 }
 
 /// Writes `image`'s means as linear, un-tonemapped RGB float EXR.
 pub fn write_exr(path: &Path, image: &Image) -> anyhow::Result<()> {
-    let floats: Vec<f32> = image.mean().into_iter().flatten().collect();
-    let buffer = image::Rgb32FImage::from_raw(image.width, image.height, floats)
-        .context("image size mismatch")?;
-    write_atomically(path, |w| {
-        buffer.write_to(
-            &mut std::io::Cursor::new(&mut *w),
-            image::ImageFormat::OpenExr,
-        )?;
-        Ok(())
-    })
+    write_image(path, image, ImageFormat::Exr, Tone::exposure(1.0))
 }
 
-/// Checks before a long render that `path` can be written: its folder exists and is writable.
+/// Writes `image`'s means in `format`: 8-bit formats tone-mapped by `tone`, float formats
+/// linear. `-` is standard output.
+pub fn write_image(
+    path: &Path,
+    image: &Image,
+    format: ImageFormat,
+    tone: Tone,
+) -> anyhow::Result<()> {
+    write_output(path, |bytes| encode_image(bytes, image, format, tone))
+}
+
 /// True when both paths name one existing file (through links, `..` and the like): an output
 /// must never be written over one of the inputs.
 pub fn same_file(a: &Path, b: &Path) -> bool {
@@ -84,53 +112,240 @@ pub fn same_file(a: &Path, b: &Path) -> bool {
     }
 }
 
-pub fn check_writable(path: &Path) -> anyhow::Result<()> {
-    if path.is_dir() {
+/// What an output path names on disk, and so how it is written.
+#[derive(Clone, Debug, PartialEq, Eq)]
+enum Target {
+    /// A regular file or nothing yet (at the end of any symbolic links): written to a
+    /// temporary file beside it, then renamed over it.
+    File(PathBuf),
+    /// A FIFO or a character device: opened and written in place.
+    InPlace(PathBuf),
+}
+
+/// Symbolic links followed before giving up, as the kernel's own limit (`ELOOP`).
+const MAX_LINKS: usize = 40;
+
+/// Follows `path` through symbolic links to what they finally name (which need not exist).
+fn resolve_links(path: &Path) -> anyhow::Result<PathBuf> {
+    let mut current = path.to_path_buf();
+    for _ in 0..MAX_LINKS {
+        match std::fs::symlink_metadata(&current) {
+            Ok(meta) if meta.file_type().is_symlink() => {
+                let target = std::fs::read_link(&current)
+                    .with_context(|| format!("{}: cannot read the link", path.display()))?;
+                current = match current.parent() {
+                    Some(parent) if target.is_relative() => parent.join(target),
+                    _ => target,
+                };
+            }
+            _ => return Ok(current),
+        }
+    }
+    bail!(
+        "{}: too many levels of symbolic links; give the output file itself",
+        path.display()
+    )
+}
+
+/// Decides how `path` is written, refusing what must never be written over.
+fn target(path: &Path) -> anyhow::Result<Target> {
+    let resolved = resolve_links(path)?;
+    let meta = match std::fs::metadata(&resolved) {
+        Ok(meta) => meta,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(Target::File(resolved)),
+        Err(e) => {
+            return Err(e).with_context(|| format!("{}: cannot write output", path.display()));
+        }
+    };
+    let kind = meta.file_type();
+    if kind.is_file() {
+        return Ok(Target::File(resolved));
+    }
+    if kind.is_dir() {
         bail!(
             "{}: is a directory; give a file name for the output",
             path.display()
         );
     }
-    let probe = temp_path(path);
-    std::fs::File::create(&probe)
-        .with_context(|| format!("{}: cannot write here", path.display()))?;
-    let _ = std::fs::remove_file(&probe);
-    Ok(())
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::FileTypeExt;
+        if kind.is_fifo() || kind.is_char_device() {
+            return Ok(Target::InPlace(resolved));
+        }
+        let what = if kind.is_block_device() {
+            "a block device"
+        } else if kind.is_socket() {
+            "a socket"
+        } else {
+            "not a regular file"
+        };
+        bail!(
+            "{}: is {what}; realcam writes outputs to regular files (or, in place, to a FIFO or a character device such as /dev/null), never over {what}",
+            path.display()
+        );
+    }
+    #[cfg(not(unix))]
+    bail!(
+        "{}: is not a regular file; give a file name for the output",
+        path.display()
+    )
 }
 
-/// Encodes into memory, writes a temporary file beside `path`, then renames it over `path`:
-/// readers never see a half-written image, even if realcam is killed mid-write.
-pub fn write_atomically(
-    path: &Path,
-    encode: impl FnOnce(&mut Vec<u8>) -> anyhow::Result<()>,
-) -> anyhow::Result<()> {
-    let mut bytes = Vec::new();
-    encode(&mut bytes).with_context(|| format!("{}: cannot encode image", path.display()))?;
-    let temp = temp_path(path);
-    let result = (|| -> std::io::Result<()> {
-        let mut file = BufWriter::new(std::fs::File::create(&temp)?);
-        file.write_all(&bytes)?;
-        file.into_inner().map_err(|e| e.into_error())?.sync_all()?;
-        std::fs::rename(&temp, path)
-    })();
-    if let Err(e) = result {
-        let _ = std::fs::remove_file(&temp);
-        return Err(e).with_context(|| format!("{}: cannot write output", path.display()));
+/// Checks before a long render that `path` can be written: standard output is not a terminal;
+/// a file's folder exists and is writable; a FIFO or device is writable. Writes nothing.
+pub fn check_writable(path: &Path) -> anyhow::Result<()> {
+    if is_stdout(path) {
+        if std::io::stdout().is_terminal() {
+            bail!(
+                "standard output is a terminal: `-` writes binary image data there; redirect it (`> file`) or give a file name"
+            );
+        }
+        return Ok(());
+    }
+    match target(path)? {
+        Target::File(file) => {
+            let (probe, _) = create_temp(&file)
+                .with_context(|| format!("{}: cannot write here", path.display()))?;
+            let _ = std::fs::remove_file(&probe);
+        }
+        Target::InPlace(special) => {
+            // Opening a FIFO would wait for a reader: ask for permission instead.
+            if !may_write(&special) {
+                bail!("{}: cannot write here: permission denied", path.display());
+            }
+        }
     }
     Ok(())
 }
 
-fn temp_path(path: &Path) -> PathBuf {
+#[cfg(unix)]
+fn may_write(path: &Path) -> bool {
+    use std::os::unix::ffi::OsStrExt;
+    let Ok(name) = std::ffi::CString::new(path.as_os_str().as_bytes()) else {
+        return false;
+    };
+    // SAFETY: `name` is a valid NUL-terminated string that outlives the call.
+    unsafe { libc::access(name.as_ptr(), libc::W_OK) == 0 }
+}
+
+#[cfg(not(unix))]
+fn may_write(path: &Path) -> bool {
+    std::fs::metadata(path).is_ok_and(|m| !m.permissions().readonly())
+}
+
+/// Encodes into memory, then writes to `path` ([`write_atomically`]) or, for `-`, to standard
+/// output.
+pub fn write_output(
+    path: &Path,
+    encode: impl FnOnce(&mut Vec<u8>) -> anyhow::Result<()>,
+) -> anyhow::Result<()> {
+    if !is_stdout(path) {
+        return write_atomically(path, encode);
+    }
+    let mut bytes = Vec::new();
+    encode(&mut bytes).context("standard output: cannot encode the output")?;
+    let mut stdout = std::io::stdout().lock();
+    stdout
+        .write_all(&bytes)
+        .and_then(|()| stdout.flush())
+        .context("standard output: cannot write the output")
+}
+
+/// Encodes into memory, then puts the bytes at `path` as the module docs say: atomically
+/// for a regular file (through symbolic links), in place for a FIFO or a character device.
+pub fn write_atomically(
+    path: &Path,
+    encode: impl FnOnce(&mut Vec<u8>) -> anyhow::Result<()>,
+) -> anyhow::Result<()> {
+    let target = target(path)?;
+    let mut bytes = Vec::new();
+    encode(&mut bytes).with_context(|| format!("{}: cannot encode the output", path.display()))?;
+    let written = match &target {
+        Target::File(file) => replace_file(file, &bytes),
+        Target::InPlace(special) => std::fs::OpenOptions::new()
+            .write(true)
+            .open(special)
+            .and_then(|mut sink| {
+                sink.write_all(&bytes)?;
+                sink.flush()
+            }),
+    };
+    written.with_context(|| format!("{}: cannot write output", path.display()))
+}
+
+/// Writes `bytes` to a new temporary file beside `file` and renames it over `file`, keeping an
+/// existing file's permissions.
+fn replace_file(file: &Path, bytes: &[u8]) -> std::io::Result<()> {
+    let (temp, mut handle) = create_temp(file)?;
+    let result = (|| {
+        if let Ok(meta) = std::fs::metadata(file) {
+            handle.set_permissions(meta.permissions())?;
+        }
+        handle.write_all(bytes)?;
+        handle.sync_all()?;
+        drop(handle);
+        std::fs::rename(&temp, file)
+    })();
+    if result.is_err() {
+        let _ = std::fs::remove_file(&temp);
+    }
+    result
+}
+
+/// A new, empty temporary file beside `path` (`.<name>.<pid>.<n>.tmp`), never an existing one.
+fn create_temp(path: &Path) -> std::io::Result<(PathBuf, std::fs::File)> {
     let name = path
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_else(|| "output".into());
-    path.with_file_name(format!(".{name}.{}.tmp", std::process::id()))
+    let mut attempt = 0;
+    loop {
+        let temp = path.with_file_name(format!(".{name}.{}.{attempt}.tmp", std::process::id()));
+        match std::fs::OpenOptions::new()
+            .write(true)
+            .create_new(true)
+            .open(&temp)
+        {
+            Ok(file) => return Ok((temp, file)),
+            Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists && attempt < 100 => {
+                attempt += 1;
+            }
+            Err(e) => return Err(e),
+        }
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    fn two_pixels() -> Image {
+        Image {
+            width: 2,
+            height: 1,
+            sums: vec![[1.0; 3], [0.5; 3]],
+            samples: 1,
+        }
+    }
+
+    fn names(dir: &Path) -> Vec<String> {
+        let mut names: Vec<String> = std::fs::read_dir(dir)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().into_string().unwrap())
+            .collect();
+        names.sort();
+        names
+    }
+
+    #[cfg(unix)]
+    fn mkfifo(path: &Path) {
+        let status = std::process::Command::new("mkfifo")
+            .arg(path)
+            .status()
+            .unwrap();
+        assert!(status.success());
+    }
 
     #[test]
     fn srgb_curve_matches_the_standard() {
@@ -151,20 +366,133 @@ mod tests {
     fn atomic_write_leaves_no_temp_and_replaces() {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("a.png");
-        let image = Image {
-            width: 2,
-            height: 1,
-            sums: vec![[1.0; 3], [0.5; 3]],
-            samples: 1,
-        };
-        write_png(&path, &image, 1.0).unwrap();
-        write_png(&path, &image, 0.5).unwrap();
-        let names: Vec<_> = std::fs::read_dir(dir.path())
-            .unwrap()
-            .map(|e| e.unwrap().file_name())
-            .collect();
-        assert_eq!(names.len(), 1, "{names:?}");
+        write_png(&path, &two_pixels(), 1.0).unwrap();
+        write_png(&path, &two_pixels(), 0.5).unwrap();
+        assert_eq!(names(dir.path()), ["a.png"]);
         let decoded = image::open(&path).unwrap().to_rgb8();
         assert_eq!(decoded.get_pixel(0, 0).0, [188, 188, 188]);
+    }
+
+    #[cfg(unix)]
+    #[test]
+    fn a_symbolic_link_is_written_through_and_stays_a_link() {
+        let dir = tempfile::tempdir().unwrap();
+        let real = dir.path().join("real.txt");
+        std::fs::write(&real, b"old").unwrap();
+        std::fs::set_permissions(&real, std::os::unix::fs::PermissionsExt::from_mode(0o640))
+            .unwrap();
+        let link = dir.path().join("link.txt");
+        std::os::unix::fs::symlink("real.txt", &link).unwrap();
+        write_atomically(&link, |w| {
+            w.extend_from_slice(b"new");
+            Ok(())
+        })
+        .unwrap();
+        assert!(
+            std::fs::symlink_metadata(&link)
+                .unwrap()
+                .file_type()
+                .is_symlink()
+        );
+        assert_eq!(std::fs::read(&real).unwrap(), b"new");
+        let mode = std::os::unix::fs::PermissionsExt::mode(
+            &std::fs::metadata(&real).unwrap().permissions(),
+        );
+        assert_eq!(mode & 0o777, 0o640, "the file keeps its permissions");
+        // A dangling link gets its target created, as a shell's `>` would.
+        let dangling = dir.path().join("dangling.txt");
+        std::os::unix::fs::symlink("made.txt", &dangling).unwrap();
+        write_atomically(&dangling, |w| {
+            w.extend_from_slice(b"made");
+            Ok(())
+        })
+        .unwrap();
+        assert_eq!(std::fs::read(dir.path().join("made.txt")).unwrap(), b"made");
+        assert_eq!(
+            names(dir.path()),
+            ["dangling.txt", "link.txt", "made.txt", "real.txt"]
+        );
+        // A loop of links is refused, not followed forever.
+        std::os::unix::fs::symlink("loop-b", dir.path().join("loop-a")).unwrap();
+        std::os::unix::fs::symlink("loop-a", dir.path().join("loop-b")).unwrap();
+        let message = format!(
+            "{:#}",
+            write_atomically(&dir.path().join("loop-a"), |_| Ok(())).unwrap_err()
+        );
+        assert!(message.contains("symbolic links"), "{message}");
+    }
+
+    #[cfg(unix)]
+    #[test]
+    fn a_fifo_is_written_in_place_and_stays_a_fifo() {
+        use std::os::unix::fs::FileTypeExt;
+        let dir = tempfile::tempdir().unwrap();
+        let fifo = dir.path().join("pipe.png");
+        mkfifo(&fifo);
+        check_writable(&fifo).unwrap();
+        let reader = {
+            let fifo = fifo.clone();
+            std::thread::spawn(move || std::fs::read(fifo).unwrap())
+        };
+        write_png(&fifo, &two_pixels(), 0.5).unwrap();
+        let bytes = reader.join().unwrap();
+        let decoded = image::load_from_memory(&bytes).unwrap().to_rgb8();
+        assert_eq!(decoded.get_pixel(0, 0).0, [188, 188, 188]);
+        assert!(std::fs::metadata(&fifo).unwrap().file_type().is_fifo());
+        assert_eq!(names(dir.path()), ["pipe.png"], "no temporary file");
+    }
+
+    #[cfg(unix)]
+    #[test]
+    fn a_reader_that_goes_away_is_a_write_error() {
+        use std::io::Read;
+        let dir = tempfile::tempdir().unwrap();
+        let fifo = dir.path().join("pipe.bin");
+        mkfifo(&fifo);
+        let reader = {
+            let fifo = fifo.clone();
+            std::thread::spawn(move || {
+                let mut file = std::fs::File::open(fifo).unwrap();
+                let mut first = [0u8; 1];
+                file.read_exact(&mut first).unwrap();
+            })
+        };
+        // Far more than any pipe buffer holds: the writer is still writing when the reader
+        // closes its end.
+        let result = write_atomically(&fifo, |w| {
+            w.resize(16 << 20, 7);
+            Ok(())
+        });
+        reader.join().unwrap();
+        let message = format!("{:#}", result.unwrap_err());
+        assert!(
+            message.contains("pipe.bin") && message.contains("cannot write output"),
+            "{message}"
+        );
+    }
+
+    #[cfg(unix)]
+    #[test]
+    fn sockets_and_directories_are_refused() {
+        use std::os::unix::fs::FileTypeExt;
+        let dir = tempfile::tempdir().unwrap();
+        let socket = dir.path().join("s.png");
+        let _listener = std::os::unix::net::UnixListener::bind(&socket).unwrap();
+        for path in [&socket, &dir.path().to_path_buf()] {
+            let check = format!("{:#}", check_writable(path).unwrap_err());
+            let write = format!("{:#}", write_png(path, &two_pixels(), 1.0).unwrap_err());
+            for message in [check, write] {
+                assert!(
+                    message.contains("a socket") || message.contains("a directory"),
+                    "{message}"
+                );
+            }
+        }
+        assert!(
+            std::fs::symlink_metadata(&socket)
+                .unwrap()
+                .file_type()
+                .is_socket()
+        );
     }
 }
