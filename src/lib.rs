@@ -10,6 +10,7 @@ pub mod cli;
 pub mod film;
 pub mod glass;
 pub mod lens;
+pub mod memory;
 pub mod pipeline;
 pub mod sampling;
 pub mod scene;

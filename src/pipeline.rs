@@ -27,6 +27,7 @@ use rayon::prelude::*;
 
 use crate::accel::SceneAccel;
 use crate::batch::HitBatch;
+use crate::film::samples::SampleSequence;
 use crate::film::{FilmTile, Image, tiles};
 use crate::lens::Prescription;
 use crate::lens::aperture::ApertureSetting;
@@ -616,8 +617,7 @@ impl Renderer {
         spp: u32,
         progress: impl FnMut(u32, u32) -> bool,
     ) -> anyhow::Result<Image> {
-        let samples: Vec<u32> = (0..spp).collect();
-        self.render_samples(None, &samples, progress)
+        self.render_sequence(None, SampleSequence::all(spp).iter(), progress)
     }
 
     /// Renders one pass per sample index in `samples`, in order, onto the film cleared or, with
@@ -628,11 +628,22 @@ impl Renderer {
         &mut self,
         start: Option<&Image>,
         samples: &[u32],
+        progress: impl FnMut(u32, u32) -> bool,
+    ) -> anyhow::Result<Image> {
+        self.render_sequence(start, samples.iter().copied(), progress)
+    }
+
+    /// [`Renderer::render_samples`] over any sequence of sample indices (e.g. a
+    /// [`SampleSequence`]), without listing them.
+    pub fn render_sequence(
+        &mut self,
+        start: Option<&Image>,
+        samples: impl ExactSizeIterator<Item = u32>,
         mut progress: impl FnMut(u32, u32) -> bool,
     ) -> anyhow::Result<Image> {
         self.begin_film(start)?;
         let total = samples.len() as u32;
-        for (done, &sample) in samples.iter().enumerate() {
+        for (done, sample) in samples.enumerate() {
             self.render_pass(sample)?;
             if !progress(done as u32 + 1, total) {
                 break;

@@ -668,6 +668,28 @@ fn the_loader_lists_every_file_a_scene_reads() {
             dir.path().join("wood.png")
         ]
     );
+    // The preview from the JSON alone, which render checks before loading, agrees.
+    assert_eq!(
+        realcam::scene::referenced_files(&scene).unwrap(),
+        loaded.inputs
+    );
+    // A .glb's JSON chunk names its external images too; a device is never read.
+    let mut gltf = GltfBuilder::default();
+    let node = gltf.triangle_node(json!({}));
+    gltf.scene(&[node]);
+    gltf.add("images", json!({"uri": "wood.png"}));
+    let glb = dir.path().join("scene.glb");
+    std::fs::write(&glb, gltf.glb()).unwrap();
+    assert_eq!(
+        realcam::scene::referenced_files(&glb).unwrap(),
+        [glb.clone(), dir.path().join("wood.png")]
+    );
+    if Path::new("/dev/zero").exists() {
+        assert_eq!(
+            realcam::scene::referenced_files(Path::new("/dev/zero")),
+            None
+        );
+    }
 }
 
 #[test]

@@ -12,6 +12,7 @@ use anyhow::{Context, bail};
 use clap::Args;
 use serde_json::json;
 
+use super::values::whole;
 use crate::batch::RayBatch;
 use crate::lens::LensSystem;
 use crate::lens::bundled::{DEFAULT_LENS, load_lens};
@@ -28,14 +29,14 @@ pub struct BenchArgs {
     #[arg(long, default_value = DEFAULT_LENS, value_name = "FILE")]
     pub lens: String,
     /// Camera rays in the workload.
-    #[arg(long, default_value_t = 4096, value_name = "N")]
+    #[arg(long, default_value_t = 4096, value_name = "N", allow_negative_numbers = true, value_parser = whole::<usize>(1, usize::MAX))]
     pub rays: usize,
     /// Rays per SoA batch (the renderer traces one 32×32 tile, 1024 rays, per batch).
-    #[arg(long, default_value_t = 1024, value_name = "N")]
+    #[arg(long, default_value_t = 1024, value_name = "N", allow_negative_numbers = true, value_parser = whole::<usize>(1, usize::MAX))]
     pub batch: usize,
     /// Rounds per variant; the median is reported. Variants alternate within a round so
     /// that load from other processes hits them alike.
-    #[arg(long, default_value_t = 7, value_name = "N")]
+    #[arg(long, default_value_t = 7, value_name = "N", allow_negative_numbers = true, value_parser = whole::<usize>(1, usize::MAX))]
     pub rounds: usize,
     /// Also measure both SoA kernels at batch sizes 64 … 4096 (for the plot in BENCHMARKS.md).
     #[arg(long)]
@@ -357,10 +358,28 @@ impl Measured {
     }
 }
 
+/// Memory per workload ray: the rays as structs (24 B) and as SoA (45 B), the scalar results
+/// (24 B) and the SoA work copy (45 B), rounded up.
+const BYTES_PER_RAY: u64 = 160;
+
+/// Memory per round and variant: one rate (8 B).
+const BYTES_PER_ROUND: u64 = 8;
+
 fn collect(args: &BenchArgs, min_time: Duration) -> anyhow::Result<Measured> {
     if args.rays == 0 || args.batch == 0 || args.rounds == 0 {
         bail!("--rays, --batch and --rounds must be at least 1");
     }
+    let variants = 3 + 2 * SWEEP_BATCHES.len() as u64;
+    crate::memory::check(
+        &format!(
+            "a workload of {} rays over {} rounds",
+            args.rays, args.rounds
+        ),
+        (args.rays as u64)
+            .saturating_mul(BYTES_PER_RAY)
+            .saturating_add((args.rounds as u64).saturating_mul(variants * BYTES_PER_ROUND)),
+        "use fewer --rays or --rounds",
+    )?;
     let workload = LensWorkload::new(&args.lens, args.rays)?;
     let default = Variant::Soa {
         batch: args.batch,

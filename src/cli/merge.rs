@@ -13,25 +13,36 @@ use std::process::ExitCode;
 use anyhow::{Context, bail};
 use clap::Args;
 
+use super::values::whole;
 use crate::film::Image;
 use crate::film::checkpoint::{CheckpointInfo, Invocation, read_checkpoint};
-use crate::film::output::{auto_exposure, check_writable, same_file, write_exr, write_png};
+use crate::film::format::{
+    Accepts, DEFAULT_JPEG_QUALITY, ImageFormat, Tone, check_tone_options, output_format,
+};
+use crate::film::output::{
+    auto_exposure, check_not_terminal, check_writable, same_file, shown, write_image,
+};
 
 #[derive(Args, Debug, Clone)]
 pub struct MergeArgs {
     /// Shard partials (.exr) written by `realcam render --shard I/N`, in any order.
     #[arg(required = true, value_name = "PARTS")]
     pub parts: Vec<PathBuf>,
-    /// Output PNG (sRGB).
-    #[arg(long, value_name = "FILE.png")]
+    /// Output image; its extension sets the format: .png, .jpg/.jpeg, .tif/.tiff (8-bit sRGB,
+    /// tone-mapped) or .exr, .hdr (linear float); `-` writes a PNG to standard output.
+    #[arg(long, value_name = "FILE")]
     pub out: PathBuf,
-    /// Also write the linear, un-tonemapped film as OpenEXR.
+    /// Also write the linear, un-tonemapped film: .exr (OpenEXR) or .hdr (Radiance); `-`
+    /// writes OpenEXR to standard output.
     #[arg(long, value_name = "FILE.exr")]
     pub exr: Option<PathBuf>,
-    /// PNG exposure in stops: pixel = film irradiance × 2^EV [default: automatic, the image's
-    /// log-average luminance to 18 % grey].
+    /// Exposure of an 8-bit output in stops: pixel = film irradiance × 2^EV [default:
+    /// automatic, the image's log-average luminance to 18 % grey].
     #[arg(long, value_name = "EV", allow_hyphen_values = true)]
     pub exposure: Option<f32>,
+    /// JPEG quality of a .jpg/.jpeg output, 1–100 [default: 90].
+    #[arg(long, value_name = "Q", allow_negative_numbers = true, value_parser = whole::<u8>(1, 100))]
+    pub quality: Option<u8>,
     /// Merge the shards that are there even if some of 0..N-1 are missing or unfinished (the
     /// image then has fewer samples per pixel, and more noise, than the full render).
     #[arg(long)]
@@ -64,7 +75,7 @@ pub struct Unfinished {
 }
 
 pub fn run(args: &MergeArgs) -> anyhow::Result<ExitCode> {
-    validate(args)?;
+    let (out_format, exr_format) = validate(args)?;
     let merged = merge_partials(&args.parts, args.allow_missing)?;
     let n = merged.shard_count;
     if !merged.missing.is_empty() {
@@ -84,45 +95,59 @@ pub fn run(args: &MergeArgs) -> anyhow::Result<ExitCode> {
         );
     }
     let image = &merged.image;
+    let tone = |exposure| Tone {
+        exposure,
+        quality: args.quality.unwrap_or(DEFAULT_JPEG_QUALITY),
+    };
     let exposure = args
         .exposure
         .map_or_else(|| auto_exposure(&image.mean()), |ev| 2f32.powf(ev));
-    write_png(&args.out, image, exposure)?;
+    write_image(&args.out, image, out_format, tone(exposure))?;
     eprintln!(
-        "wrote {} ({}×{}, {} spp from {} of {n} shards)",
-        args.out.display(),
+        "wrote {} ({}×{}, {} spp from {} of {n} shards, {})",
+        shown(&args.out),
         image.width,
         image.height,
         image.samples,
-        merged.merged.len()
+        merged.merged.len(),
+        out_format.name()
     );
-    if let Some(exr) = &args.exr {
-        write_exr(exr, image)?;
-        eprintln!("wrote {}", exr.display());
+    if let (Some(exr), Some(format)) = (&args.exr, exr_format) {
+        write_image(exr, image, format, tone(1.0))?;
+        eprintln!("wrote {} ({})", shown(exr), format.name());
     }
     Ok(ExitCode::SUCCESS)
 }
 
-/// Checks the flags and the output paths before any partial is read.
-fn validate(args: &MergeArgs) -> anyhow::Result<()> {
+/// Checks the flags and the output paths before any partial is read; returns the formats of
+/// `--out` and `--exr` from their names.
+fn validate(args: &MergeArgs) -> anyhow::Result<(ImageFormat, Option<ImageFormat>)> {
     if let Some(ev) = args.exposure
         && !ev.is_finite()
     {
         bail!("--exposure must be a finite number of stops");
     }
-    let outputs: Vec<&Path> = [Some(args.out.as_path()), args.exr.as_deref()]
-        .into_iter()
-        .flatten()
-        .collect();
-    if let [png, exr] = outputs[..]
-        && (png == exr || same_file(png, exr))
+    if let Some(quality) = args.quality
+        && !(1..=100).contains(&quality)
+    {
+        bail!("--quality must be between 1 and 100, got {quality}");
+    }
+    if let Some(exr) = &args.exr
+        && (args.out == *exr || same_file(&args.out, exr))
     {
         bail!(
             "{}: --out and --exr name the same file; give them different paths",
-            png.display()
+            shown(exr)
         );
     }
-    for output in &outputs {
+    let outputs: Vec<(&str, &Path)> = [
+        ("--out", Some(args.out.as_path())),
+        ("--exr", args.exr.as_deref()),
+    ]
+    .into_iter()
+    .filter_map(|(option, path)| Some((option, path?)))
+    .collect();
+    for (_, output) in &outputs {
         if let Some(part) = args.parts.iter().find(|part| same_file(output, part)) {
             bail!(
                 "{}: the output would overwrite the partial {}; choose another --out/--exr path",
@@ -130,9 +155,26 @@ fn validate(args: &MergeArgs) -> anyhow::Result<()> {
                 part.display()
             );
         }
+    }
+    let out_format = output_format("--out", &args.out, Accepts::Any)?;
+    let exr_format = args
+        .exr
+        .as_deref()
+        .map(|exr| output_format("--exr", exr, Accepts::Float))
+        .transpose()?;
+    let mut images = vec![("--out", args.out.as_path(), out_format)];
+    images.extend(
+        args.exr
+            .as_deref()
+            .zip(exr_format)
+            .map(|(p, f)| ("--exr", p, f)),
+    );
+    check_tone_options(&images, args.exposure.is_some(), args.quality.is_some())?;
+    for (option, output) in &outputs {
+        check_not_terminal(option, output)?;
         check_writable(output)?;
     }
-    Ok(())
+    Ok((out_format, exr_format))
 }
 
 /// What a partial says about itself. Its pixels are added up as soon as it is read and then
@@ -642,6 +684,7 @@ mod tests {
             out: out.clone(),
             exr: Some(exr.clone()),
             exposure: Some(0.0),
+            quality: None,
             allow_missing: false,
         };
         run(&args).unwrap();

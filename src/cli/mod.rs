@@ -9,6 +9,7 @@ pub mod options;
 pub mod plan;
 pub mod render;
 pub mod setup;
+pub mod values;
 
 use std::process::ExitCode;
 

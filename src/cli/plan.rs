@@ -3,6 +3,7 @@
 use std::path::{Path, PathBuf};
 use std::str::FromStr;
 
+use crate::film::samples::SampleSequence;
 use crate::lens::aperture::ApertureSetting;
 use crate::lens::elements::FocusSetting;
 use crate::lens::focus::FocusMode;
@@ -102,9 +103,36 @@ impl FromStr for Shard {
 
 impl Shard {
     /// This shard's sample indices of 0..spp: those ≡ index (mod count).
-    pub fn samples(&self, spp: u32) -> Vec<u32> {
-        (self.index..spp).step_by(self.count as usize).collect()
+    pub fn samples(&self, spp: u32) -> SampleSequence {
+        SampleSequence::every(self.index, self.count, spp)
     }
+}
+
+/// Most frames one run renders (lenses × focus frames × stop frames): a run plans all its
+/// frames up front, and a contact sheet holds them all.
+pub const MAX_FRAMES: usize = 10_000;
+
+/// How many frames a run of `lenses` lenses and these sweeps renders; refuses more than
+/// [`MAX_FRAMES`].
+pub fn frame_count(
+    lenses: usize,
+    focus_sweep: Option<Sweep>,
+    aperture_sweep: Option<Sweep>,
+) -> anyhow::Result<usize> {
+    let per_lens = |sweep: Option<Sweep>| sweep.map_or(1, |s| s.frames as usize);
+    let frames = lenses
+        .max(1)
+        .saturating_mul(per_lens(focus_sweep))
+        .saturating_mul(per_lens(aperture_sweep));
+    if frames > MAX_FRAMES {
+        anyhow::bail!(
+            "this run would render {frames} frames ({} lens(es) × {} focus × {} stop settings), more than realcam's limit of {MAX_FRAMES} per run; split it into several runs",
+            lenses.max(1),
+            per_lens(focus_sweep),
+            per_lens(aperture_sweep)
+        );
+    }
+    Ok(frames)
 }
 
 /// One image the run renders.
@@ -203,8 +231,14 @@ pub fn with_suffix(path: &Path, suffix: &str) -> PathBuf {
     path.with_file_name(name)
 }
 
-/// `dir/stem.ext` → `dir/stem.<what>.exr` (checkpoints and shard partials).
+/// `dir/stem.ext` → `dir/stem.<what>.exr` (checkpoints and shard partials); for standard
+/// output (`-`), `render.<what>.exr` in the working folder.
 pub fn sidecar(path: &Path, what: &str) -> PathBuf {
+    let path = if crate::film::output::is_stdout(path) {
+        Path::new("render.png")
+    } else {
+        path
+    };
     let stem = path
         .file_stem()
         .map(|s| s.to_string_lossy().into_owned())
@@ -234,7 +268,7 @@ mod tests {
     #[test]
     fn shards_partition_the_samples() {
         let parts: Vec<Vec<u32>> = (0..3)
-            .map(|i| Shard { index: i, count: 3 }.samples(10))
+            .map(|i| Shard { index: i, count: 3 }.samples(10).to_vec())
             .collect();
         let mut all: Vec<u32> = parts.concat();
         all.sort();
@@ -270,5 +304,38 @@ mod tests {
             ..request
         };
         assert_eq!(plan_frames(&single)[0].out, Path::new("out/render.png"));
+    }
+
+    #[test]
+    fn runs_of_too_many_frames_are_refused_before_planning() {
+        let sweep = |frames| {
+            Some(Sweep {
+                from: 1.0,
+                to: 2.0,
+                frames,
+            })
+        };
+        assert_eq!(frame_count(0, None, None).unwrap(), 1);
+        assert_eq!(frame_count(2, sweep(3), sweep(4)).unwrap(), 24);
+        assert_eq!(frame_count(1, sweep(10_000), None).unwrap(), 10_000);
+        let message = frame_count(3, sweep(10_000), sweep(10_000))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            message.contains("300000000 frames") && message.contains("10000"),
+            "{message}"
+        );
+    }
+
+    #[test]
+    fn standard_output_keeps_its_sidecars_in_the_working_folder() {
+        assert_eq!(
+            sidecar(Path::new("-"), "checkpoint"),
+            Path::new("render.checkpoint.exr")
+        );
+        assert_eq!(
+            sidecar(Path::new("a/shot.jpg"), "shard-0-of-2"),
+            Path::new("a/shot.shard-0-of-2.exr")
+        );
     }
 }

@@ -15,27 +15,34 @@ use serde_json::{Value, json};
 
 use super::interrupt::Interrupt;
 use super::options::LensOptions;
-use super::plan::{Frame, FrameRequest, Shard, Sweep, plan_frames, sidecar};
-use super::setup::{
-    Placement, autofocus, choose_environment, frame_scene, parse_vec3, place_camera,
-};
+use super::plan::{Frame, FrameRequest, Shard, Sweep, frame_count, plan_frames, sidecar};
+use super::setup::{Placement, autofocus, choose_environment, frame_scene, place_camera};
+use super::values::{parse_vec3, whole};
 use crate::film::checkpoint::{
     CheckpointInfo, FORMAT_VERSION, Invocation, read_checkpoint, write_checkpoint,
 };
 use crate::film::contact_sheet::{Thumbnail, contact_sheet};
-use crate::film::output::{
-    auto_exposure, check_writable, same_file, to_srgb8, write_atomically, write_exr, write_png,
+use crate::film::footprint::RunSize;
+use crate::film::format::{
+    Accepts, DEFAULT_JPEG_QUALITY, ImageFormat, Tone, check_tone_options, encode_rgb8,
+    output_format, require_extension,
 };
-use crate::film::{Image, MAX_IMAGE_SIDE};
+use crate::film::output::{
+    auto_exposure, check_not_terminal, check_writable, is_stdout, same_file, shown, to_srgb8,
+    write_image, write_output,
+};
+use crate::film::samples::SampleSequence;
+use crate::film::{Image, MAX_IMAGE_SIDE, MAX_SPP};
 use crate::lens::Prescription;
 use crate::lens::aperture::ApertureSetting;
 use crate::lens::bundled::{DEFAULT_LENS, load_lens};
 use crate::lens::elements::{FilmPlacement, FocusSetting, LensDerivationStats, LensGeometry};
+use crate::memory::MAX_THREADS;
 use crate::pipeline::{
     RenderSettings, RenderStats, Renderer, SceneInputs, SceneSource, SceneWarnings, Stage,
 };
-use crate::scene::CameraHints;
 use crate::scene::default_scene::{DEFAULT_SCENE_GLB, DEFAULT_SCENE_PATH};
+use crate::scene::{CameraHints, referenced_files};
 
 #[derive(Args, Debug, Clone)]
 pub struct RenderArgs {
@@ -46,19 +53,21 @@ pub struct RenderArgs {
     /// dgauss.50mm].
     #[arg(long, value_name = "FILE")]
     pub lens: Vec<String>,
-    /// Samples per pixel.
+    /// Samples per pixel (at most 16777216 = 2^24: beyond it the film's f32 sums cannot take
+    /// in another sample).
     #[arg(
         long,
         default_value_t = 64,
         value_name = "N",
-        allow_negative_numbers = true
+        allow_negative_numbers = true,
+        value_parser = whole::<u32>(1, MAX_SPP)
     )]
     pub spp: u32,
     /// Image width in pixels [default: 512].
-    #[arg(long, value_name = "W", allow_negative_numbers = true)]
+    #[arg(long, value_name = "W", allow_negative_numbers = true, value_parser = whole::<u32>(1, MAX_IMAGE_SIDE))]
     pub width: Option<u32>,
     /// Image height in pixels [default: 512].
-    #[arg(long, value_name = "H", allow_negative_numbers = true)]
+    #[arg(long, value_name = "H", allow_negative_numbers = true, value_parser = whole::<u32>(1, MAX_IMAGE_SIDE))]
     pub height: Option<u32>,
     #[command(flatten)]
     pub lens_options: LensOptions,
@@ -67,43 +76,49 @@ pub struct RenderArgs {
     #[arg(long, value_name = "NAME|INDEX")]
     pub camera: Option<String>,
     /// Camera position (world, metres); with --look-at, overrides the scene camera.
-    #[arg(long, value_name = "X,Y,Z", value_parser = parse_vec3, requires = "look_at")]
+    #[arg(long, value_name = "X,Y,Z", value_parser = parse_vec3, requires = "look_at", allow_hyphen_values = true)]
     pub look_from: Option<Vec3>,
     /// Point the camera looks at (and focuses on, unless a focus is given).
-    #[arg(long, value_name = "X,Y,Z", value_parser = parse_vec3, requires = "look_from")]
+    #[arg(long, value_name = "X,Y,Z", value_parser = parse_vec3, requires = "look_from", allow_hyphen_values = true)]
     pub look_at: Option<Vec3>,
     /// Up direction for --look-from/--look-at.
-    #[arg(long, value_name = "X,Y,Z", value_parser = parse_vec3, default_value = "0,1,0")]
+    #[arg(long, value_name = "X,Y,Z", value_parser = parse_vec3, default_value = "0,1,0", allow_hyphen_values = true)]
     pub up: Vec3,
     /// Environment: a uniform sky `R,G,B` (nits) or an equirectangular .exr/.hdr image
     /// [default: black if the scene has lights or emitters, else a white sky of 1 nit].
     #[arg(long, value_name = "R,G,B|FILE", allow_hyphen_values = true)]
     pub env: Option<String>,
     /// Random seed; the same seed gives the same image whatever the thread count.
-    #[arg(long, default_value_t = 0)]
+    #[arg(long, default_value_t = 0, value_name = "S", allow_negative_numbers = true, value_parser = whole::<u64>(0, u64::MAX))]
     pub seed: u64,
-    /// Worker threads [default: all cores].
-    #[arg(long, value_name = "N", allow_negative_numbers = true)]
+    /// Worker threads, at most 1024 [default: all cores].
+    #[arg(long, value_name = "N", allow_negative_numbers = true, value_parser = whole::<usize>(1, MAX_THREADS))]
     pub threads: Option<usize>,
     /// Path length: 1 = direct lighting only.
     #[arg(
         long,
         default_value_t = 8,
         value_name = "D",
-        allow_negative_numbers = true
+        allow_negative_numbers = true,
+        value_parser = whole::<u32>(1, u32::MAX)
     )]
     pub max_depth: u32,
-    /// Output PNG (sRGB).
-    #[arg(long, default_value = "render.png", value_name = "FILE.png")]
+    /// Output image; its extension sets the format: .png, .jpg/.jpeg, .tif/.tiff (8-bit sRGB,
+    /// tone-mapped) or .exr, .hdr (linear float); `-` writes a PNG to standard output.
+    #[arg(long, default_value = "render.png", value_name = "FILE")]
     pub out: PathBuf,
-    /// Also write the linear, un-tonemapped film as OpenEXR.
+    /// Also write the linear, un-tonemapped film: .exr (OpenEXR) or .hdr (Radiance); `-`
+    /// writes OpenEXR to standard output.
     #[arg(long, value_name = "FILE.exr")]
     pub exr: Option<PathBuf>,
-    /// PNG exposure in stops: pixel = film irradiance × 2^EV [default: automatic, the image's
-    /// log-average luminance to 18 % grey].
+    /// Exposure of the 8-bit outputs in stops: pixel = film irradiance × 2^EV [default:
+    /// automatic, the image's log-average luminance to 18 % grey].
     #[arg(long, value_name = "EV", allow_hyphen_values = true)]
     pub exposure: Option<f32>,
-    /// Write render statistics as JSON.
+    /// JPEG quality of a .jpg/.jpeg output, 1–100 [default: 90].
+    #[arg(long, value_name = "Q", allow_negative_numbers = true, value_parser = whole::<u8>(1, 100))]
+    pub quality: Option<u8>,
+    /// Write render statistics as JSON (`-`: to standard output).
     #[arg(long, value_name = "FILE.json")]
     pub stats: Option<PathBuf>,
     /// Rack focus: render FRAMES frames focused from NEAR to FAR metres (evenly in dioptres),
@@ -113,7 +128,8 @@ pub struct RenderArgs {
     /// Stop sweep: FRAMES frames with the stop diameter from A to B mm (evenly in stops).
     #[arg(long, value_name = "A:B:FRAMES", allow_hyphen_values = true, conflicts_with_all = ["aperture", "f_number"])]
     pub aperture_sweep: Option<Sweep>,
-    /// Also write one picture of every render of the run, in a labelled grid.
+    /// Also write one picture of every render of the run, in a labelled grid (.png, .jpg or
+    /// .tif).
     #[arg(long, value_name = "FILE.png")]
     pub contact_sheet: Option<PathBuf>,
     /// Where Ctrl-C, SIGTERM and --checkpoint-every save the render so far [default:
@@ -191,7 +207,7 @@ enum Outcome {
 }
 
 pub fn run(args: &RenderArgs) -> anyhow::Result<ExitCode> {
-    validate(args)?;
+    let formats = validate(args)?;
     if let Some(threads) = args.threads {
         rayon::ThreadPoolBuilder::new()
             .num_threads(threads)
@@ -272,6 +288,14 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<ExitCode> {
 
     let width = args.width.or(placement.hints.width).unwrap_or(512);
     let height = args.height.or(placement.hints.height).unwrap_or(512);
+    // Before the film's tiles are allocated: refuse what this machine cannot hold.
+    RunSize {
+        width,
+        height,
+        frames: frame_count(lenses.len(), args.focus_sweep, args.aperture_sweep)?,
+        contact_sheet: args.contact_sheet.is_some(),
+    }
+    .check()?;
     renderer.set_camera(world_from_camera);
     renderer.set_sample_plan(args.spp);
     renderer.set_film(film_diagonal, args.lens_options.pupil_sampling);
@@ -298,6 +322,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<ExitCode> {
     });
     let context = RunContext {
         args,
+        formats,
         world_from_camera,
         film_diagonal,
         interrupt: &interrupt,
@@ -314,17 +339,18 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<ExitCode> {
                     // One exposure per lens sequence, so a focus pull does not flicker.
                     let exposure =
                         *exposures[frame.lens].get_or_insert_with(|| choose_exposure(args, &image));
-                    write_png(&frame.out, &image, exposure)?;
+                    write_image(&frame.out, &image, formats.out, tone(args, exposure))?;
                     eprintln!(
-                        "wrote {} ({}×{}, {} spp)",
-                        frame.out.display(),
+                        "wrote {} ({}×{}, {} spp, {})",
+                        shown(&frame.out),
                         width,
                         height,
-                        image.samples
+                        image.samples,
+                        formats.out.name()
                     );
-                    if let Some(exr) = &frame.exr {
-                        write_exr(exr, &image)?;
-                        eprintln!("wrote {}", exr.display());
+                    if let (Some(exr), Some(format)) = (&frame.exr, formats.exr) {
+                        write_image(exr, &image, format, tone(args, 1.0))?;
+                        eprintln!("wrote {} ({})", shown(exr), format.name());
                     }
                     if args.contact_sheet.is_some() {
                         let pixels = image::RgbImage::from_raw(
@@ -343,20 +369,21 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<ExitCode> {
             }
         }
     }
-    if let Some(path) = &args.contact_sheet {
+    if let (Some(path), Some(format)) = (&args.contact_sheet, formats.contact_sheet) {
         let sheet = contact_sheet(&thumbnails);
-        write_atomically(path, |w| {
-            sheet.write_to(&mut std::io::Cursor::new(&mut *w), image::ImageFormat::Png)?;
-            Ok(())
+        write_output(path, |w| {
+            encode_rgb8(w, &sheet, format, tone(args, 1.0).quality)
         })?;
-        eprintln!("wrote {} ({} renders)", path.display(), thumbnails.len());
+        eprintln!("wrote {} ({} renders)", shown(path), thumbnails.len());
     }
     if let Some(path) = &args.stats {
         let stats = stats_json(&mut renderer, &reports, start.elapsed().as_secs_f64());
-        write_atomically(path, |w| {
+        write_output(path, |w| {
             serde_json::to_writer_pretty(&mut *w, &stats)?;
+            w.push(b'\n');
             Ok(())
         })?;
+        eprintln!("wrote {}", shown(path));
     }
     if frames.len() > 1 {
         eprintln!(
@@ -371,6 +398,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<ExitCode> {
 /// Run-wide settings every frame needs.
 struct RunContext<'a> {
     args: &'a RenderArgs,
+    formats: Formats,
     world_from_camera: Mat4,
     film_diagonal: f64,
     interrupt: &'a Interrupt,
@@ -422,6 +450,14 @@ fn lens_defaults(
 fn choose_exposure(args: &RenderArgs, image: &Image) -> f32 {
     args.exposure
         .map_or_else(|| auto_exposure(&image.mean()), |ev| 2f32.powf(ev))
+}
+
+/// How the 8-bit outputs are made at `exposure` (linear scale).
+fn tone(args: &RenderArgs, exposure: f32) -> Tone {
+    Tone {
+        exposure,
+        quality: args.quality.unwrap_or(DEFAULT_JPEG_QUALITY),
+    }
 }
 
 /// Renders one frame: sets the lens up, runs its sample passes with progress, checkpoints and
@@ -476,16 +512,16 @@ fn render_frame(
         ),
         None => sidecar(&frame.out, "checkpoint"),
     });
-    let planned: Vec<u32> = match args.shard {
+    let planned = match args.shard {
         Some(shard) => shard.samples(args.spp),
-        None => (0..args.spp).collect(),
+        None => SampleSequence::all(args.spp),
     };
     let (start_image, samples) = match &args.resume {
         Some(path) => resume_from(path, &settings, args.spp, args.shard)?,
-        None => (None, planned.clone()),
+        None => (None, planned),
     };
     renderer.begin_film(start_image.as_ref())?;
-    let checkpoint_info = |remaining: &[u32], samples: u32| CheckpointInfo {
+    let checkpoint_info = |remaining: SampleSequence, samples: u32| CheckpointInfo {
         version: FORMAT_VERSION,
         samples,
         remaining: remaining.to_vec(),
@@ -501,10 +537,10 @@ fn render_frame(
     let progress = progress_bar(samples.len() as u32, width * height);
     let render_start = Instant::now();
     let mut last_checkpoint = Instant::now();
-    for (done, &sample) in samples.iter().enumerate() {
+    for (done, sample) in samples.iter().enumerate() {
         renderer.render_pass(sample)?;
         progress.set_position(done as u64 + 1);
-        let remaining = &samples[done + 1..];
+        let remaining = samples.after(done as u32 + 1);
         if let Some(code) = context.interrupt.requested() {
             progress.finish_and_clear();
             let image = renderer.image();
@@ -514,11 +550,17 @@ fn render_frame(
                 &checkpoint_info(remaining, image.samples),
             )?;
             if args.shard.is_none() {
-                write_png(&frame.out, &image, choose_exposure(args, &image))?;
+                let exposure = choose_exposure(args, &image);
+                write_image(
+                    &frame.out,
+                    &image,
+                    context.formats.out,
+                    tone(args, exposure),
+                )?;
                 eprintln!(
                     "interrupted: wrote the image so far ({} spp) to {}",
                     image.samples,
-                    frame.out.display()
+                    shown(&frame.out)
                 );
             }
             eprintln!(
@@ -550,7 +592,11 @@ fn render_frame(
                 &format!("shard-{}-of-{}", shard.index, shard.count),
             )
         });
-        write_checkpoint(&partial, &image, &checkpoint_info(&[], image.samples))?;
+        write_checkpoint(
+            &partial,
+            &image,
+            &checkpoint_info(SampleSequence::default(), image.samples),
+        )?;
         eprintln!(
             "wrote {} (shard {}/{}, {} of {} spp)",
             partial.display(),
@@ -629,7 +675,7 @@ fn resume_from(
     settings: &Value,
     spp: u32,
     shard: Option<Shard>,
-) -> anyhow::Result<(Option<Image>, Vec<u32>)> {
+) -> anyhow::Result<(Option<Image>, SampleSequence)> {
     let (image, info) = read_checkpoint(path)?;
     let shard = shard.map(|s| (s.index, s.count));
     match (info.shard, shard) {
@@ -685,13 +731,35 @@ fn resume_from(
             info.samples
         );
     }
-    Ok((Some(image), info.remaining))
+    let Some(remaining) = SampleSequence::from_list(&info.remaining) else {
+        bail!(
+            "{}: damaged checkpoint: its remaining samples are not a sequence realcam renders",
+            path.display()
+        );
+    };
+    Ok((Some(image), remaining))
 }
 
-fn validate(args: &RenderArgs) -> anyhow::Result<()> {
+/// The formats the run's image outputs are written in, from their names.
+#[derive(Clone, Copy, Debug)]
+struct Formats {
+    out: ImageFormat,
+    exr: Option<ImageFormat>,
+    contact_sheet: Option<ImageFormat>,
+}
+
+/// Checks the flags and the output paths before anything is loaded or rendered; returns the
+/// formats the outputs' names ask for.
+fn validate(args: &RenderArgs) -> anyhow::Result<Formats> {
     args.lens_options.validate()?;
     if args.spp == 0 {
         bail!("--spp must be at least 1");
+    }
+    if args.spp > MAX_SPP {
+        bail!(
+            "--spp must be at most {MAX_SPP} (2^24), got {}: the film sums samples in f32, which cannot take in one more sample beyond 2^24 of them",
+            args.spp
+        );
     }
     for (name, value) in [("width", args.width), ("height", args.height)] {
         if let Some(v) = value
@@ -703,8 +771,17 @@ fn validate(args: &RenderArgs) -> anyhow::Result<()> {
     if args.max_depth == 0 {
         bail!("--max-depth must be at least 1 (1 = direct lighting only)");
     }
-    if args.threads == Some(0) {
-        bail!("--threads must be at least 1");
+    if let Some(threads) = args.threads
+        && !(1..=MAX_THREADS).contains(&threads)
+    {
+        bail!(
+            "--threads must be between 1 and {MAX_THREADS}, got {threads}: more threads than that only cost memory"
+        );
+    }
+    if let Some(quality) = args.quality
+        && !(1..=100).contains(&quality)
+    {
+        bail!("--quality must be between 1 and 100, got {quality}");
     }
     if let Some(ev) = args.exposure
         && !ev.is_finite()
@@ -716,12 +793,13 @@ fn validate(args: &RenderArgs) -> anyhow::Result<()> {
     {
         bail!("--checkpoint-every must be a positive number of seconds");
     }
+    let frames = frame_count(args.lens.len(), args.focus_sweep, args.aperture_sweep)?;
     let outputs = outputs(args);
-    for (i, a) in outputs.iter().enumerate() {
-        if outputs[..i].iter().any(|b| a == b) {
+    for (i, (_, a)) in outputs.iter().enumerate() {
+        if outputs[..i].iter().any(|(_, b)| a == b) {
             bail!(
                 "{}: given for two outputs; each output needs its own path",
-                a.display()
+                shown(a)
             );
         }
     }
@@ -736,7 +814,7 @@ fn validate(args: &RenderArgs) -> anyhow::Result<()> {
                 .filter(|r| Some(*r) != args.checkpoint.as_deref()),
         )
         .collect();
-    for output in &outputs {
+    for (_, output) in &outputs {
         for input in &inputs {
             if same_file(output, input) {
                 bail!(
@@ -745,23 +823,100 @@ fn validate(args: &RenderArgs) -> anyhow::Result<()> {
                 );
             }
         }
+    }
+    // The files the scene refers to, from its JSON alone (checked again once it is loaded).
+    if let Some(scene_files) = args.scene.as_deref().and_then(referenced_files) {
+        refuse_overwriting_scene_files(args, &scene_files)?;
+    }
+    for (option, output) in &outputs {
+        if !is_stdout(output) {
+            continue;
+        }
+        match *option {
+            "--checkpoint" | "--partial" => bail!(
+                "{option} -: a {} is read back later, so it must be a file; give a file name",
+                if *option == "--checkpoint" {
+                    "checkpoint"
+                } else {
+                    "partial"
+                }
+            ),
+            _ if frames > 1 => bail!(
+                "{option} -: standard output takes one image, but this run renders {frames} frames; give a file name"
+            ),
+            _ => {}
+        }
+    }
+    for (option, output) in &outputs {
+        if *option != "--stats" {
+            check_not_terminal(option, output)?;
+        }
         check_writable(output)?;
     }
-    Ok(())
+    let formats = Formats {
+        out: output_format("--out", &args.out, Accepts::Any)?,
+        exr: args
+            .exr
+            .as_deref()
+            .map(|p| output_format("--exr", p, Accepts::Float))
+            .transpose()?,
+        contact_sheet: args
+            .contact_sheet
+            .as_deref()
+            .map(|p| output_format("--contact-sheet", p, Accepts::EightBit))
+            .transpose()?,
+    };
+    for (option, path) in [
+        ("--checkpoint", &args.checkpoint),
+        ("--partial", &args.partial),
+    ] {
+        if let Some(path) = path {
+            require_extension(
+                option,
+                path,
+                "exr",
+                "an OpenEXR file with realcam's sample record",
+            )?;
+        }
+    }
+    if let Some(stats) = &args.stats
+        && !is_stdout(stats)
+    {
+        require_extension("--stats", stats, "json", "JSON")?;
+    }
+    if args.shard.is_none() {
+        let images: Vec<(&str, &Path, ImageFormat)> = [
+            Some(("--out", args.out.as_path(), formats.out)),
+            args.exr
+                .as_deref()
+                .zip(formats.exr)
+                .map(|(p, f)| ("--exr", p, f)),
+            args.contact_sheet
+                .as_deref()
+                .zip(formats.contact_sheet)
+                .map(|(p, f)| ("--contact-sheet", p, f)),
+        ]
+        .into_iter()
+        .flatten()
+        .collect();
+        check_tone_options(&images, args.exposure.is_some(), args.quality.is_some())?;
+    }
+    Ok(formats)
 }
 
-/// The run's output files (frames of sweeps and lens runs are suffixed copies of these).
-fn outputs(args: &RenderArgs) -> Vec<&Path> {
+/// The run's output files with their options (frames of sweeps and lens runs are suffixed
+/// copies of these).
+fn outputs(args: &RenderArgs) -> Vec<(&'static str, &Path)> {
     [
-        Some(args.out.as_path()),
-        args.exr.as_deref(),
-        args.stats.as_deref(),
-        args.contact_sheet.as_deref(),
-        args.checkpoint.as_deref(),
-        args.partial.as_deref(),
+        ("--out", Some(args.out.as_path())),
+        ("--exr", args.exr.as_deref()),
+        ("--stats", args.stats.as_deref()),
+        ("--contact-sheet", args.contact_sheet.as_deref()),
+        ("--checkpoint", args.checkpoint.as_deref()),
+        ("--partial", args.partial.as_deref()),
     ]
     .into_iter()
-    .flatten()
+    .filter_map(|(option, path)| Some((option, path?)))
     .collect()
 }
 
@@ -770,7 +925,7 @@ fn refuse_overwriting_scene_files(
     args: &RenderArgs,
     scene_files: &[PathBuf],
 ) -> anyhow::Result<()> {
-    for output in outputs(args) {
+    for (_, output) in outputs(args) {
         if let Some(input) = scene_files.iter().find(|input| same_file(output, input)) {
             bail!(
                 "{}: the output would overwrite an input file ({}, which the scene reads); choose another output path",

@@ -6,6 +6,7 @@ use anyhow::bail;
 use glam::{Mat4, Vec3};
 
 use super::render::RenderArgs;
+use super::values::parse_vec3;
 use crate::lens::Prescription;
 use crate::lens::aperture::ApertureSetting;
 use crate::lens::elements::{FocusSetting, Lens, build_geometry};
@@ -13,18 +14,6 @@ use crate::lens::focus::closest_focus_mm;
 use crate::pipeline::{Renderer, SceneBounds};
 use crate::scene::{CameraHints, MaterialLibrary, PunctualLight, SceneCamera, look_at};
 use crate::shade::Environment;
-
-pub fn parse_vec3(s: &str) -> Result<Vec3, String> {
-    let parts: Vec<f32> = s
-        .split(',')
-        .map(|p| p.trim().parse::<f32>())
-        .collect::<Result<_, _>>()
-        .map_err(|_| format!("'{s}' is not X,Y,Z"))?;
-    match parts[..] {
-        [x, y, z] if parts.iter().all(|v| v.is_finite()) => Ok(Vec3::new(x, y, z)),
-        _ => Err(format!("'{s}' is not three finite numbers X,Y,Z")),
-    }
-}
 
 /// The camera placement chosen for a render.
 pub struct Placement {

@@ -15,6 +15,56 @@ const LINE_HEIGHT: u32 = 11;
 const BACKGROUND: Rgb<u8> = Rgb([24, 24, 24]);
 const INK: Rgb<u8> = Rgb([235, 235, 235]);
 
+/// Size of a frame's thumbnail: the frame itself up to 320 px wide, else scaled down to that.
+pub fn thumbnail_size(width: u32, height: u32) -> (u32, u32) {
+    if width <= MAX_THUMB_WIDTH {
+        (width, height)
+    } else {
+        let height = (height as u64 * MAX_THUMB_WIDTH as u64 / width as u64).max(1) as u32;
+        (MAX_THUMB_WIDTH, height)
+    }
+}
+
+/// The grid of a sheet: `frames` cells of thumbnails of at most `thumbnail` size with
+/// `caption_lines` lines under each.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Layout {
+    pub columns: u32,
+    pub rows: u32,
+    pub cell_width: u32,
+    pub cell_height: u32,
+}
+
+impl Layout {
+    /// A near-square grid.
+    pub fn new(frames: usize, thumbnail: (u32, u32), caption_lines: u32) -> Layout {
+        let columns = ((frames as f64).sqrt().ceil() as u32).max(1);
+        Layout {
+            columns,
+            rows: (frames as u32).div_ceil(columns),
+            cell_width: thumbnail.0 + PADDING,
+            cell_height: thumbnail.1 + PADDING + caption_lines * LINE_HEIGHT,
+        }
+    }
+
+    /// The sheet's width and height in pixels.
+    pub fn size(&self) -> (u64, u64) {
+        (
+            self.columns as u64 * self.cell_width as u64 + PADDING as u64,
+            self.rows as u64 * self.cell_height as u64 + PADDING as u64,
+        )
+    }
+}
+
+/// Memory a contact sheet of `frames` frames of `width` × `height` takes, in bytes: the
+/// thumbnails kept until the end of the run, the sheet and its encoded file.
+pub fn estimated_bytes(frames: usize, width: u32, height: u32, caption_lines: u32) -> u64 {
+    let thumbnail = thumbnail_size(width, height);
+    let (sheet_width, sheet_height) = Layout::new(frames, thumbnail, caption_lines).size();
+    let thumbnails = frames as u64 * thumbnail.0 as u64 * thumbnail.1 as u64 * 3;
+    thumbnails + 2 * sheet_width * sheet_height * 3
+}
+
 /// Lays `frames` out in a near-square grid, each scaled to at most 320 px wide, captioned.
 pub fn contact_sheet(frames: &[Thumbnail]) -> RgbImage {
     if frames.is_empty() {
@@ -23,18 +73,11 @@ pub fn contact_sheet(frames: &[Thumbnail]) -> RgbImage {
     let thumbs: Vec<RgbImage> = frames
         .iter()
         .map(|f| {
-            if f.image.width() <= MAX_THUMB_WIDTH {
+            let (width, height) = thumbnail_size(f.image.width(), f.image.height());
+            if width == f.image.width() {
                 f.image.clone()
             } else {
-                let height = (f.image.height() as u64 * MAX_THUMB_WIDTH as u64
-                    / f.image.width() as u64)
-                    .max(1) as u32;
-                imageops::resize(
-                    &f.image,
-                    MAX_THUMB_WIDTH,
-                    height,
-                    imageops::FilterType::Triangle,
-                )
+                imageops::resize(&f.image, width, height, imageops::FilterType::Triangle)
             }
         })
         .collect();
@@ -43,19 +86,16 @@ pub fn contact_sheet(frames: &[Thumbnail]) -> RgbImage {
         .map(|f| f.caption.lines().count() as u32)
         .max()
         .unwrap_or(0);
-    let cell_w = thumbs.iter().map(RgbImage::width).max().unwrap_or(1) + PADDING;
-    let cell_h =
-        thumbs.iter().map(RgbImage::height).max().unwrap_or(1) + PADDING + lines * LINE_HEIGHT;
-    let columns = (frames.len() as f64).sqrt().ceil() as u32;
-    let rows = (frames.len() as u32).div_ceil(columns);
-    let mut sheet = RgbImage::from_pixel(
-        columns * cell_w + PADDING,
-        rows * cell_h + PADDING,
-        BACKGROUND,
+    let largest = (
+        thumbs.iter().map(RgbImage::width).max().unwrap_or(1),
+        thumbs.iter().map(RgbImage::height).max().unwrap_or(1),
     );
+    let layout = Layout::new(frames.len(), largest, lines);
+    let (width, height) = layout.size();
+    let mut sheet = RgbImage::from_pixel(width as u32, height as u32, BACKGROUND);
     for (i, (thumb, frame)) in thumbs.iter().zip(frames).enumerate() {
-        let x = PADDING + (i as u32 % columns) * cell_w;
-        let y = PADDING + (i as u32 / columns) * cell_h;
+        let x = PADDING + (i as u32 % layout.columns) * layout.cell_width;
+        let y = PADDING + (i as u32 / layout.columns) * layout.cell_height;
         imageops::replace(&mut sheet, thumb, x as i64, y as i64);
         for (line, text) in frame.caption.lines().enumerate() {
             draw_text(
@@ -109,5 +149,18 @@ mod tests {
         );
         let inked = sheet.pixels().filter(|p| **p == INK).count();
         assert!(inked > 100, "captions drawn: {inked} pixels");
+        let layout = Layout::new(5, (40, 30), 2);
+        assert_eq!(layout.size(), (sheet.width() as u64, sheet.height() as u64));
+    }
+
+    #[test]
+    fn thumbnails_are_at_most_320_wide_and_keep_their_shape() {
+        assert_eq!(thumbnail_size(200, 100), (200, 100));
+        assert_eq!(thumbnail_size(640, 480), (320, 240));
+        assert_eq!(thumbnail_size(16384, 1), (320, 1));
+        // 100 frames of 640×480: 10×10 cells of (320 + 8) × (240 + 8 + 3 lines).
+        let bytes = estimated_bytes(100, 640, 480, 3);
+        let sheet = (10 * 328 + 8) * (10 * (248 + 33) + 8) * 3;
+        assert_eq!(bytes, 100 * 320 * 240 * 3 + 2 * sheet);
     }
 }

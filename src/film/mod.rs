@@ -6,14 +6,21 @@
 
 pub mod checkpoint;
 pub mod contact_sheet;
+pub mod footprint;
 pub mod format;
 pub mod output;
+pub mod samples;
 
 use bevy_ecs::component::Component;
 
 /// The largest image side realcam renders, in pixels: 16K, far beyond any display, while a
 /// 16384² film's sums still fit comfortably in memory (3 GiB).
 pub const MAX_IMAGE_SIDE: u32 = 16_384;
+
+/// The most samples per pixel realcam renders: 2²⁴. The film keeps per-pixel sums in f32,
+/// whose 24-bit significand cannot take in one more sample of similar size beyond 2²⁴ of
+/// them — further samples would be lost, not averaged in.
+pub const MAX_SPP: u32 = 1 << 24;
 
 /// A rectangle of the image with its accumulation buffers.
 #[derive(Component, Clone, Debug)]

@@ -192,15 +192,10 @@ fn target(path: &Path) -> anyhow::Result<Target> {
     )
 }
 
-/// Checks before a long render that `path` can be written: standard output is not a terminal;
-/// a file's folder exists and is writable; a FIFO or device is writable. Writes nothing.
+/// Checks before a long render that `path` can be written: a file's folder exists and is
+/// writable; a FIFO or device is writable. Writes nothing.
 pub fn check_writable(path: &Path) -> anyhow::Result<()> {
     if is_stdout(path) {
-        if std::io::stdout().is_terminal() {
-            bail!(
-                "standard output is a terminal: `-` writes binary image data there; redirect it (`> file`) or give a file name"
-            );
-        }
         return Ok(());
     }
     match target(path)? {
@@ -215,6 +210,16 @@ pub fn check_writable(path: &Path) -> anyhow::Result<()> {
                 bail!("{}: cannot write here: permission denied", path.display());
             }
         }
+    }
+    Ok(())
+}
+
+/// Refuses to send binary image data to standard output when it is a terminal.
+pub fn check_not_terminal(option: &str, path: &Path) -> anyhow::Result<()> {
+    if is_stdout(path) && std::io::stdout().is_terminal() {
+        bail!(
+            "{option} -: standard output is a terminal, and an image there would be binary garbage; redirect it (`> file`, `| program`) or give a file name"
+        );
     }
     Ok(())
 }

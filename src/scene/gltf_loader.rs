@@ -105,6 +105,33 @@ fn load(bytes: &[u8], base_dir: Option<&Path>, source: &Path) -> Result<LoadedSc
     })
 }
 
+/// JSON read by [`referenced_files`] at most: a larger document is left to the full load.
+const MAX_PREVIEW_JSON: u64 = 64 << 20;
+
+/// The glTF file at `path` and every file its buffers and images name, from its JSON alone
+/// (no buffer or image is read), so that a command can refuse to write over them before it
+/// loads the scene. `None` when the document cannot be read this way; loading it reports why.
+pub fn referenced_files(path: &Path) -> Option<Vec<PathBuf>> {
+    use std::io::Read;
+    let mut file = std::fs::File::open(path).ok()?;
+    // A device or FIFO may never end: only regular files are previewed.
+    file.metadata().ok()?.is_file().then_some(())?;
+    let mut head = [0u8; 20];
+    let json = if file.read_exact(&mut head).is_ok() && head.starts_with(b"glTF") {
+        // GLB: 12-byte header, then the JSON chunk's length and type.
+        let length = u32::from_le_bytes(head[12..16].try_into().ok()?) as u64;
+        (&head[16..20] == b"JSON" && length <= MAX_PREVIEW_JSON).then_some(())?;
+        let mut json = vec![0; length as usize];
+        file.read_exact(&mut json).ok()?;
+        json
+    } else {
+        (file.metadata().ok()?.len() <= MAX_PREVIEW_JSON).then_some(())?;
+        std::fs::read(path).ok()?
+    };
+    let root = parse_json(&json).ok()?;
+    Some(input_files(&root, path.parent(), path))
+}
+
 /// `source` and every file its buffers and images name.
 fn input_files(root: &Root, base_dir: Option<&Path>, source: &Path) -> Vec<PathBuf> {
     let uris = root
@@ -281,7 +308,7 @@ fn check_size_budget(root: &Root, contents: &SceneContents) -> Result<()> {
     let vertices = sizes
         .values()
         .fold(0u64, |sum, &(_, vertices)| sum.saturating_add(vertices));
-    budget::check(triangles, vertices, budget::available_memory())
+    budget::check(triangles, vertices, crate::memory::available_memory())
 }
 
 /// One [`MeshInstance`] per (placed mesh, primitive), sharing one [`Mesh`] per primitive.

@@ -24,7 +24,7 @@ use bevy_ecs::component::Component;
 use bevy_ecs::resource::Resource;
 use glam::{Mat3, Mat4, Vec2, Vec3, Vec4};
 
-pub use gltf_loader::{load_gltf, load_gltf_bytes};
+pub use gltf_loader::{load_gltf, load_gltf_bytes, referenced_files};
 pub use texture::{ColorEncoding, Texture, WrapMode};
 
 /// Triangle geometry of one glTF primitive, in the mesh's local frame.

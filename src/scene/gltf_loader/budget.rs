@@ -4,6 +4,8 @@
 
 use anyhow::{Result, bail};
 
+use crate::memory::gigabytes;
+
 /// Scenes with more (instanced) triangles than this are refused, whatever the memory.
 pub const MAX_TRIANGLES: u64 = 50_000_000;
 /// Vertices over all distinct primitives, likewise.
@@ -48,64 +50,6 @@ pub(super) fn check(triangles: u64, vertices: u64, available: Option<u64>) -> Re
     Ok(())
 }
 
-fn gigabytes(bytes: u64) -> String {
-    format!("{:.1} GB", bytes as f64 / 1e9)
-}
-
-/// Memory this process can still use: the system's available memory, or less if a cgroup
-/// (a container's memory limit, as in a Kubernetes pod or a Slurm job) allows less. `None`
-/// where neither can be read.
-pub(super) fn available_memory() -> Option<u64> {
-    let system = std::fs::read_to_string("/proc/meminfo")
-        .ok()
-        .and_then(|text| meminfo_available(&text));
-    let cgroup = cgroup_headroom();
-    match (system, cgroup) {
-        (Some(a), Some(b)) => Some(a.min(b)),
-        (a, b) => a.or(b),
-    }
-}
-
-/// `MemAvailable` of /proc/meminfo, in bytes.
-fn meminfo_available(meminfo: &str) -> Option<u64> {
-    let line = meminfo
-        .lines()
-        .find(|line| line.starts_with("MemAvailable:"))?;
-    let kilobytes: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
-    Some(kilobytes.saturating_mul(1024))
-}
-
-/// Limit minus working set of this process's cgroup (v2, else v1), if it has a limit. The
-/// working set leaves out inactive file cache, which the kernel reclaims before it would kill
-/// anything (as Kubernetes counts it): a long-running pod's usage is mostly cache.
-fn cgroup_headroom() -> Option<u64> {
-    let read = |path: &str| -> Option<String> { std::fs::read_to_string(path).ok() };
-    let number = |path: &str| -> Option<u64> { read(path)?.trim().parse().ok() };
-    let (limit, usage, inactive_file) = match number("/sys/fs/cgroup/memory.max") {
-        Some(limit) => (
-            limit,
-            number("/sys/fs/cgroup/memory.current")?,
-            read("/sys/fs/cgroup/memory.stat").and_then(|s| stat(&s, "inactive_file")),
-        ),
-        None => (
-            number("/sys/fs/cgroup/memory/memory.limit_in_bytes")?,
-            number("/sys/fs/cgroup/memory/memory.usage_in_bytes")?,
-            read("/sys/fs/cgroup/memory/memory.stat").and_then(|s| stat(&s, "total_inactive_file")),
-        ),
-    };
-    let working_set = usage.saturating_sub(inactive_file.unwrap_or(0));
-    // cgroup v1 reports "no limit" as a number near i64::MAX.
-    (limit < 1 << 60).then(|| limit.saturating_sub(working_set))
-}
-
-/// The value of `key` in a cgroup `memory.stat` ("key value" lines).
-fn stat(text: &str, key: &str) -> Option<u64> {
-    text.lines().find_map(|line| {
-        let (name, value) = line.split_once(' ')?;
-        (name == key).then(|| value.trim().parse().ok())?
-    })
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -132,20 +76,5 @@ mod tests {
             message.contains("needs about 0.8 GB") && message.contains("only 0.5 GB"),
             "{message}"
         );
-    }
-
-    #[test]
-    fn meminfo_is_parsed() {
-        let text = "MemTotal:       24000000 kB\nMemFree:  100 kB\nMemAvailable:   22000000 kB\n";
-        assert_eq!(meminfo_available(text), Some(22_000_000 * 1024));
-        assert_eq!(meminfo_available("MemTotal: 5 kB\n"), None);
-    }
-
-    #[test]
-    fn cgroup_stat_is_parsed() {
-        let text = "active_file 100\ninactive_file 4096\ntotal_inactive_file 7\n";
-        assert_eq!(stat(text, "inactive_file"), Some(4096));
-        assert_eq!(stat(text, "total_inactive_file"), Some(7));
-        assert_eq!(stat(text, "shmem"), None);
     }
 }

@@ -1,0 +1,85 @@
+//! Parsing option values: vectors and whole numbers, with realcam's own messages.
+//!
+//! Numeric and vector options take values that start with `-` (clap would otherwise read
+//! `--up -0.04,1,0` as a flag `-0`): vectors are declared `allow_hyphen_values`, numbers
+//! `allow_negative_numbers`, and a value out of range is refused here or by the command's
+//! checks, in realcam's words, naming the range.
+
+use std::fmt::Display;
+
+use glam::Vec3;
+
+/// `X,Y,Z`: three finite numbers, any sign.
+pub fn parse_vec3(s: &str) -> Result<Vec3, String> {
+    let parts: Vec<f32> = s
+        .split(',')
+        .map(|p| p.trim().parse::<f32>())
+        .collect::<Result<_, _>>()
+        .map_err(|_| format!("'{s}' is not X,Y,Z"))?;
+    match parts[..] {
+        [x, y, z] if parts.iter().all(|v| v.is_finite()) => Ok(Vec3::new(x, y, z)),
+        _ => Err(format!("'{s}' is not three finite numbers X,Y,Z")),
+    }
+}
+
+/// A parser of whole numbers of type `T` for an option whose meaningful values are
+/// `min..=max`. It refuses what is not a whole number or does not fit `T` (a negative count,
+/// say), naming the range; values that fit `T` but lie outside the range are left to the
+/// command's own checks, which say why.
+pub fn whole<T>(
+    min: impl Display,
+    max: impl Display,
+) -> impl Fn(&str) -> Result<T, String> + Clone + Send + Sync + 'static
+where
+    T: TryFrom<i128>,
+{
+    let range = format!("a whole number from {min} to {max}");
+    move |s: &str| {
+        let value: i128 = s
+            .trim()
+            .parse()
+            .map_err(|_| format!("'{s}' is not a whole number; expected {range}"))?;
+        T::try_from(value).map_err(|_| format!("{value} is out of range; expected {range}"))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn vectors_take_any_sign() {
+        assert_eq!(
+            parse_vec3("-0.041,0.998,-0.032").unwrap(),
+            Vec3::new(-0.041, 0.998, -0.032)
+        );
+        assert_eq!(parse_vec3(" -3, 1 ,2").unwrap(), Vec3::new(-3.0, 1.0, 2.0));
+        for bad in ["1,2", "1,2,3,4", "a,b,c", "nan,0,0", "1,inf,0", ""] {
+            assert!(parse_vec3(bad).is_err(), "{bad}");
+        }
+    }
+
+    #[test]
+    fn whole_numbers_outside_their_type_are_refused_naming_the_range() {
+        let spp = whole::<u32>(1, 16_777_216);
+        assert_eq!(spp("64"), Ok(64));
+        assert_eq!(spp("0"), Ok(0), "left to the command's check");
+        assert_eq!(
+            spp("-3").unwrap_err(),
+            "-3 is out of range; expected a whole number from 1 to 16777216"
+        );
+        assert!(spp("4294967296").unwrap_err().contains("out of range"));
+        assert!(
+            spp("2.5")
+                .unwrap_err()
+                .contains("'2.5' is not a whole number")
+        );
+        let seed = whole::<u64>(0, u64::MAX);
+        assert_eq!(seed("18446744073709551615"), Ok(u64::MAX));
+        assert!(
+            seed("-1")
+                .unwrap_err()
+                .contains("from 0 to 18446744073709551615")
+        );
+    }
+}
