@@ -96,17 +96,9 @@ pub fn place_camera(args: &RenderArgs, renderer: &mut Renderer) -> anyhow::Resul
                         .and_then(|i| cameras.iter().find(|c| c.index == i))
                 });
             if found.is_none() {
-                let names: Vec<String> = cameras
-                    .iter()
-                    .map(|c| format!("{} ({})", c.index, c.name.as_deref().unwrap_or("unnamed")))
-                    .collect();
                 bail!(
-                    "--camera {wanted}: no such camera in the scene; it has {}",
-                    if names.is_empty() {
-                        "no cameras".to_string()
-                    } else {
-                        names.join(", ")
-                    }
+                    "--camera {wanted}: no such camera in the scene, which has {}",
+                    describe_cameras(&cameras)
                 );
             }
             found
@@ -127,6 +119,33 @@ pub fn place_camera(args: &RenderArgs, renderer: &mut Renderer) -> anyhow::Resul
             frame_bounds: true,
         },
     })
+}
+
+/// Cameras listed at most in a message.
+const LISTED_CAMERAS: usize = 20;
+
+/// `2 cameras: #0 "Front", #1 (unnamed)`, for messages: how many, then each index and name.
+pub fn describe_cameras(cameras: &[SceneCamera]) -> String {
+    if cameras.is_empty() {
+        return "no cameras; place one with --look-from and --look-at".to_string();
+    }
+    let mut listed: Vec<String> = cameras
+        .iter()
+        .take(LISTED_CAMERAS)
+        .map(|c| match &c.name {
+            Some(name) => format!("#{} \"{name}\"", c.index),
+            None => format!("#{} (unnamed)", c.index),
+        })
+        .collect();
+    if cameras.len() > LISTED_CAMERAS {
+        listed.push(format!("and {} more", cameras.len() - LISTED_CAMERAS));
+    }
+    format!(
+        "{} camera{}: {} (give --camera an index or a name)",
+        cameras.len(),
+        if cameras.len() == 1 { "" } else { "s" },
+        listed.join(", ")
+    )
 }
 
 /// Looks at the scene's bounds from +z (front), far enough back for the lens to fit them in
@@ -181,5 +200,41 @@ pub fn autofocus(renderer: &mut Renderer, world_from_camera: Mat4) -> FocusSetti
     FocusSetting::Distance {
         metres,
         mode: Default::default(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn camera(index: usize, name: Option<&str>) -> SceneCamera {
+        SceneCamera {
+            name: name.map(str::to_string),
+            index,
+            world_from_camera: Mat4::IDENTITY,
+            yfov: None,
+            aspect_ratio: None,
+            hints: CameraHints::default(),
+        }
+    }
+
+    #[test]
+    fn camera_lists_say_how_many_then_each_index_and_name() {
+        assert_eq!(
+            describe_cameras(&[camera(0, Some("Camera"))]),
+            "1 camera: #0 \"Camera\" (give --camera an index or a name)"
+        );
+        let message = describe_cameras(&[camera(0, None), camera(1, Some("Top"))]);
+        assert!(
+            message.starts_with("2 cameras: #0 (unnamed), #1 \"Top\""),
+            "{message}"
+        );
+        assert!(describe_cameras(&[]).starts_with("no cameras"));
+        let many: Vec<SceneCamera> = (0..25).map(|i| camera(i, None)).collect();
+        let message = describe_cameras(&many);
+        assert!(
+            message.starts_with("25 cameras: #0") && message.contains("#19 (unnamed), and 5 more"),
+            "{message}"
+        );
     }
 }
