@@ -29,14 +29,14 @@ pub struct BenchArgs {
     #[arg(long, default_value = DEFAULT_LENS, value_name = "FILE")]
     pub lens: String,
     /// Camera rays in the workload.
-    #[arg(long, default_value_t = 4096, value_name = "N", allow_negative_numbers = true, value_parser = whole::<usize>(1, usize::MAX))]
+    #[arg(long, default_value_t = 4096, value_name = "N", allow_hyphen_values = true, value_parser = whole::<usize>(1, usize::MAX))]
     pub rays: usize,
     /// Rays per SoA batch (the renderer traces one 32×32 tile, 1024 rays, per batch).
-    #[arg(long, default_value_t = 1024, value_name = "N", allow_negative_numbers = true, value_parser = whole::<usize>(1, usize::MAX))]
+    #[arg(long, default_value_t = 1024, value_name = "N", allow_hyphen_values = true, value_parser = whole::<usize>(1, usize::MAX))]
     pub batch: usize,
     /// Rounds per variant; the median is reported. Variants alternate within a round so
     /// that load from other processes hits them alike.
-    #[arg(long, default_value_t = 7, value_name = "N", allow_negative_numbers = true, value_parser = whole::<usize>(1, usize::MAX))]
+    #[arg(long, default_value_t = 7, value_name = "N", allow_hyphen_values = true, value_parser = whole::<usize>(1, usize::MAX))]
     pub rounds: usize,
     /// Also measure both SoA kernels at batch sizes 64 … 4096 (for the plot in BENCHMARKS.md).
     #[arg(long)]

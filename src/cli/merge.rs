@@ -13,7 +13,7 @@ use std::process::ExitCode;
 use anyhow::{Context, bail};
 use clap::Args;
 
-use super::values::whole;
+use super::values::{number, whole};
 use crate::film::Image;
 use crate::film::checkpoint::{CheckpointInfo, Invocation, read_checkpoint};
 use crate::film::format::{
@@ -38,10 +38,10 @@ pub struct MergeArgs {
     pub exr: Option<PathBuf>,
     /// Exposure of an 8-bit output in stops: pixel = film irradiance × 2^EV [default:
     /// automatic, the image's log-average luminance to 18 % grey].
-    #[arg(long, value_name = "EV", allow_hyphen_values = true)]
+    #[arg(long, value_name = "EV", allow_hyphen_values = true, value_parser = number::<f32>)]
     pub exposure: Option<f32>,
     /// JPEG quality of a .jpg/.jpeg output, 1–100 [default: 90].
-    #[arg(long, value_name = "Q", allow_negative_numbers = true, value_parser = whole::<u8>(1, 100))]
+    #[arg(long, value_name = "Q", allow_hyphen_values = true, value_parser = whole::<u8>(1, 100))]
     pub quality: Option<u8>,
     /// Merge the shards that are there even if some of 0..N-1 are missing or unfinished (the
     /// image then has fewer samples per pixel, and more noise, than the full render).

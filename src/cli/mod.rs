@@ -74,3 +74,112 @@ pub fn main() -> ExitCode {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::CommandFactory;
+    use clap::error::ErrorKind;
+
+    /// The arguments a subcommand needs besides the option under test.
+    fn required(subcommand: &str) -> &'static [&'static str] {
+        match subcommand {
+            "lens" => &["dgauss.50mm"],
+            "merge" => &["part.exr", "--out", "m.png"],
+            _ => &[],
+        }
+    }
+
+    /// Whether `arg` takes numbers or vectors of numbers: not names, paths or keywords
+    /// (`--env` takes a radiance vector or a file).
+    fn numeric(arg: &clap::Arg) -> bool {
+        use std::any::TypeId;
+        let parser = arg.get_value_parser().type_id();
+        let words = [
+            TypeId::of::<String>(),
+            TypeId::of::<std::path::PathBuf>(),
+            TypeId::of::<crate::lens::focus::FocusMode>(),
+            TypeId::of::<crate::lens::pupil::PupilSampling>(),
+            TypeId::of::<crate::lens::LensFormat>(),
+        ];
+        arg.get_action().takes_values()
+            && (!words.iter().any(|w| parser == *w) || arg.get_long() == Some("env"))
+    }
+
+    /// Every numeric and vector option of every subcommand takes a value starting with `-`:
+    /// a negative number or a vector with a negative first component reaches realcam (which
+    /// may refuse it in its own words), never clap's "unexpected argument '-0' found".
+    #[test]
+    fn every_numeric_option_takes_values_that_start_with_a_minus() {
+        let cli = Cli::command();
+        let mut tried = Vec::new();
+        for subcommand in cli.get_subcommands() {
+            let name = subcommand.get_name();
+            for arg in subcommand.get_arguments().filter(|a| numeric(a)) {
+                let Some(long) = arg.get_long() else { continue };
+                tried.push(format!("{name} --{long}"));
+                for value in ["-1", "-0.041,0.998,-0.032", "-2.5"] {
+                    let option = format!("--{long}");
+                    let mut argv = vec!["realcam", name, option.as_str(), value];
+                    argv.extend(required(name));
+                    let Err(error) = Cli::try_parse_from(&argv) else {
+                        continue;
+                    };
+                    let text = error.to_string();
+                    assert!(
+                        !matches!(error.kind(), ErrorKind::UnknownArgument)
+                            && !text.contains("unexpected argument"),
+                        "{argv:?}: {text}"
+                    );
+                    // A refusal of the value itself is realcam's, not the parser's default.
+                    for default in ["invalid digit", "invalid float literal", "number too large"] {
+                        assert!(!text.contains(default), "{argv:?}: {text}");
+                    }
+                }
+            }
+        }
+        // The options the issue names, and all the numeric ones of every subcommand.
+        for expected in [
+            "render --up",
+            "render --look-from",
+            "render --look-at",
+            "render --env",
+            "render --exposure",
+            "render --seed",
+            "render --spp",
+            "render --focus-distance",
+            "render --focus-sweep",
+            "merge --exposure",
+            "lens --film-distance",
+            "bench --rays",
+        ] {
+            assert!(
+                tried.iter().any(|t| t == expected),
+                "{expected} not tried: {tried:?}"
+            );
+        }
+    }
+
+    #[test]
+    fn negative_vectors_parse_to_their_values() {
+        let argv = [
+            "realcam",
+            "render",
+            "--look-from",
+            "-3,1,2",
+            "--look-at",
+            "-0.5,-1,-2",
+            "--up",
+            "-0.041,0.998,-0.032",
+            "--exposure",
+            "-2",
+        ];
+        let Some(Command::Render(args)) = Cli::try_parse_from(argv).unwrap().command else {
+            panic!("a render");
+        };
+        assert_eq!(args.look_from, Some(glam::Vec3::new(-3.0, 1.0, 2.0)));
+        assert_eq!(args.look_at, Some(glam::Vec3::new(-0.5, -1.0, -2.0)));
+        assert_eq!(args.up, glam::Vec3::new(-0.041, 0.998, -0.032));
+        assert_eq!(args.exposure, Some(-2.0));
+    }
+}

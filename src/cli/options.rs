@@ -2,6 +2,8 @@
 
 use clap::Args;
 
+use super::values::number;
+
 use crate::lens::LensFormat;
 use crate::lens::aperture::ApertureSetting;
 use crate::lens::elements::FocusSetting;
@@ -20,7 +22,8 @@ pub struct LensOptions {
         long,
         value_name = "M",
         conflicts_with = "film_distance",
-        allow_negative_numbers = true
+        allow_hyphen_values = true,
+        value_parser = number::<f64>
     )]
     pub focus_distance: Option<f64>,
     /// How the film distance is found for --focus-distance: `paraxial` (pbrt's thick-lens
@@ -28,21 +31,22 @@ pub struct LensOptions {
     #[arg(long, value_name = "MODE", default_value = "paraxial")]
     pub focus_mode: FocusMode,
     /// Set the film distance (rear vertex → film, mm) directly instead of focusing.
-    #[arg(long, value_name = "MM", allow_negative_numbers = true)]
+    #[arg(long, value_name = "MM", allow_hyphen_values = true, value_parser = number::<f64>)]
     pub film_distance: Option<f64>,
     /// Aperture-stop diameter, mm (clamped to the lens's maximum, with a warning).
     #[arg(
         long,
         value_name = "MM",
         conflicts_with = "f_number",
-        allow_negative_numbers = true
+        allow_hyphen_values = true,
+        value_parser = number::<f64>
     )]
     pub aperture: Option<f64>,
     /// Open the stop so the real f-number (EFL / entrance-pupil diameter) is N.
-    #[arg(long, value_name = "N", allow_negative_numbers = true)]
+    #[arg(long, value_name = "N", allow_hyphen_values = true, value_parser = number::<f64>)]
     pub f_number: Option<f64>,
     /// Film diagonal, mm [default: 35, or the scene camera's hint].
-    #[arg(long, value_name = "MM", allow_negative_numbers = true)]
+    #[arg(long, value_name = "MM", allow_hyphen_values = true, value_parser = number::<f64>)]
     pub film_diagonal: Option<f64>,
     /// Layout of the lens file's thickness column, when it cannot be detected.
     #[arg(long, value_name = "thickness-after|gap-before")]

@@ -17,7 +17,7 @@ use super::interrupt::Interrupt;
 use super::options::LensOptions;
 use super::plan::{Frame, FrameRequest, Shard, Sweep, frame_count, plan_frames, sidecar};
 use super::setup::{Placement, autofocus, choose_environment, frame_scene, place_camera};
-use super::values::{parse_vec3, whole};
+use super::values::{number, parse_vec3, whole};
 use crate::film::checkpoint::{
     CheckpointInfo, FORMAT_VERSION, Invocation, read_checkpoint, write_checkpoint,
 };
@@ -59,15 +59,15 @@ pub struct RenderArgs {
         long,
         default_value_t = 64,
         value_name = "N",
-        allow_negative_numbers = true,
+        allow_hyphen_values = true,
         value_parser = whole::<u32>(1, MAX_SPP)
     )]
     pub spp: u32,
     /// Image width in pixels [default: 512].
-    #[arg(long, value_name = "W", allow_negative_numbers = true, value_parser = whole::<u32>(1, MAX_IMAGE_SIDE))]
+    #[arg(long, value_name = "W", allow_hyphen_values = true, value_parser = whole::<u32>(1, MAX_IMAGE_SIDE))]
     pub width: Option<u32>,
     /// Image height in pixels [default: 512].
-    #[arg(long, value_name = "H", allow_negative_numbers = true, value_parser = whole::<u32>(1, MAX_IMAGE_SIDE))]
+    #[arg(long, value_name = "H", allow_hyphen_values = true, value_parser = whole::<u32>(1, MAX_IMAGE_SIDE))]
     pub height: Option<u32>,
     #[command(flatten)]
     pub lens_options: LensOptions,
@@ -89,17 +89,17 @@ pub struct RenderArgs {
     #[arg(long, value_name = "R,G,B|FILE", allow_hyphen_values = true)]
     pub env: Option<String>,
     /// Random seed; the same seed gives the same image whatever the thread count.
-    #[arg(long, default_value_t = 0, value_name = "S", allow_negative_numbers = true, value_parser = whole::<u64>(0, u64::MAX))]
+    #[arg(long, default_value_t = 0, value_name = "S", allow_hyphen_values = true, value_parser = whole::<u64>(0, u64::MAX))]
     pub seed: u64,
     /// Worker threads, at most 1024 [default: all cores].
-    #[arg(long, value_name = "N", allow_negative_numbers = true, value_parser = whole::<usize>(1, MAX_THREADS))]
+    #[arg(long, value_name = "N", allow_hyphen_values = true, value_parser = whole::<usize>(1, MAX_THREADS))]
     pub threads: Option<usize>,
     /// Path length: 1 = direct lighting only.
     #[arg(
         long,
         default_value_t = 8,
         value_name = "D",
-        allow_negative_numbers = true,
+        allow_hyphen_values = true,
         value_parser = whole::<u32>(1, u32::MAX)
     )]
     pub max_depth: u32,
@@ -113,10 +113,10 @@ pub struct RenderArgs {
     pub exr: Option<PathBuf>,
     /// Exposure of the 8-bit outputs in stops: pixel = film irradiance × 2^EV [default:
     /// automatic, the image's log-average luminance to 18 % grey].
-    #[arg(long, value_name = "EV", allow_hyphen_values = true)]
+    #[arg(long, value_name = "EV", allow_hyphen_values = true, value_parser = number::<f32>)]
     pub exposure: Option<f32>,
     /// JPEG quality of a .jpg/.jpeg output, 1–100 [default: 90].
-    #[arg(long, value_name = "Q", allow_negative_numbers = true, value_parser = whole::<u8>(1, 100))]
+    #[arg(long, value_name = "Q", allow_hyphen_values = true, value_parser = whole::<u8>(1, 100))]
     pub quality: Option<u8>,
     /// Write render statistics as JSON (`-`: to standard output).
     #[arg(long, value_name = "FILE.json")]
@@ -137,7 +137,7 @@ pub struct RenderArgs {
     #[arg(long, value_name = "FILE.exr")]
     pub checkpoint: Option<PathBuf>,
     /// Also save a checkpoint every SECONDS of rendering.
-    #[arg(long, value_name = "SECONDS", allow_negative_numbers = true)]
+    #[arg(long, value_name = "SECONDS", allow_hyphen_values = true, value_parser = number::<f64>)]
     pub checkpoint_every: Option<f64>,
     /// Continue the render saved in CHECKPOINT (same scene and settings, and the same --shard
     /// for a shard's checkpoint) to the target --spp.

@@ -22,6 +22,13 @@ pub fn parse_vec3(s: &str) -> Result<Vec3, String> {
     }
 }
 
+/// A number (`inf` and `nan` included: the command's checks say where they make no sense).
+pub fn number<T: std::str::FromStr>(s: &str) -> Result<T, String> {
+    s.trim()
+        .parse()
+        .map_err(|_| format!("'{s}' is not a number"))
+}
+
 /// A parser of whole numbers of type `T` for an option whose meaningful values are
 /// `min..=max`. It refuses what is not a whole number or does not fit `T` (a negative count,
 /// say), naming the range; values that fit `T` but lie outside the range are left to the
@@ -57,6 +64,16 @@ mod tests {
         for bad in ["1,2", "1,2,3,4", "a,b,c", "nan,0,0", "1,inf,0", ""] {
             assert!(parse_vec3(bad).is_err(), "{bad}");
         }
+    }
+
+    #[test]
+    fn numbers_are_parsed_with_realcam_words() {
+        assert_eq!(number::<f64>("-2.5"), Ok(-2.5));
+        assert_eq!(number::<f64>("inf"), Ok(f64::INFINITY));
+        assert_eq!(
+            number::<f32>("-1,2,3").unwrap_err(),
+            "'-1,2,3' is not a number"
+        );
     }
 
     #[test]
