@@ -7,6 +7,7 @@
 pub mod accel;
 pub mod batch;
 pub mod cli;
+pub mod diagnosis;
 pub mod film;
 pub mod glass;
 pub mod lens;

@@ -172,11 +172,26 @@ pub struct RenderStats {
     pub lens_rays_passed: u64,
     pub rays_traced: u64,
     pub rejected_samples: u64,
+    /// What shading met: escaped rays, emitters, light samples and their fate (its rays are
+    /// also counted in `rays_traced`).
+    pub shading: ShadeStats,
 }
 
 impl RenderStats {
     fn add_time(&mut self, stage: Stage, start: Instant) {
         self.stage_time[stage as usize] += start.elapsed();
+    }
+
+    /// The sample counters since `earlier` (an earlier copy): what one frame did.
+    pub fn since(&self, earlier: &RenderStats) -> RenderStats {
+        RenderStats {
+            camera_samples: self.camera_samples - earlier.camera_samples,
+            lens_rays_passed: self.lens_rays_passed - earlier.lens_rays_passed,
+            rays_traced: self.rays_traced - earlier.rays_traced,
+            rejected_samples: self.rejected_samples - earlier.rejected_samples,
+            shading: self.shading.since(&earlier.shading),
+            ..self.clone()
+        }
     }
 }
 
@@ -415,7 +430,7 @@ pub fn shade(
         seed: settings.seed,
     };
     let mut work: Vec<Mut<TileBatch>> = tiles.iter_mut().collect();
-    let traced: u64 = work
+    let shading: ShadeStats = work
         .par_iter_mut()
         .map(|batch| {
             let batch = &mut **batch;
@@ -426,10 +441,11 @@ pub fn shade(
                 &mut batch.radiance,
                 &mut tile_stats,
             );
-            tile_stats.rays_traced
+            tile_stats
         })
         .sum();
-    stats.rays_traced += traced;
+    stats.rays_traced += shading.rays_traced;
+    stats.shading += shading;
     stats.add_time(Stage::Shade, start);
 }
 

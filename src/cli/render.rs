@@ -18,6 +18,7 @@ use super::options::LensOptions;
 use super::plan::{Frame, FrameRequest, Shard, Sweep, frame_count, plan_frames, sidecar};
 use super::setup::{Placement, autofocus, choose_environment, frame_scene, place_camera};
 use super::values::{number, parse_vec3, whole};
+use crate::diagnosis::{SceneLighting, black_image, black_picture};
 use crate::film::checkpoint::{
     CheckpointInfo, FORMAT_VERSION, Invocation, read_checkpoint, write_checkpoint,
 };
@@ -171,6 +172,8 @@ struct FrameReport {
     lens_derivation_seconds: f64,
     render_seconds: f64,
     samples: u32,
+    /// Warnings about the frame's image (why it is black).
+    warnings: Vec<String>,
 }
 
 impl FrameReport {
@@ -196,6 +199,7 @@ impl FrameReport {
             "lens_derivation_seconds": self.lens_derivation_seconds,
             "render_seconds": self.render_seconds,
             "samples": self.samples,
+            "warnings": self.warnings,
         })
     }
 }
@@ -334,11 +338,18 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<ExitCode> {
         let lens = &lenses[frame.lens];
         match render_frame(&context, &mut renderer, lens, frame)? {
             Outcome::Interrupted(code) => return Ok(ExitCode::from(code)),
-            Outcome::Finished(report, image) => {
+            Outcome::Finished(mut report, image) => {
                 if args.shard.is_none() {
                     // One exposure per lens sequence, so a focus pull does not flicker.
                     let exposure =
                         *exposures[frame.lens].get_or_insert_with(|| choose_exposure(args, &image));
+                    if let Some(ev) = args.exposure
+                        && !formats.out.is_float()
+                        && let Some(warning) = black_picture(&image, ev)
+                    {
+                        eprintln!("warning: {}: {warning}", shown(&frame.out));
+                        report.warnings.push(warning);
+                    }
                     write_image(&frame.out, &image, formats.out, tone(args, exposure))?;
                     eprintln!(
                         "wrote {} ({}×{}, {} spp, {})",
@@ -534,6 +545,7 @@ fn render_frame(
         let s = renderer.world.resource::<RenderSettings>();
         (s.width, s.height)
     };
+    let stats_before = renderer.world.resource::<RenderStats>().clone();
     let progress = progress_bar(samples.len() as u32, width * height);
     let render_start = Instant::now();
     let mut last_checkpoint = Instant::now();
@@ -585,6 +597,17 @@ fn render_frame(
     }
     progress.finish_and_clear();
     let image = renderer.image();
+    let frame_stats = renderer
+        .world
+        .resource::<RenderStats>()
+        .since(&stats_before);
+    let lighting = SceneLighting::of(renderer);
+    let warnings: Vec<String> = black_image(&image, &frame_stats, &lighting, args.max_depth)
+        .into_iter()
+        .collect();
+    for warning in &warnings {
+        eprintln!("warning: {}: {warning}", shown(&frame.out));
+    }
     if let Some(shard) = args.shard {
         let partial = args.partial.clone().unwrap_or_else(|| {
             sidecar(
@@ -616,6 +639,7 @@ fn render_frame(
         lens_derivation_seconds,
         render_seconds: render_start.elapsed().as_secs_f64(),
         samples: image.samples,
+        warnings,
     };
     Ok(Outcome::Finished(report, image))
 }
@@ -985,6 +1009,16 @@ fn stats_json(renderer: &mut Renderer, frames: &[FrameReport], wall_seconds: f64
         "lens_pass_fraction": if stats.camera_samples > 0 { stats.lens_rays_passed as f64 / stats.camera_samples as f64 } else { 0.0 },
         "rays_traced": stats.rays_traced,
         "rejected_samples": stats.rejected_samples,
+        "camera_rays_escaped": stats.shading.camera_rays_escaped,
+        "bounce_rays_escaped": stats.shading.bounce_rays_escaped,
+        "emitter_hits": stats.shading.emitter_hits,
+        "light_samples": {
+            "drawn": stats.shading.light_samples,
+            "from_behind": stats.shading.light_samples_behind,
+            "blocked": stats.shading.light_samples_blocked,
+            "reached": stats.shading.light_samples_reached,
+        },
+        "warnings": frames.iter().flat_map(|f| f.warnings.iter()).collect::<Vec<_>>(),
         "samples_per_second": if pass_seconds > 0.0 { stats.camera_samples as f64 / pass_seconds } else { 0.0 },
         "frames": frames.iter().map(FrameReport::to_json).collect::<Vec<_>>(),
         "lens_derivation": {

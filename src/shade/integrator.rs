@@ -17,9 +17,9 @@
 
 use glam::Vec3;
 
-use super::Shader;
 use super::lights::{ShadowTarget, direction_and_distance};
 use super::material::{ShadingPoint, shading_point};
+use super::{ShadeStats, Shader};
 use crate::accel::spawn::offset_along_normal;
 use crate::accel::{Hit, SurfacePoint};
 use crate::sampling::Rng;
@@ -132,47 +132,53 @@ impl Shader<'_> {
         first_hit: Option<Hit>,
         rng: &mut Rng,
     ) -> Vec3 {
-        self.path_radiance(origin, direction, first_hit, rng, &mut 0, Strategy::Mis)
+        let mut stats = ShadeStats::default();
+        self.path_radiance(origin, direction, first_hit, rng, &mut stats, Strategy::Mis)
     }
 
-    /// [`Shader::radiance`], counting the rays it traces into `rays_traced`: the reference,
-    /// depth first, one ray at a time. [`Shader::shade_batch`] takes the same steps
-    /// ([`Shader::advance`]) for a whole batch of paths, tracing their bounce rays together.
+    /// [`Shader::radiance`], counting what it does into `stats` (the camera ray itself not
+    /// among the rays traced): the reference, depth first, one ray at a time.
+    /// [`Shader::shade_batch`] takes the same steps ([`Shader::advance`]) for a whole batch of
+    /// paths, tracing their bounce rays together.
     pub(super) fn path_radiance(
         &self,
         origin: Vec3,
         direction: Vec3,
         first_hit: Option<Hit>,
         rng: &mut Rng,
-        rays_traced: &mut u64,
+        stats: &mut ShadeStats,
         strategy: Strategy,
     ) -> Vec3 {
         let Some(mut path) = Path::start(origin, direction) else {
             return Vec3::ZERO;
         };
         let mut hit = first_hit;
-        while let Step::Continue { origin } =
-            self.advance(&mut path, hit, rng, rays_traced, strategy)
-        {
+        while let Step::Continue { origin } = self.advance(&mut path, hit, rng, stats, strategy) {
             hit = self.accel.intersect(origin, path.direction, f32::INFINITY);
-            *rays_traced += 1;
+            stats.rays_traced += 1;
         }
         path.radiance()
     }
 
     /// One path vertex: takes the closest hit of the path's current ray (`None`: it escaped),
     /// adds the emission and direct light found there, and either ends the path or turns it
-    /// into the next ray, leaving from the returned origin along `path.direction`.
+    /// into the next ray, leaving from the returned origin along `path.direction`. Shadow
+    /// rays and what happened are counted into `stats`.
     pub(super) fn advance(
         &self,
         path: &mut Path,
         hit: Option<Hit>,
         rng: &mut Rng,
-        rays_traced: &mut u64,
+        stats: &mut ShadeStats,
         strategy: Strategy,
     ) -> Step {
         let direction = path.direction;
         let Some(current) = hit else {
+            if path.bsdf_pdf.is_none() {
+                stats.camera_rays_escaped += 1;
+            } else {
+                stats.bounce_rays_escaped += 1;
+            }
             let weight = path.bsdf_pdf.map_or(1.0, |pdf| {
                 strategy.bsdf_weight(
                     pdf,
@@ -188,6 +194,7 @@ impl Shader<'_> {
         let shading = shading_point(material, &self.materials.textures, &surface, wo);
 
         if shading.emission != Vec3::ZERO {
+            stats.emitter_hits += 1;
             let weight = path.bsdf_pdf.map_or(1.0, |pdf| {
                 let cos_light = surface.geometric_normal.dot(wo);
                 strategy.bsdf_weight(
@@ -204,7 +211,7 @@ impl Shader<'_> {
             return Step::Done;
         }
         path.radiance +=
-            path.throughput * self.direct_light(&surface, &shading, wo, rng, rays_traced, strategy);
+            path.throughput * self.direct_light(&surface, &shading, wo, rng, stats, strategy);
 
         let wo_local = shading.frame.to_local(wo);
         let Some(sample) = shading.bsdf.sample(wo_local, rng.next_f32(), rng.next_2d()) else {
@@ -241,7 +248,7 @@ impl Shader<'_> {
         shading: &ShadingPoint,
         wo: Vec3,
         rng: &mut Rng,
-        rays_traced: &mut u64,
+        stats: &mut ShadeStats,
         strategy: Strategy,
     ) -> Vec3 {
         let Some(light) = self.lights.sample(
@@ -253,8 +260,10 @@ impl Shader<'_> {
         ) else {
             return Vec3::ZERO;
         };
+        stats.light_samples += 1;
         let wi = light.direction;
         if wi.dot(surface.geometric_normal) <= 0.0 {
+            stats.light_samples_behind += 1;
             return Vec3::ZERO;
         }
         let (wo_local, wi_local) = (shading.frame.to_local(wo), shading.frame.to_local(wi));
@@ -288,10 +297,12 @@ impl Shader<'_> {
         let Some((shadow_direction, distance)) = shadow_ray else {
             return Vec3::ZERO;
         };
-        *rays_traced += 1;
+        stats.rays_traced += 1;
         if self.accel.occluded(origin, shadow_direction, distance) {
+            stats.light_samples_blocked += 1;
             return Vec3::ZERO;
         }
+        stats.light_samples_reached += 1;
         reflected * (weight / light.pdf)
     }
 }

@@ -134,7 +134,7 @@ fn uniform_sky_left_to_bsdf_sampling_is_the_more_efficient_estimator() {
         let run = |scene: &TestScene| {
             let shader = scene.shader(5, 3);
             let first_hit = shader.accel.intersect(origin, Vec3::NEG_Y, f32::INFINITY);
-            let (mut tally, mut rays) = (Tally::default(), 0u64);
+            let (mut tally, mut stats) = (Tally::default(), ShadeStats::default());
             for sample in 0..40_000 {
                 let mut rng = Rng::for_sample(shader.seed, 0, sample);
                 let radiance = shader.path_radiance(
@@ -142,12 +142,12 @@ fn uniform_sky_left_to_bsdf_sampling_is_the_more_efficient_estimator() {
                     Vec3::NEG_Y,
                     first_hit,
                     &mut rng,
-                    &mut rays,
+                    &mut stats,
                     Strategy::Mis,
                 );
                 tally.add(radiance.y as f64);
             }
-            (tally, rays)
+            (tally, stats.rays_traced)
         };
         let ((a, rays_a), (b, rays_b)) = (run(bsdf_only), run(with_light));
         let difference = (a.mean() - b.mean()).abs();

@@ -12,7 +12,7 @@ use std::sync::Arc;
 use glam::{Mat4, Vec3};
 
 use super::integrator::Strategy;
-use super::{Environment, EnvironmentSampling, LightSet, Shader};
+use super::{Environment, EnvironmentSampling, LightSet, ShadeStats, Shader};
 use crate::accel::SceneAccel;
 use crate::sampling::Rng;
 use crate::scene::{Material, MaterialLibrary, Mesh, MeshInstance, PunctualLight};
@@ -199,8 +199,14 @@ pub(super) fn estimate(
     let mut tally = Tally::default();
     for sample in 0..n {
         let mut rng = Rng::for_sample(shader.seed, 0, sample);
-        let radiance =
-            shader.path_radiance(origin, direction, first_hit, &mut rng, &mut 0, strategy);
+        let radiance = shader.path_radiance(
+            origin,
+            direction,
+            first_hit,
+            &mut rng,
+            &mut ShadeStats::default(),
+            strategy,
+        );
         assert!(
             radiance.is_finite() && radiance.min_element() >= 0.0,
             "radiance {radiance}"
