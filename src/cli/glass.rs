@@ -9,6 +9,8 @@ use anyhow::{Context, bail};
 use clap::Args;
 use serde_json::{Value, json};
 
+use super::values::{number, whole_within};
+
 use crate::glass::model::{self, BuchdahlModel, CHECK_RANGE_NM, catalogue_deviation};
 use crate::glass::partial::NORMAL_LINE_G_F;
 use crate::glass::{
@@ -31,7 +33,7 @@ pub struct GlassArgs {
     )]
     pub near: Option<String>,
     /// How many glasses --near lists [default: 10].
-    #[arg(long, value_name = "K", value_parser = clap::value_parser!(u32).range(1..=10_000))]
+    #[arg(long, value_name = "K", allow_hyphen_values = true, value_parser = whole_within::<u32>(1, 10_000))]
     pub count: Option<u32>,
     /// List every catalogue glass.
     #[arg(long, conflicts_with = "glass")]
@@ -45,7 +47,8 @@ pub struct GlassArgs {
         long = "wavelength",
         value_name = "NM",
         value_delimiter = ',',
-        allow_negative_numbers = true
+        allow_hyphen_values = true,
+        value_parser = number::<f64>
     )]
     pub wavelengths: Vec<f64>,
     /// Print one JSON value instead of text.

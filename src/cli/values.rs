@@ -50,6 +50,26 @@ where
     }
 }
 
+/// A parser of whole numbers that must lie in `min..=max`, refusing others in realcam's words.
+pub fn whole_within<T>(
+    min: i128,
+    max: i128,
+) -> impl Fn(&str) -> Result<T, String> + Clone + Send + Sync + 'static
+where
+    T: TryFrom<i128>,
+{
+    let parse = whole::<i128>(min, max);
+    move |s: &str| {
+        let value = parse(s)?;
+        if !(min..=max).contains(&value) {
+            return Err(format!(
+                "{value} is out of range; expected a whole number from {min} to {max}"
+            ));
+        }
+        T::try_from(value).map_err(|_| format!("{value} is out of range"))
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -91,6 +111,10 @@ mod tests {
                 .unwrap_err()
                 .contains("'2.5' is not a whole number")
         );
+        let count = whole_within::<u32>(1, 10_000);
+        assert_eq!(count("10000"), Ok(10_000));
+        assert!(count("0").unwrap_err().contains("from 1 to 10000"));
+        assert!(count("-1").unwrap_err().contains("-1 is out of range"));
         let seed = whole::<u64>(0, u64::MAX);
         assert_eq!(seed("18446744073709551615"), Ok(u64::MAX));
         assert!(
