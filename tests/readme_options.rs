@@ -30,5 +30,8 @@ fn the_readme_mentions_every_option_of_every_subcommand() {
         }
     }
     assert!(checked > 50, "only {checked} options found");
-    assert!(missing.is_empty(), "README.md does not mention: {missing:?}");
+    assert!(
+        missing.is_empty(),
+        "README.md does not mention: {missing:?}"
+    );
 }

@@ -17,7 +17,7 @@ use exr::prelude::{
 use image::{ImageEncoder, RgbImage};
 
 use super::Image;
-use super::output::{is_stdout, to_srgb8};
+use super::output::{is_stdout, is_stream, to_srgb8};
 
 /// EXR encoding of every EXR realcam writes (images, checkpoints, partials): lossless ZIP
 /// over 16 scan lines, blocks in increasing line order (so in a fixed order in the file).
@@ -145,10 +145,11 @@ pub fn supported(accepts: Accepts) -> String {
 }
 
 /// The format the output `option` (e.g. `--out`) writes to `path`, from its extension;
-/// standard output (`-`) gets PNG, or EXR for a float-only option. Refuses an unknown or
-/// missing extension, and a format of the wrong kind, listing what the option writes.
+/// standard output (`-`) and a FIFO or device named without one (`/dev/stdout`) get PNG, or
+/// EXR for a float-only option. Refuses an unknown or missing extension, and a format of the
+/// wrong kind, listing what the option writes.
 pub fn output_format(option: &str, path: &Path, accepts: Accepts) -> anyhow::Result<ImageFormat> {
-    if is_stdout(path) {
+    if is_stdout(path) || (path.extension().is_none() && is_stream(path)) {
         return Ok(match accepts {
             Accepts::Float => ImageFormat::Exr,
             _ => ImageFormat::Png,
@@ -184,7 +185,8 @@ pub fn output_format(option: &str, path: &Path, accepts: Accepts) -> anyhow::Res
 }
 
 /// Refuses a name whose extension is not `extension` (any case), for outputs of one fixed
-/// format: checkpoints and partials (.exr), statistics (.json).
+/// format: checkpoints and partials (.exr), statistics (.json). A FIFO or device named
+/// without an extension takes the format as it is.
 pub fn require_extension(
     option: &str,
     path: &Path,
@@ -195,7 +197,7 @@ pub fn require_extension(
         .extension()
         .and_then(|e| e.to_str())
         .is_some_and(|e| e.eq_ignore_ascii_case(extension));
-    if !matches {
+    if !matches && !(path.extension().is_none() && is_stream(path)) {
         bail!(
             "{option} {}: {option} writes {what}; name the file .{extension}",
             path.display()

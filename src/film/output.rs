@@ -31,6 +31,22 @@ pub fn is_stdout(path: &Path) -> bool {
     path.as_os_str() == STDOUT
 }
 
+/// Whether `path` is standard output (`-`) or names a stream: a FIFO or a character device
+/// (`/dev/stdout`, `/dev/null`), whose name need not carry an extension.
+pub fn is_stream(path: &Path) -> bool {
+    if is_stdout(path) {
+        return true;
+    }
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::FileTypeExt;
+        std::fs::metadata(path)
+            .is_ok_and(|m| m.file_type().is_fifo() || m.file_type().is_char_device())
+    }
+    #[cfg(not(unix))]
+    false
+}
+
 /// How messages name an output: its path, or "standard output" for `-`.
 pub fn shown(path: &Path) -> String {
     if is_stdout(path) {
@@ -149,17 +165,24 @@ fn resolve_links(path: &Path) -> anyhow::Result<PathBuf> {
 
 /// Decides how `path` is written, refusing what must never be written over.
 fn target(path: &Path) -> anyhow::Result<Target> {
-    let resolved = resolve_links(path)?;
-    let meta = match std::fs::metadata(&resolved) {
+    // `metadata` follows every link, /proc's `/dev/stdout → /proc/self/fd/1 → pipe:[…]`
+    // included, which a path cannot spell.
+    let meta = match std::fs::metadata(path) {
         Ok(meta) => meta,
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(Target::File(resolved)),
+        // Nothing there yet, or a link to nothing yet: the file it names will be created.
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+            return Ok(Target::File(resolve_links(path)?));
+        }
         Err(e) => {
             return Err(e).with_context(|| format!("{}: cannot write output", path.display()));
         }
     };
     let kind = meta.file_type();
     if kind.is_file() {
-        return Ok(Target::File(resolved));
+        let file = path
+            .canonicalize()
+            .with_context(|| format!("{}: cannot write output", path.display()))?;
+        return Ok(Target::File(file));
     }
     if kind.is_dir() {
         bail!(
@@ -171,7 +194,7 @@ fn target(path: &Path) -> anyhow::Result<Target> {
     {
         use std::os::unix::fs::FileTypeExt;
         if kind.is_fifo() || kind.is_char_device() {
-            return Ok(Target::InPlace(resolved));
+            return Ok(Target::InPlace(path.to_path_buf()));
         }
         let what = if kind.is_block_device() {
             "a block device"
@@ -424,7 +447,10 @@ mod tests {
             "{:#}",
             write_atomically(&dir.path().join("loop-a"), |_| Ok(())).unwrap_err()
         );
-        assert!(message.contains("symbolic links"), "{message}");
+        assert!(
+            message.contains("loop-a") && message.contains("symbolic links"),
+            "{message}"
+        );
     }
 
     #[cfg(unix)]
