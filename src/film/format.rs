@@ -193,11 +193,12 @@ pub fn require_extension(
     extension: &str,
     what: &str,
 ) -> anyhow::Result<()> {
-    let matches = path
+    let named = path
         .extension()
         .and_then(|e| e.to_str())
         .is_some_and(|e| e.eq_ignore_ascii_case(extension));
-    if !matches && !(path.extension().is_none() && is_stream(path)) {
+    let unnamed_stream = path.extension().is_none() && is_stream(path);
+    if !(named || unnamed_stream) {
         bail!(
             "{option} {}: {option} writes {what}; name the file .{extension}",
             path.display()
