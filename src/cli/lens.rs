@@ -183,7 +183,7 @@ impl LensReport {
             let radius = match row.kind() {
                 SurfaceKind::Stop => "stop".to_string(),
                 SurfaceKind::Flat => "flat".to_string(),
-                SurfaceKind::Spherical => format!("{:.3}", row.radius),
+                SurfaceKind::Spherical | SurfaceKind::Aspheric => format!("{:.3}", row.radius),
             };
             let thickness = if i == last {
                 self.film_distance

@@ -26,9 +26,11 @@ pub mod first_order;
 pub mod focus;
 pub mod prescription;
 pub mod pupil;
+pub mod shape;
 pub mod system;
 pub mod trace;
 pub mod trace_batch;
 
 pub use prescription::{LensFormat, Prescription, PrescriptionError, SurfaceKind, SurfaceRow};
+pub use shape::Asphere;
 pub use system::{LensSystem, SurfaceArrays};

@@ -16,6 +16,8 @@ use std::fmt;
 use std::io::Read;
 use std::path::{Path, PathBuf};
 
+use super::shape::{Asphere, Profile};
+
 /// Radii at or beyond this magnitude (mm) are flat surfaces: a sphere that large has a sag
 /// below 1e-8 mm over any real clear aperture, and treating it as a plane keeps f32 tracing
 /// free of catastrophic cancellation.
@@ -75,15 +77,18 @@ pub enum SurfaceKind {
     Spherical,
     /// A plane refracting surface (`inf` or a huge radius in the file).
     Flat,
-    /// The aperture stop (radius 0 in the file): a plane hole in an opaque diaphragm.
+    /// The aperture stop on no refracting surface (radius 0 in a `.dat` file): a plane hole in
+    /// an opaque diaphragm.
     Stop,
+    /// A conic or even-polynomial asphere (see [`super::shape`]).
+    Aspheric,
 }
 
 /// One normalised row: thickness is the distance to the next surface (the last row's is 0).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SurfaceRow {
-    /// Signed radius of curvature, mm; > 0 when the centre lies on the film side. Infinite
-    /// for flat surfaces, 0 for the stop.
+    /// Signed radius of curvature of the (base) surface at its vertex, mm; > 0 when the centre
+    /// lies on the film side. Infinite for flat surfaces; 0 (flat) for a `.dat` file's stop.
     pub radius: f64,
     pub thickness: f64,
     /// Refractive index of the medium after the surface, toward the film (1 for air, the
@@ -93,29 +98,57 @@ pub struct SurfaceRow {
     pub aperture: f64,
     /// 1-based line in the source file (0 for rows made in code).
     pub line: usize,
+    /// This surface carries the aperture stop: its clear aperture is the diaphragm's opening,
+    /// which `--aperture` and `--f-number` set. Usually a flat surface of its own; a lens file
+    /// may also put the stop on a refracting surface.
+    pub stop: bool,
+    /// Conic constant and polynomial terms ([`Asphere::NONE`] for a sphere or a plane).
+    pub asphere: Asphere,
 }
 
 impl SurfaceRow {
-    pub fn kind(&self) -> SurfaceKind {
-        if self.radius == 0.0 {
-            SurfaceKind::Stop
-        } else if self.radius.abs() >= FLAT_RADIUS_MM {
-            SurfaceKind::Flat
-        } else {
-            SurfaceKind::Spherical
+    /// A spherical (or flat, or with radius 0 the stop's) row as a `.dat` file gives it.
+    pub fn new(radius: f64, thickness: f64, index: f64, aperture: f64) -> SurfaceRow {
+        SurfaceRow {
+            radius,
+            thickness,
+            index,
+            aperture,
+            line: 0,
+            stop: radius == 0.0,
+            asphere: Asphere::NONE,
         }
     }
 
-    /// Curvature 1/R (0 for flat surfaces and the stop).
+    pub fn kind(&self) -> SurfaceKind {
+        let curvature = self.curvature();
+        if self.asphere.is_aspheric(curvature) {
+            SurfaceKind::Aspheric
+        } else if curvature != 0.0 {
+            SurfaceKind::Spherical
+        } else if self.stop {
+            SurfaceKind::Stop
+        } else {
+            SurfaceKind::Flat
+        }
+    }
+
+    /// Curvature 1/R of the base surface at the vertex (0 for flat surfaces and a bare stop).
     pub fn curvature(&self) -> f64 {
-        match self.kind() {
-            SurfaceKind::Spherical => 1.0 / self.radius,
-            SurfaceKind::Flat | SurfaceKind::Stop => 0.0,
+        if self.radius == 0.0 || self.radius.abs() >= FLAT_RADIUS_MM {
+            0.0
+        } else {
+            1.0 / self.radius
         }
     }
 
     pub fn is_stop(&self) -> bool {
-        self.kind() == SurfaceKind::Stop
+        self.stop
+    }
+
+    /// The surface's shape, in f64.
+    pub fn profile(&self) -> Profile<f64> {
+        Profile::new(self.curvature(), &self.asphere, |v| v)
     }
 }
 
@@ -323,14 +356,8 @@ impl Prescription {
                     ),
                 ));
             }
-            if row.kind() == SurfaceKind::Spherical && row.aperture / 2.0 > row.radius.abs() {
-                return Err(error(
-                    row.line,
-                    format!(
-                        "clear aperture {} mm is wider than the sphere of radius {} mm allows",
-                        row.aperture, row.radius
-                    ),
-                ));
+            if let Some(message) = undefined_sag(row) {
+                return Err(error(row.line, message));
             }
         }
         if self.rows[last].is_stop() {
@@ -347,7 +374,7 @@ impl Prescription {
     /// glass or air gaps have negative thickness anywhere is not buildable, and tracing it
     /// would send rays backwards.
     fn check_overlaps(&self) -> Result<(), PrescriptionError> {
-        const SAMPLES: usize = 32;
+        const SAMPLES: usize = 64;
         const TOLERANCE_MM: f64 = 1e-6;
         for pair in self.rows.windows(2) {
             let (front, back) = (&pair[0], &pair[1]);
@@ -372,15 +399,49 @@ impl Prescription {
 }
 
 /// Sag (axial depth) of a surface at height `h` from the axis, measured from its vertex
-/// toward +z (the film).
+/// toward +z (the film); at the rim of the conic where `h` lies beyond it (only for heights
+/// outside a validated clear aperture).
 pub fn sag(row: &SurfaceRow, h: f64) -> f64 {
-    let c = row.curvature();
-    if c == 0.0 {
-        return 0.0;
+    let profile = row.profile();
+    profile.sag(h).unwrap_or_else(|| {
+        // Beyond the rim: the rim's sag, 1/(κc), is where the conic part closes.
+        let rim = profile.curvature * profile.conic_factor;
+        if rim == 0.0 { 0.0 } else { 1.0 / rim }
+    })
+}
+
+/// Why a row's surface is not defined over its whole clear aperture, if it is not: the conic
+/// part needs 1 − (1+k)·c²·r² ≥ 0, and the polynomial must stay finite.
+fn undefined_sag(row: &SurfaceRow) -> Option<String> {
+    let semi = row.aperture / 2.0;
+    let profile = row.profile();
+    let defined = (0..=64).all(|k| {
+        let h = semi * k as f64 / 64.0;
+        profile.sag(h).is_some_and(f64::is_finite)
+    });
+    if defined {
+        return None;
     }
-    // c h² / (1 + sqrt(1 − c² h²)) is R − sign(R) sqrt(R² − h²) without the cancellation.
-    let root = (1.0 - c * c * h * h).max(0.0).sqrt();
-    c * h * h / (1.0 + root)
+    let c = row.curvature();
+    let kappa = 1.0 + row.asphere.conic;
+    if row.kind() == SurfaceKind::Spherical {
+        return Some(format!(
+            "clear aperture {} mm is wider than the sphere of radius {} mm allows",
+            row.aperture, row.radius
+        ));
+    }
+    let rim = if kappa * c * c > 0.0 {
+        format!(
+            "; the conic closes at r = {:.4} mm",
+            1.0 / (kappa * c * c).sqrt()
+        )
+    } else {
+        String::new()
+    };
+    Some(format!(
+        "the surface's sag is undefined inside its clear aperture (semi-diameter {semi} mm): 1 − (1+k)·c²·r² < 0 with radius {} mm and conic {}{rim}",
+        row.radius, row.asphere.conic
+    ))
 }
 
 /// A row as written in the file, before layout normalisation.
@@ -494,12 +555,10 @@ fn normalise(raw: &[RawRow], format: LensFormat) -> Vec<SurfaceRow> {
                 _ => 0.0,
             };
             SurfaceRow {
-                radius,
-                thickness,
                 // The stop's 0 (and any 0) in the index column means air.
                 index: if index == 0.0 { 1.0 } else { index },
-                aperture,
                 line: raw[i].line,
+                ..SurfaceRow::new(radius, thickness, index, aperture)
             }
         })
         .collect()
@@ -659,13 +718,7 @@ mod tests {
 
     #[test]
     fn sag_matches_sphere_geometry() {
-        let row = SurfaceRow {
-            radius: -40.0,
-            thickness: 0.0,
-            index: 1.0,
-            aperture: 20.0,
-            line: 0,
-        };
+        let row = SurfaceRow::new(-40.0, 0.0, 1.0, 20.0);
         let h: f64 = 10.0;
         let expected = -(40.0 - (40.0f64 * 40.0 - h * h).sqrt());
         assert!((sag(&row, h) - expected).abs() < 1e-12);

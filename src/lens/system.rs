@@ -1,6 +1,9 @@
 //! The packed form of a lens that tracing reads: surface parameters as structure-of-arrays.
 
-use super::prescription::{SurfaceKind, SurfaceRow};
+use num_traits::Float;
+
+use super::prescription::SurfaceRow;
+use super::shape::{ASPHERIC_TERMS, Profile};
 
 /// Surface parameters in one precision, one array per parameter, indexed by surface (front to
 /// back). `f64` for the reference optics, `f32` for the batched render path.
@@ -8,14 +11,37 @@ use super::prescription::{SurfaceKind, SurfaceRow};
 pub struct SurfaceArrays<T> {
     /// Lens-frame z of each vertex (the first is 0).
     pub vertex_z: Vec<T>,
-    /// 1/R; 0 for flat surfaces and the stop.
+    /// 1/R of the base surface; 0 for flat surfaces and a bare stop.
     pub curvature: Vec<T>,
+    /// κ = 1 + k (1 for spheres and planes).
+    pub conic_factor: Vec<T>,
+    /// A₂ … A₁₆ (all 0 unless the surface is a polynomial asphere).
+    pub aspheric: Vec<[T; ASPHERIC_TERMS]>,
+    /// Whether each surface has polynomial terms (and needs the iterative intersection).
+    pub polynomial: Vec<bool>,
     /// Square of the clear semi-aperture (the stop's as currently set).
     pub semi_aperture_sq: Vec<T>,
     /// Refractive index on the scene side of each surface.
     pub index_front: Vec<T>,
     /// Refractive index on the film side of each surface.
     pub index_back: Vec<T>,
+}
+
+impl<T: Float> SurfaceArrays<T> {
+    /// The shape of surface `i`.
+    pub fn profile(&self, i: usize) -> Profile<T> {
+        Profile {
+            curvature: self.curvature[i],
+            conic_factor: self.conic_factor[i],
+            coefficients: self.aspheric[i],
+            polynomial: self.polynomial[i],
+        }
+    }
+
+    /// True when every surface is a sphere or a plane (the fast batch kernel's case).
+    pub fn all_spherical(&self) -> bool {
+        !self.polynomial.iter().any(|&p| p) && self.conic_factor.iter().all(|&k| k == T::one())
+    }
 }
 
 impl<T: Copy> SurfaceArrays<T> {
@@ -32,6 +58,9 @@ impl<T: Copy> SurfaceArrays<T> {
         SurfaceArrays {
             vertex_z: self.vertex_z[range.clone()].to_vec(),
             curvature: self.curvature[range.clone()].to_vec(),
+            conic_factor: self.conic_factor[range.clone()].to_vec(),
+            aspheric: self.aspheric[range.clone()].to_vec(),
+            polynomial: self.polynomial[range.clone()].to_vec(),
             semi_aperture_sq: self.semi_aperture_sq[range.clone()].to_vec(),
             index_front: self.index_front[range.clone()].to_vec(),
             index_back: self.index_back[range].to_vec(),
@@ -42,6 +71,9 @@ impl<T: Copy> SurfaceArrays<T> {
         let mut arrays = SurfaceArrays {
             vertex_z: Vec::with_capacity(rows.len()),
             curvature: Vec::with_capacity(rows.len()),
+            conic_factor: Vec::with_capacity(rows.len()),
+            aspheric: Vec::with_capacity(rows.len()),
+            polynomial: Vec::with_capacity(rows.len()),
             semi_aperture_sq: Vec::with_capacity(rows.len()),
             index_front: Vec::with_capacity(rows.len()),
             index_back: Vec::with_capacity(rows.len()),
@@ -50,7 +82,17 @@ impl<T: Copy> SurfaceArrays<T> {
         let mut index_before = 1.0;
         for row in rows {
             arrays.vertex_z.push(convert(z));
-            arrays.curvature.push(convert(row.curvature()));
+            let curvature = row.curvature();
+            arrays.curvature.push(convert(curvature));
+            // A conic constant on a plane changes nothing: keep planes on the sphere kernel.
+            let conic = if curvature == 0.0 {
+                0.0
+            } else {
+                row.asphere.conic
+            };
+            arrays.conic_factor.push(convert(1.0 + conic));
+            arrays.aspheric.push(row.asphere.coefficients.map(&convert));
+            arrays.polynomial.push(row.asphere.has_polynomial());
             arrays
                 .semi_aperture_sq
                 .push(convert((row.aperture / 2.0).powi(2)));
@@ -78,10 +120,7 @@ impl LensSystem {
     /// aperture when given (the caller clamps it to the row's maximum).
     pub fn new(rows: &[SurfaceRow], stop_diameter: Option<f64>) -> LensSystem {
         let mut rows = rows.to_vec();
-        let stop = rows
-            .iter()
-            .position(|r| r.kind() == SurfaceKind::Stop)
-            .unwrap_or(0);
+        let stop = rows.iter().position(|r| r.stop).unwrap_or(0);
         if let Some(d) = stop_diameter {
             rows[stop].aperture = d;
         }

@@ -19,7 +19,9 @@ mod refract;
 
 use wide::f32x8;
 
-use self::refract::{LaneRay, SurfaceConstants, normalise_direction, refract_at};
+use self::refract::{
+    CONIC, LaneRay, POLYNOMIAL, SPHERE, SurfaceConstants, normalise_direction, refract_at,
+};
 use super::system::SurfaceArrays;
 use super::trace::Travel;
 use crate::batch::RayBatch;
@@ -168,18 +170,12 @@ fn trace_plain(plan: &[SurfaceConstants<f32>], rays: &mut RayBatch) {
         let dz = &mut rays.dz[start..end];
         let alive = &mut rays.alive[start..end];
         for surface in plan {
-            let mut any_alive = false;
-            for i in 0..n {
-                let mut ray = LaneRay {
-                    origin: [ox[i], oy[i], oz[i]],
-                    direction: [dx[i], dy[i], dz[i]],
-                };
-                let survives = refract_at(surface, &mut ray, alive[i]);
-                [ox[i], oy[i], oz[i]] = ray.origin;
-                [dx[i], dy[i], dz[i]] = ray.direction;
-                alive[i] = survives;
-                any_alive |= survives;
-            }
+            // The shape picks the kernel once per surface and block, never per ray.
+            let any_alive = match surface.shape {
+                SPHERE => plain_surface::<SPHERE>(surface, ox, oy, oz, dx, dy, dz, alive),
+                CONIC => plain_surface::<CONIC>(surface, ox, oy, oz, dx, dy, dz, alive),
+                _ => plain_surface::<POLYNOMIAL>(surface, ox, oy, oz, dx, dy, dz, alive),
+            };
             if !any_alive {
                 break;
             }
@@ -194,6 +190,37 @@ fn trace_plain(plan: &[SurfaceConstants<f32>], rays: &mut RayBatch) {
         }
         start = end;
     }
+}
+
+/// One surface over a block of rays in the plain kernel; returns whether any ray is alive.
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn plain_surface<const SHAPE: u8>(
+    surface: &SurfaceConstants<f32>,
+    ox: &mut [f32],
+    oy: &mut [f32],
+    oz: &mut [f32],
+    dx: &mut [f32],
+    dy: &mut [f32],
+    dz: &mut [f32],
+    alive: &mut [bool],
+) -> bool {
+    let n = alive.len();
+    let (ox, oy, oz) = (&mut ox[..n], &mut oy[..n], &mut oz[..n]);
+    let (dx, dy, dz) = (&mut dx[..n], &mut dy[..n], &mut dz[..n]);
+    let mut any_alive = false;
+    for i in 0..n {
+        let mut ray = LaneRay {
+            origin: [ox[i], oy[i], oz[i]],
+            direction: [dx[i], dy[i], dz[i]],
+        };
+        let survives = refract_at::<f32, SHAPE>(surface, &mut ray, alive[i]);
+        [ox[i], oy[i], oz[i]] = ray.origin;
+        [dx[i], dy[i], dz[i]] = ray.direction;
+        alive[i] = survives;
+        any_alive |= survives;
+    }
+    any_alive
 }
 
 const LANES: usize = 8;
@@ -224,15 +251,12 @@ fn trace_simd(plan: &[SurfaceConstants<f32>], rays: &mut RayBatch) {
         let chunks = (end - start).div_ceil(LANES);
         load_block(rays, start, end, &mut block);
         for surface in &plan {
-            let mut any_alive = f32x8::ZERO;
-            for (ray, alive) in block.rays[..chunks]
-                .iter_mut()
-                .zip(&mut block.alive[..chunks])
-            {
-                *alive = refract_at(surface, ray, *alive);
-                any_alive |= *alive;
-            }
-            if !any_alive.any() {
+            let any_alive = match surface.shape {
+                SPHERE => simd_surface::<SPHERE>(surface, &mut block, chunks),
+                CONIC => simd_surface::<CONIC>(surface, &mut block, chunks),
+                _ => simd_surface::<POLYNOMIAL>(surface, &mut block, chunks),
+            };
+            if !any_alive {
                 break;
             }
         }
@@ -242,6 +266,24 @@ fn trace_simd(plan: &[SurfaceConstants<f32>], rays: &mut RayBatch) {
         store_block(&block, start, end, rays);
         start = end;
     }
+}
+
+/// One surface over the first `chunks` chunks of a block; returns whether any lane is alive.
+#[inline(always)]
+fn simd_surface<const SHAPE: u8>(
+    surface: &SurfaceConstants<f32x8>,
+    block: &mut SimdBlock,
+    chunks: usize,
+) -> bool {
+    let mut any_alive = f32x8::ZERO;
+    for (ray, alive) in block.rays[..chunks]
+        .iter_mut()
+        .zip(&mut block.alive[..chunks])
+    {
+        *alive = refract_at::<f32x8, SHAPE>(surface, ray, *alive);
+        any_alive |= *alive;
+    }
+    any_alive.any()
 }
 
 /// Lanes `start..end` of the batch into `block` (the last chunk padded with dead lanes).
