@@ -16,7 +16,12 @@ use std::fmt;
 use std::io::Read;
 use std::path::{Path, PathBuf};
 
+use super::dat_file::parse_dat;
+use super::info::LensInfo;
+use super::lens_file::read_lens_file;
 use super::shape::{Asphere, Profile};
+use super::zemax::{MAX_ZEMAX_BYTES, looks_like_zemax, read_zemax};
+use crate::glass::Glass;
 
 /// Radii at or beyond this magnitude (mm) are flat surfaces: a sphere that large has a sag
 /// below 1e-8 mm over any real clear aperture, and treating it as a plane keeps f32 tracing
@@ -104,6 +109,9 @@ pub struct SurfaceRow {
     pub stop: bool,
     /// Conic constant and polynomial terms ([`Asphere::NONE`] for a sphere or a plane).
     pub asphere: Asphere,
+    /// The glass of the medium after the surface, when the file names one: it gives the
+    /// dispersion around `index` (see [`SurfaceRow::index_at`]). `None`: a fixed index.
+    pub glass: Option<Glass>,
 }
 
 impl SurfaceRow {
@@ -117,6 +125,7 @@ impl SurfaceRow {
             line: 0,
             stop: radius == 0.0,
             asphere: Asphere::NONE,
+            glass: None,
         }
     }
 
@@ -150,6 +159,18 @@ impl SurfaceRow {
     pub fn profile(&self) -> Profile<f64> {
         Profile::new(self.curvature(), &self.asphere, |v| v)
     }
+
+    /// Index of the medium after the surface at `wavelength_nm`: the row's index (its n_d)
+    /// shifted by the glass's dispersion, n(λ) = index + n_glass(λ) − n_glass(d), so the file's
+    /// own n_d is kept exactly and a glass without data is the fixed index.
+    pub fn index_at(&self, wavelength_nm: f64) -> f64 {
+        match self.glass {
+            Some(glass) => {
+                self.index + glass.index(wavelength_nm) - glass.index(crate::glass::FRAUNHOFER_D_NM)
+            }
+            None => self.index,
+        }
+    }
 }
 
 /// A parsed, validated lens.
@@ -161,6 +182,10 @@ pub struct Prescription {
     /// The layout the file was read in.
     pub format: LensFormat,
     pub rows: Vec<SurfaceRow>,
+    /// What the file says about the design.
+    pub info: LensInfo,
+    /// Things worth telling the user that do not stop the lens from loading.
+    pub warnings: Vec<String>,
 }
 
 /// A problem with a prescription file, located by line where it has one.
@@ -199,48 +224,42 @@ impl Prescription {
         // Read through a limit rather than trusting the size: a device such as /dev/zero
         // reports 0 bytes and never ends.
         let mut bytes = Vec::new();
-        file.take(MAX_FILE_BYTES + 1)
+        file.take(MAX_ZEMAX_BYTES + 1)
             .read_to_end(&mut bytes)
             .map_err(cannot_read)?;
+        // Zemax files (often UTF-16, whatever their name) have their own decoding and limit.
+        if extension(path) == "zmx" || looks_like_zemax(&bytes) {
+            if bytes.len() as u64 > MAX_ZEMAX_BYTES {
+                return Err(error(format!(
+                    "is more than {MAX_ZEMAX_BYTES} bytes: too large for a Zemax lens file"
+                )));
+            }
+            return read_zemax(&bytes, path);
+        }
         if bytes.len() as u64 > MAX_FILE_BYTES {
             return Err(error(format!(
-                "is more than {MAX_FILE_BYTES} bytes; a lens prescription is a small text table of rows 'radius thickness index aperture'"
+                "is more than {MAX_FILE_BYTES} bytes; a lens file is a small text table (a .dat of rows 'radius thickness index aperture', a realcam .toml or a Zemax .zmx)"
             )));
         }
         let text = String::from_utf8(bytes).map_err(|_| {
-            error("is not a text file (invalid UTF-8); expected rows of 'radius thickness index aperture'".into())
+            error("is not a text file (invalid UTF-8); expected a .dat table of rows 'radius thickness index aperture', a realcam .toml or a Zemax .zmx".into())
         })?;
         Prescription::parse(&text, path, format)
     }
 
-    /// Parses prescription text; `source` names it in errors and gives the lens its name.
+    /// Parses lens-file text; `source` names it in errors, gives the lens its name, and by its
+    /// extension picks the format (`.toml`: realcam's own, `.zmx`: Zemax, else rows of a
+    /// pbrt/Kolb `.dat` table, whose layout `format` overrides).
     pub fn parse(
         text: &str,
         source: &Path,
         format: Option<LensFormat>,
     ) -> Result<Prescription, PrescriptionError> {
-        let raw = parse_rows(text, source)?;
-        let error = |line: Option<usize>, message: String| PrescriptionError {
-            file: source.to_path_buf(),
-            line,
-            message,
-        };
-        if raw.is_empty() {
-            return Err(error(
-                None,
-                "no surfaces: expected rows of 'radius thickness index aperture' (mm)".into(),
-            ));
+        match extension(source).as_str() {
+            "toml" => read_lens_file(text, source),
+            "zmx" => read_zemax(text.as_bytes(), source),
+            _ => parse_dat(text, source, format),
         }
-        let format = match format {
-            Some(f) => f,
-            None => detect_format(&raw).map_err(|m| error(None, m))?,
-        };
-        let rows = normalise(&raw, format);
-        let name = source
-            .file_name()
-            .map(|n| n.to_string_lossy().trim_end_matches(".dat").to_string())
-            .unwrap_or_else(|| "lens".into());
-        Prescription::from_rows(&name, source, format, rows)
     }
 
     /// A prescription from rows already in thickness-after form (edited lens entities),
@@ -263,6 +282,8 @@ impl Prescription {
             source: source.to_path_buf(),
             format,
             rows,
+            info: LensInfo::default(),
+            warnings: Vec::new(),
         };
         prescription.validate()?;
         Ok(prescription)
@@ -444,76 +465,16 @@ fn undefined_sag(row: &SurfaceRow) -> Option<String> {
     ))
 }
 
-/// A row as written in the file, before layout normalisation.
-struct RawRow {
-    values: [f64; 4],
-    line: usize,
+/// A path's extension, lower case ("" when it has none).
+pub fn extension(path: &Path) -> String {
+    path.extension()
+        .map(|e| e.to_string_lossy().to_ascii_lowercase())
+        .unwrap_or_default()
 }
 
-fn parse_rows(text: &str, source: &Path) -> Result<Vec<RawRow>, PrescriptionError> {
-    let mut rows = Vec::new();
-    for (i, line) in text.lines().enumerate() {
-        let line_number = i + 1;
-        let error = |message: String| PrescriptionError {
-            file: source.to_path_buf(),
-            line: Some(line_number),
-            message,
-        };
-        let content = line.split('#').next().unwrap_or("").trim();
-        if content.is_empty() {
-            continue;
-        }
-        if content.len() > 1000 {
-            return Err(error(format!(
-                "line is {} characters long; expected 4 numbers",
-                content.len()
-            )));
-        }
-        let fields: Vec<&str> = content.split_whitespace().collect();
-        if fields.len() != 4 {
-            return Err(error(format!(
-                "expected 4 columns 'radius thickness index aperture', found {}: '{}'",
-                fields.len(),
-                shorten(content)
-            )));
-        }
-        let mut values = [0.0; 4];
-        const COLUMNS: [&str; 4] = ["radius", "thickness", "index", "aperture"];
-        for (c, field) in fields.iter().enumerate() {
-            let value = parse_number(field, c == 0).ok_or_else(|| {
-                error(format!(
-                    "{} '{}' is not a number{}",
-                    COLUMNS[c],
-                    shorten(field),
-                    if c == 0 {
-                        " (use inf for a flat surface)"
-                    } else {
-                        ""
-                    }
-                ))
-            })?;
-            values[c] = value;
-        }
-        rows.push(RawRow {
-            values,
-            line: line_number,
-        });
-    }
-    Ok(rows)
-}
-
-/// A finite number, or for the radius column also ±inf (a flat surface).
-fn parse_number(field: &str, allow_infinite: bool) -> Option<f64> {
-    let value: f64 = field.parse().ok()?;
-    if value.is_nan() || (value.is_infinite() && !allow_infinite) {
-        return None;
-    }
-    Some(value)
-}
-
-/// A field as it may be shown in a message: at most 60 characters, control characters escaped
+/// A text as it may be shown in a message: at most 60 characters, control characters escaped
 /// (binary garbage must not scramble the user's terminal).
-fn shorten(s: &str) -> String {
+pub fn shorten(s: &str) -> String {
     const MAX: usize = 60;
     let shown: String = s.chars().take(MAX).flat_map(|c| c.escape_debug()).collect();
     if s.chars().count() <= MAX {
@@ -521,47 +482,6 @@ fn shorten(s: &str) -> String {
     } else {
         format!("{shown}…")
     }
-}
-
-fn detect_format(rows: &[RawRow]) -> Result<LensFormat, String> {
-    // One row reads the same in both layouts; validation then says what is missing.
-    if rows.len() == 1 {
-        return Ok(LensFormat::ThicknessAfter);
-    }
-    let first_zero = rows[0].values[1] == 0.0;
-    let last_zero = rows[rows.len() - 1].values[1] == 0.0;
-    match (first_zero, last_zero) {
-        (true, false) => Ok(LensFormat::GapBefore),
-        (false, true) => Ok(LensFormat::ThicknessAfter),
-        _ => Err(format!(
-            "cannot tell the layout of the thickness column ({}): pass --lens-format thickness-after (distance to the next surface, last row 0) or --lens-format gap-before (distance from the previous surface, first row 0)",
-            if first_zero {
-                "first and last rows are both 0"
-            } else {
-                "neither the first nor the last row is 0"
-            }
-        )),
-    }
-}
-
-fn normalise(raw: &[RawRow], format: LensFormat) -> Vec<SurfaceRow> {
-    let n = raw.len();
-    (0..n)
-        .map(|i| {
-            let [radius, column2, index, aperture] = raw[i].values;
-            let thickness = match format {
-                LensFormat::ThicknessAfter if i + 1 < n => column2,
-                LensFormat::GapBefore if i + 1 < n => raw[i + 1].values[1],
-                _ => 0.0,
-            };
-            SurfaceRow {
-                // The stop's 0 (and any 0) in the index column means air.
-                index: if index == 0.0 { 1.0 } else { index },
-                line: raw[i].line,
-                ..SurfaceRow::new(radius, thickness, index, aperture)
-            }
-        })
-        .collect()
 }
 
 #[cfg(test)]
