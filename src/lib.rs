@@ -1,13 +1,14 @@
 //! realcam: render glTF scenes through real multi-element camera lenses.
 //!
-//! The optics live in [`lens`], the scene in [`scene`], ray–scene intersection in [`accel`],
-//! the path tracer in [`shade`], the image in [`film`], and the bevy_ecs schedule that ties
-//! them together in [`pipeline`].
+//! The optics live in [`lens`] and the glass data in [`glass`], the scene in [`scene`],
+//! ray–scene intersection in [`accel`], the path tracer in [`shade`], the image in [`film`],
+//! and the bevy_ecs schedule that ties them together in [`pipeline`].
 
 pub mod accel;
 pub mod batch;
 pub mod cli;
 pub mod film;
+pub mod glass;
 pub mod lens;
 pub mod pipeline;
 pub mod sampling;
