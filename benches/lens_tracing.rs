@@ -22,7 +22,7 @@ fn main() {
 }
 
 fn lenses() -> impl Iterator<Item = &'static str> {
-    BUNDLED.iter().map(|(name, _)| *name)
+    BUNDLED.iter().map(|b| b.name)
 }
 
 fn workload(lens: &str) -> LensWorkload {

@@ -429,7 +429,7 @@ const REFUSED_LENSES: &[(&str, &str, Option<usize>)] = &[
     ),
     (
         "lens-surfaces-cross.dat",
-        "crosses the previous one",
+        "crosses the one before it",
         Some(2),
     ),
     ("lens-no-stop.dat", "no aperture stop", None),

@@ -15,6 +15,7 @@ use crate::lens::diagram::draw_diagram;
 use crate::lens::elements::{
     FilmFormat, FilmPlacement, FocusSetting, LensFault, LensGeometry, activate_lens, spawn_lens,
 };
+use crate::lens::export::export_text;
 use crate::lens::field::{field_angle, field_edge};
 use crate::lens::focus::closest_focus_mm;
 use crate::lens::pupil::ExitPupil;
@@ -38,6 +39,10 @@ pub struct LensArgs {
     /// Draw the lens cross-section with traced ray fans to this SVG file.
     #[arg(long, value_name = "FILE.svg")]
     pub diagram: Option<PathBuf>,
+    /// Write the lens to this file: `.toml` (realcam's lens format: everything realcam
+    /// represents) or `.dat` (a pbrt table: spherical lenses only).
+    #[arg(long, value_name = "OUT.toml|OUT.dat")]
+    pub export: Option<PathBuf>,
 }
 
 /// Everything `realcam lens` reports, derived through the same entities and systems the
@@ -56,7 +61,10 @@ impl LensReport {
     pub fn derive(prescription: Prescription, options: &LensOptions) -> anyhow::Result<LensReport> {
         options.validate()?;
         let focus = options.focus(FocusSetting::default());
-        let film_diagonal = options.film_diagonal.unwrap_or(35.0);
+        let film_diagonal = options
+            .film_diagonal
+            .or(prescription.info.film_diagonal_mm)
+            .unwrap_or(35.0);
         let mut renderer = Renderer::new();
         renderer.world.insert_resource(FilmFormat {
             diagonal_mm: film_diagonal,
@@ -132,12 +140,15 @@ impl LensReport {
             .map(|(i, row)| {
                 let thickness = if i == last { self.film_distance } else { row.thickness };
                 json!({
-                    "radius_mm": match row.kind() { SurfaceKind::Flat => Value::Null, _ => json!(row.radius) },
+                    "radius_mm": match row.curvature() { 0.0 => Value::Null, _ => json!(row.radius) },
                     "curvature_per_mm": row.curvature(),
                     "thickness_mm": thickness,
                     "index": row.index,
                     "aperture_mm": row.aperture,
                     "kind": row.kind(),
+                    "stop": row.stop,
+                    "conic": row.asphere.conic,
+                    "aspheric_coefficients": &row.asphere.coefficients[..row.asphere.order()],
                     "z_mm": system.f64s.vertex_z[i],
                 })
             })
@@ -145,6 +156,7 @@ impl LensReport {
         json!({
             "name": self.prescription.name,
             "source": self.prescription.source.display().to_string(),
+            "design": self.prescription.info,
             "format": self.prescription.format,
             "focal_length_mm": fo.focal_length,
             "back_focal_length_mm": fo.back_focal_length,
@@ -185,12 +197,29 @@ impl LensReport {
                 SurfaceKind::Flat => "flat".to_string(),
                 SurfaceKind::Spherical | SurfaceKind::Aspheric => format!("{:.3}", row.radius),
             };
+            let mut notes = Vec::new();
+            if row.stop && row.kind() != SurfaceKind::Stop {
+                notes.push("stop".to_string());
+            }
+            if row.kind() == SurfaceKind::Aspheric {
+                notes.push(aspheric_note(row));
+            }
+            if let Some(glass) = row.glass {
+                notes.push(glass.label());
+            }
             let thickness = if i == last {
                 self.film_distance
             } else {
                 row.thickness
             };
-            let note = if i == last { "  (to film)" } else { "" };
+            if i == last {
+                notes.push("to film".into());
+            }
+            let note = if notes.is_empty() {
+                String::new()
+            } else {
+                format!("  {}", notes.join("; "))
+            };
             out += &format!(
                 "{i:4} {radius:>10} {thickness:>10.3} {:>8.4} {:>10.2}{note}\n",
                 row.index, row.aperture
@@ -237,8 +266,33 @@ impl LensReport {
     }
 }
 
+/// "asph k −1.2, A4 1.1e-5, A6 −3e-8": a surface's departure from its sphere, shortly.
+fn aspheric_note(row: &crate::lens::SurfaceRow) -> String {
+    let mut parts = vec![format!("asph k {}", row.asphere.conic)];
+    for (i, a) in row.asphere.coefficients[..row.asphere.order()]
+        .iter()
+        .enumerate()
+    {
+        if *a != 0.0 {
+            parts.push(format!("A{} {a:.4e}", 2 * i + 2));
+        }
+    }
+    parts.join(", ")
+}
+
 pub fn run(args: &LensArgs) -> anyhow::Result<ExitCode> {
     let prescription = load_lens(&args.file, args.lens.lens_format)?;
+    for warning in &prescription.warnings {
+        eprintln!("warning: {warning}");
+    }
+    if let Some(path) = &args.export {
+        let text = export_text(&prescription, path).map_err(|m| anyhow::anyhow!(m))?;
+        crate::film::output::write_atomically(path, |w| {
+            w.extend_from_slice(text.as_bytes());
+            Ok(())
+        })?;
+        eprintln!("wrote {}", path.display());
+    }
     let report = LensReport::derive(prescription, &args.lens)?;
     if let Some(path) = &args.diagram {
         let svg = draw_diagram(

@@ -220,11 +220,6 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<ExitCode> {
     renderer.set_environment(environment);
 
     let placement = place_camera(args, &mut renderer)?;
-    let film_diagonal = args
-        .lens_options
-        .film_diagonal
-        .or(placement.hints.film_diagonal_mm)
-        .unwrap_or(35.0);
     let specs: Vec<String> = if args.lens.is_empty() {
         vec![
             placement
@@ -240,6 +235,16 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<ExitCode> {
         .iter()
         .map(|spec| load_lens(spec, args.lens_options.lens_format))
         .collect::<Result<Vec<_>, _>>()?;
+    for warning in prescriptions.iter().flat_map(|p| &p.warnings) {
+        eprintln!("warning: {warning}");
+    }
+    // The film: as asked, else the scene camera's, else the (first) lens's own format.
+    let film_diagonal = args
+        .lens_options
+        .film_diagonal
+        .or(placement.hints.film_diagonal_mm)
+        .or(prescriptions[0].info.film_diagonal_mm)
+        .unwrap_or(35.0);
     let (world_from_camera, framed_focus) = if placement.frame_bounds {
         let aperture = args.lens_options.aperture(ApertureSetting::Full);
         frame_scene(&mut renderer, &prescriptions[0], aperture, film_diagonal)

@@ -52,9 +52,15 @@ fn unit_stop_first_order(rows: &[SurfaceRow], stop: usize) -> Result<FirstOrder,
 }
 
 /// Stop diameter (mm) that gives an entrance pupil `diameter` mm across.
-pub fn stop_for_entrance_pupil(rows: &[SurfaceRow], stop: usize, diameter: f64) -> Result<f64, String> {
+pub fn stop_for_entrance_pupil(
+    rows: &[SurfaceRow],
+    stop: usize,
+    diameter: f64,
+) -> Result<f64, String> {
     if !(diameter.is_finite() && diameter > 0.0) {
-        return Err(format!("entrance pupil diameter {diameter} mm must be positive"));
+        return Err(format!(
+            "entrance pupil diameter {diameter} mm must be positive"
+        ));
     }
     let fo = unit_stop_first_order(rows, stop)?;
     Ok(diameter / fo.entrance_pupil.diameter_mm)
@@ -118,13 +124,12 @@ pub fn fill_missing(
     object_distance: f64,
 ) -> Result<(), (usize, String)> {
     let system = system_with(rows, missing, false);
-    let stop = system.stop;
     let first_missing = missing.iter().position(|&m| m).unwrap_or(0);
     let fo = FirstOrder::compute(&system).map_err(|e| (first_missing, e.to_string()))?;
     let mut heights = vec![0.0f64; rows.len()];
     for &field in fields {
-        let source = ray_source(&system, &fo, field, object_distance)
-            .map_err(|why| (first_missing, why))?;
+        let source =
+            ray_source(&system, &fo, field, object_distance).map_err(|why| (first_missing, why))?;
         let traced = |aim: [f64; 2], heights: Option<&mut Vec<f64>>| -> bool {
             let ray = source.ray_through(aim);
             let mut seen = Vec::with_capacity(rows.len());
@@ -139,9 +144,10 @@ pub fn fill_missing(
             }
             passed
         };
-        let chief = source
-            .chief_aim(&system)
-            .ok_or((first_missing, format!("no chief ray through the stop for the field {field:?}")))?;
+        let chief = source.chief_aim(&system).ok_or((
+            first_missing,
+            format!("no chief ray through the stop for the field {field:?}"),
+        ))?;
         traced(chief, Some(&mut heights));
         let reach = 4.0 * fo.entrance_pupil.diameter_mm.max(1e-3);
         for k in 0..AZIMUTHS {
@@ -218,15 +224,28 @@ impl RaySource {
             if let Some(limit) = arrays.semi_aperture_sq.last_mut() {
                 *limit = f64::INFINITY;
             }
-            let out = super::trace::trace_with(&arrays, self.ray_through([0.0, y]), Travel::SceneToFilm, true)
-                .ok()?;
+            let out = super::trace::trace_with(
+                &arrays,
+                self.ray_through([0.0, y]),
+                Travel::SceneToFilm,
+                true,
+            )
+            .ok()?;
             let _ = stop_z;
             Some(out.origin[1])
         };
         if stop == 0 {
             return Some([0.0, 0.0]);
         }
-        let reach = 4.0 * system.f64s.semi_aperture_sq.iter().copied().filter(|v| v.is_finite()).fold(1.0, f64::max).sqrt();
+        let reach = 4.0
+            * system
+                .f64s
+                .semi_aperture_sq
+                .iter()
+                .copied()
+                .filter(|v| v.is_finite())
+                .fold(1.0, f64::max)
+                .sqrt();
         const SCAN: usize = 400;
         let samples: Vec<(f64, Option<f64>)> = (0..=SCAN)
             .map(|k| {
@@ -234,10 +253,13 @@ impl RaySource {
                 (y, height(y))
             })
             .collect();
-        let ((mut lo, mut f_lo), (mut hi, _)) = samples.windows(2).find_map(|w| match (w[0].1, w[1].1) {
-            (Some(a), Some(b)) if a.signum() != b.signum() || a == 0.0 => Some(((w[0].0, a), (w[1].0, b))),
-            _ => None,
-        })?;
+        let ((mut lo, mut f_lo), (mut hi, _)) =
+            samples.windows(2).find_map(|w| match (w[0].1, w[1].1) {
+                (Some(a), Some(b)) if a.signum() != b.signum() || a == 0.0 => {
+                    Some(((w[0].0, a), (w[1].0, b)))
+                }
+                _ => None,
+            })?;
         for _ in 0..80 {
             let mid = 0.5 * (lo + hi);
             let f = height(mid)?;
@@ -263,7 +285,10 @@ fn ray_source(
     let angle = match field {
         FieldPoint::Angle(a) => Some(a),
         FieldPoint::ParaxialImageHeight(h) => Some((h / fo.focal_length).atan()),
-        FieldPoint::RealImageHeight { height, film_distance } => Some(
+        FieldPoint::RealImageHeight {
+            height,
+            film_distance,
+        } => Some(
             field_angle(system, film_distance, height)
                 .ok_or(format!("no chief ray reaches the image height {height} mm"))?,
         ),

@@ -217,4 +217,3 @@ fn glass_column(
     }
     Ok(glass)
 }
-

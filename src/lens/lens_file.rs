@@ -93,16 +93,24 @@ pub fn read_lens_file(text: &str, source: &Path) -> Result<Prescription, Prescri
         message,
     };
     let file: LensFile = toml::from_str(text).map_err(|e| {
-        let line = e.span().map(|s| text[..s.start.min(text.len())].lines().count().max(1));
+        let line = e
+            .span()
+            .map(|s| text[..s.start.min(text.len())].lines().count().max(1));
         error(line, format!("not a realcam lens file: {}", e.message()))
     })?;
     if let Some(format) = &file.format
         && format != FORMAT
     {
-        return Err(error(None, format!("format '{format}' is not '{FORMAT}', the one this realcam reads")));
+        return Err(error(
+            None,
+            format!("format '{format}' is not '{FORMAT}', the one this realcam reads"),
+        ));
     }
     if file.surfaces.is_empty() {
-        return Err(error(None, "no surfaces: the 'surfaces' array is empty".into()));
+        return Err(error(
+            None,
+            "no surfaces: the 'surfaces' array is empty".into(),
+        ));
     }
     let line_of = |offset: usize| text[..offset.min(text.len())].lines().count().max(1);
     let mut rows = Vec::with_capacity(file.surfaces.len());
@@ -114,21 +122,36 @@ pub fn read_lens_file(text: &str, source: &Path) -> Result<Prescription, Prescri
         let at = |message: String| error(Some(line), format!("surface {}: {message}", i + 1));
         let radius = match &entry.radius {
             None if entry.stop => 0.0,
-            None => return Err(at("no radius (give a number, or \"inf\" for a plane)".into())),
+            None => {
+                return Err(at(
+                    "no radius (give a number, or \"inf\" for a plane)".into()
+                ));
+            }
             Some(Radius::Number(r)) if r.is_finite() && *r != 0.0 => *r,
             Some(Radius::Number(r)) => {
-                return Err(at(format!("radius {r} is not a radius (use \"inf\" for a plane)")));
+                return Err(at(format!(
+                    "radius {r} is not a radius (use \"inf\" for a plane)"
+                )));
             }
-            Some(Radius::Word(w)) if matches!(w.to_ascii_lowercase().as_str(), "inf" | "infinity" | "flat" | "plane") => {
+            Some(Radius::Word(w))
+                if matches!(
+                    w.to_ascii_lowercase().as_str(),
+                    "inf" | "infinity" | "flat" | "plane"
+                ) =>
+            {
                 f64::INFINITY
             }
-            Some(Radius::Word(w)) => return Err(at(format!("radius '{w}' is not a number or \"inf\""))),
+            Some(Radius::Word(w)) => {
+                return Err(at(format!("radius '{w}' is not a number or \"inf\"")));
+            }
         };
         let (index, glass) = match &entry.glass {
             None => (1.0, None),
             Some(GlassEntry::Name(name)) if name.eq_ignore_ascii_case("air") => (1.0, None),
             Some(GlassEntry::Name(name)) => {
-                let id = catalogue().find(name).map_err(|e| at(format!("glass: {e}")))?;
+                let id = catalogue()
+                    .find(name)
+                    .map_err(|e| at(format!("glass: {e}")))?;
                 let glass = Glass::Catalogue(id);
                 (glass.index(FRAUNHOFER_D_NM), Some(glass))
             }
@@ -191,7 +214,9 @@ fn stem(path: &Path) -> String {
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_else(|| "lens".into());
-    name.trim_end_matches(".toml").trim_end_matches(".lens").to_string()
+    name.trim_end_matches(".toml")
+        .trim_end_matches(".lens")
+        .to_string()
 }
 
 /// A TOML basic string.
@@ -225,8 +250,14 @@ fn num(v: f64) -> String {
 pub fn write_lens_file(prescription: &Prescription) -> String {
     let info = &prescription.info;
     let mut out = String::new();
-    let _ = writeln!(out, "# realcam lens file: lengths in mm, surfaces front (scene) to back (film).");
-    let _ = writeln!(out, "# Format: see lenses/README.md in the realcam repository.");
+    let _ = writeln!(
+        out,
+        "# realcam lens file: lengths in mm, surfaces front (scene) to back (film)."
+    );
+    let _ = writeln!(
+        out,
+        "# Format: see lenses/README.md in the realcam repository."
+    );
     let _ = writeln!(out, "format = {}", quoted(FORMAT));
     let _ = writeln!(out, "name = {}", quoted(&prescription.name));
     let strings = [
@@ -283,9 +314,15 @@ pub fn write_lens_file(prescription: &Prescription) -> String {
                 fields.push(format!("glass = {}", quoted(&glass.label())));
             }
             Some(Glass::Model { n_d, v_d }) => {
-                fields.push(format!("glass = {{ n_d = {}, v_d = {} }}", num(n_d), num(v_d)));
+                fields.push(format!(
+                    "glass = {{ n_d = {}, v_d = {} }}",
+                    num(n_d),
+                    num(v_d)
+                ));
             }
-            None if row.index != 1.0 => fields.push(format!("glass = {{ n = {} }}", num(row.index))),
+            None if row.index != 1.0 => {
+                fields.push(format!("glass = {{ n = {} }}", num(row.index)))
+            }
             None => {}
         }
         fields.push(format!("diameter = {}", num(row.aperture)));
@@ -294,7 +331,10 @@ pub fn write_lens_file(prescription: &Prescription) -> String {
         }
         let order = row.asphere.order();
         if order > 0 {
-            let terms: Vec<String> = row.asphere.coefficients[..order].iter().map(|&a| num(a)).collect();
+            let terms: Vec<String> = row.asphere.coefficients[..order]
+                .iter()
+                .map(|&a| num(a))
+                .collect();
             fields.push(format!("aspheric = [{}]", terms.join(", ")));
         }
         let _ = writeln!(out, "  {{ {} }},", fields.join(", "));

@@ -23,6 +23,7 @@ pub mod clear_aperture;
 pub mod dat_file;
 pub mod diagram;
 pub mod elements;
+pub mod export;
 pub mod field;
 pub mod first_order;
 pub mod focus;

@@ -408,8 +408,19 @@ impl Prescription {
                         file: self.source.clone(),
                         line: Some(back.line).filter(|&l| l > 0),
                         message: format!(
-                            "this surface crosses the previous one (line {}) {:.3} mm from the axis, inside their clear apertures; check the thickness column and the layout (--lens-format)",
-                            front.line, h
+                            "this surface crosses the one before it {h:.3} mm from the axis, inside their clear apertures (the {} between them would be {gap:.4} mm thick there): check the thicknesses and clear apertures{}",
+                            if front.index > 1.0 {
+                                "glass"
+                            } else {
+                                "air gap"
+                            },
+                            if self.format == LensFormat::GapBefore
+                                || self.source.extension().is_none_or(|e| e == "dat")
+                            {
+                                ", and the thickness column's layout (--lens-format)"
+                            } else {
+                                ""
+                            }
                         ),
                     });
                 }
@@ -616,7 +627,7 @@ mod tests {
             ),
             (
                 "20 0.5 1.5 20\n-20 5 1 20\n0 0 0 10\n-50 0 1 20\n",
-                "crosses the previous one",
+                "crosses the one before it",
                 Some(2),
             ),
             (

@@ -475,7 +475,7 @@ mod tests {
         const N: usize = 2000;
         let mut rng = Rng::new(3, 4);
         let mut compared = 0;
-        for (lens, _) in BUNDLED {
+        for lens in BUNDLED.iter().map(|b| b.name) {
             let w = LensWorkload::new(lens, 1).unwrap();
             for sampling in [PupilSampling::Bounds, PupilSampling::RearElement] {
                 let diagonal = LensWorkload::FILM_DIAGONAL_MM;

@@ -341,16 +341,12 @@ fn store_block(block: &SimdBlock, start: usize, end: usize, rays: &mut RayBatch)
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::lens::LensSystem;
     use crate::lens::trace::{Ray, trace};
-    use crate::lens::{LensSystem, Prescription};
     use crate::sampling::Rng;
-    use std::path::Path;
 
     fn bundled(name: &str) -> LensSystem {
-        let path = Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("lenses")
-            .join(name);
-        let p = Prescription::load(&path, None).unwrap();
+        let p = crate::lens::bundled::load_lens(name, None).unwrap();
         LensSystem::new(&p.rows, None)
     }
 
@@ -416,21 +412,11 @@ mod tests {
         }
     }
 
-    const BUNDLED_FILES: [&str; 8] = [
-        "dgauss.50mm.dat",
-        "wide.22mm.dat",
-        "telephoto.250mm.dat",
-        "fisheye.10mm.dat",
-        "dgauss.dat",
-        "wide.dat",
-        "telephoto.dat",
-        "fisheye.dat",
-    ];
-
     #[test]
     fn batch_agrees_with_scalar_reference_on_every_bundled_lens() {
-        for (name, _) in crate::lens::bundled::BUNDLED {
-            let system = bundled(&format!("{name}.dat"));
+        for lens in crate::lens::bundled::BUNDLED {
+            let name = lens.name;
+            let system = bundled(name);
             // Not a multiple of the lane count or the block: exercises the padded last chunk.
             let rays = film_rays(&system, system.rear_z() * 0.6, 4003);
             let mut batch = RayBatch::with_capacity(rays.len());
@@ -483,7 +469,7 @@ mod tests {
     /// the reference, and blocked rays keep finite state.
     #[test]
     fn scene_to_film_agrees_and_blocked_rays_stay_finite() {
-        for name in BUNDLED_FILES {
+        for name in crate::lens::bundled::BUNDLED.iter().map(|b| b.name) {
             let system = bundled(name);
             let mut rng = Rng::new(3, 9);
             let front = system.front_semi_aperture() * 1.2;

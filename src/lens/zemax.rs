@@ -47,9 +47,7 @@ fn describe_type(kind: &str) -> &'static str {
         "SZERNSAG" | "ZERNSAG" | "SZERNPHA" => "a Zernike surface (not rotationally symmetric)",
         "XYPOLY" | "POLYNOMI" => "an xy-polynomial surface (not rotationally symmetric)",
         "TILTSURF" => "a tilted surface",
-        "GRINSUR1" | "GRINSUR2" | "GRINSUR3" | "GRINSUR5" | "GRADIENT" => {
-            "a gradient-index medium"
-        }
+        "GRINSUR1" | "GRINSUR2" | "GRINSUR3" | "GRINSUR5" | "GRADIENT" => "a gradient-index medium",
         "USERSURF" | "DLL" => "a user-defined (DLL) surface",
         "NONSEQCO" => "a non-sequential component",
         _ => "a surface type realcam does not know",
@@ -59,9 +57,8 @@ fn describe_type(kind: &str) -> &'static str {
 /// Surface keywords that carry no optics realcam uses (drawing, coatings, tolerances,
 /// solves, comments, mechanical sizes, pickups): skipped silently.
 const IGNORED_SURFACE_KEYWORDS: [&str; 24] = [
-    "HIDE", "SLAB", "POPS", "FIMP", "MIRR", "MEMA", "COAT", "COMM", "PZUP", "SSID", "MAZH",
-    "FLAP", "VPAR", "PPAR", "CURV", "DISZ", "EDGE", "TCED", "SQAP", "BLNK", "VCON", "XDAT",
-    "IGNR", "THIC",
+    "HIDE", "SLAB", "POPS", "FIMP", "MIRR", "MEMA", "COAT", "COMM", "PZUP", "SSID", "MAZH", "FLAP",
+    "VPAR", "PPAR", "CURV", "DISZ", "EDGE", "TCED", "SQAP", "BLNK", "VCON", "XDAT", "IGNR", "THIC",
 ];
 
 /// Surface keywords for apertures realcam cannot represent.
@@ -72,9 +69,7 @@ fn unsupported_surface_keyword(keyword: &str) -> Option<&'static str> {
         "OBSC" | "OBSQ" | "OBEL" => "an obscuration",
         "UDAP" | "UDAD" => "a user-defined aperture",
         "SPID" => "a spider (obscuring vanes)",
-        "DECX" | "DECY" | "TILX" | "TILY" | "TILZ" | "SCBD" => {
-            "a decentre or tilt of the surface"
-        }
+        "DECX" | "DECY" | "TILX" | "TILY" | "TILZ" | "SCBD" => "a decentre or tilt of the surface",
         _ => return None,
     })
 }
@@ -203,7 +198,10 @@ fn parse(text: &str) -> Result<(ZemaxSystem, Vec<ZemaxSurface>), ParseError> {
             args.get(k).and_then(|t| number(t)).ok_or_else(|| {
                 (
                     Some(line),
-                    format!("{keyword}: expected a number for {what}, found '{}'", raw.trim()),
+                    format!(
+                        "{keyword}: expected a number for {what}, found '{}'",
+                        raw.trim()
+                    ),
                 )
             })
         };
@@ -212,7 +210,10 @@ fn parse(text: &str) -> Result<(ZemaxSystem, Vec<ZemaxSurface>), ParseError> {
             if v.is_finite() {
                 Ok(v)
             } else {
-                Err((Some(line), format!("{keyword}: {what} must be finite, found {v}")))
+                Err((
+                    Some(line),
+                    format!("{keyword}: {what} must be finite, found {v}"),
+                ))
             }
         };
         if keyword == "SURF" {
@@ -260,13 +261,19 @@ fn parse(text: &str) -> Result<(ZemaxSystem, Vec<ZemaxSurface>), ParseError> {
                     continue;
                 }
                 "CLAP" => {
-                    surface.clear_aperture =
-                        Some((finite(0, "the minimum radius")?, finite(1, "the maximum radius")?, line));
+                    surface.clear_aperture = Some((
+                        finite(0, "the minimum radius")?,
+                        finite(1, "the maximum radius")?,
+                        line,
+                    ));
                     continue;
                 }
                 "OBDC" => {
-                    surface.aperture_decentre =
-                        Some((finite(0, "the x decentre")?, finite(1, "the y decentre")?, line));
+                    surface.aperture_decentre = Some((
+                        finite(0, "the x decentre")?,
+                        finite(1, "the y decentre")?,
+                        line,
+                    ));
                     continue;
                 }
                 "CONI" => {
@@ -274,11 +281,13 @@ fn parse(text: &str) -> Result<(ZemaxSystem, Vec<ZemaxSurface>), ParseError> {
                     continue;
                 }
                 "PARM" => {
-                    let index = args.first().and_then(|t| t.parse::<usize>().ok()).ok_or((
-                        Some(line),
-                        "PARM: expected a parameter number".to_string(),
-                    ))?;
-                    surface.parameters.insert(index, (finite(1, "the parameter")?, line));
+                    let index = args
+                        .first()
+                        .and_then(|t| t.parse::<usize>().ok())
+                        .ok_or((Some(line), "PARM: expected a parameter number".to_string()))?;
+                    surface
+                        .parameters
+                        .insert(index, (finite(1, "the parameter")?, line));
                     continue;
                 }
                 "STOP" => {
@@ -312,7 +321,9 @@ fn parse(text: &str) -> Result<(ZemaxSystem, Vec<ZemaxSurface>), ParseError> {
                     other => {
                         return Err((
                             Some(line),
-                            format!("UNIT '{other}' is not a lens unit realcam knows (MM, CM, IN, METER)"),
+                            format!(
+                                "UNIT '{other}' is not a lens unit realcam knows (MM, CM, IN, METER)"
+                            ),
                         ));
                     }
                 };
@@ -330,7 +341,9 @@ fn parse(text: &str) -> Result<(ZemaxSystem, Vec<ZemaxSurface>), ParseError> {
             }
             "GCAT" => system.catalogues = args.iter().map(|s| s.to_string()).collect(),
             "FNUM" => system.f_number = Some(finite(0, "the f-number")?),
-            "ENPD" => system.entrance_pupil_diameter = Some(finite(0, "the entrance pupil diameter")?),
+            "ENPD" => {
+                system.entrance_pupil_diameter = Some(finite(0, "the entrance pupil diameter")?)
+            }
             "OBNA" => system.object_na = Some((finite(0, "the object-space NA")?, line)),
             "FLOA" => system.floating_stop = true,
             "FTYP" => {
@@ -409,7 +422,8 @@ fn convert(
 
     // Refuse what cannot be represented, surface by surface, in order.
     for s in lens {
-        let at = |line: usize, what: String| error(Some(line), format!("SURF {}: {what}", s.number));
+        let at =
+            |line: usize, what: String| error(Some(line), format!("SURF {}: {what}", s.number));
         if let Some((kind, line)) = &s.kind
             && !SUPPORTED_TYPES.contains(&kind.as_str())
         {
@@ -422,7 +436,9 @@ fn convert(
             ));
         }
         if let Some((tokens, line)) = &s.glass
-            && tokens.first().is_some_and(|t| t.eq_ignore_ascii_case("MIRROR"))
+            && tokens
+                .first()
+                .is_some_and(|t| t.eq_ignore_ascii_case("MIRROR"))
         {
             return Err(at(
                 *line,
@@ -435,34 +451,55 @@ fn convert(
         if let Some((x, y, line)) = s.aperture_decentre
             && (x != 0.0 || y != 0.0)
         {
-            return Err(at(line, format!("the aperture is decentred by ({x}, {y}) (OBDC): realcam's surfaces are centred on the axis")));
+            return Err(at(
+                line,
+                format!(
+                    "the aperture is decentred by ({x}, {y}) (OBDC): realcam's surfaces are centred on the axis"
+                ),
+            ));
         }
         if let Some((min, _, line)) = s.clear_aperture
             && min > 0.0
         {
             return Err(at(
                 line,
-                format!("CLAP with an inner radius {min}: an annular aperture (a central obscuration) cannot be represented"),
+                format!(
+                    "CLAP with an inner radius {min}: an annular aperture (a central obscuration) cannot be represented"
+                ),
             ));
         }
         let is_asphere = s.kind.as_ref().is_some_and(|(k, _)| k == "EVENASPH");
-        if is_asphere && let Some((&i, &(_, line))) = s.parameters.range(ASPHERIC_TERMS + 1..).next()
+        if is_asphere
+            && let Some((&i, &(_, line))) = s.parameters.range(ASPHERIC_TERMS + 1..).next()
         {
-            return Err(at(line, format!("PARM {i}: an even asphere has terms PARM 1 (r²) to PARM {ASPHERIC_TERMS} (r^{})", 2 * ASPHERIC_TERMS)));
+            return Err(at(
+                line,
+                format!(
+                    "PARM {i}: an even asphere has terms PARM 1 (r²) to PARM {ASPHERIC_TERMS} (r^{})",
+                    2 * ASPHERIC_TERMS
+                ),
+            ));
         }
         match s.thickness {
             Some((t, line)) if !t.is_finite() => {
-                return Err(at(line, "DISZ INFINITY on a lens surface: only the object may be at infinity".into()));
+                return Err(at(
+                    line,
+                    "DISZ INFINITY on a lens surface: only the object may be at infinity".into(),
+                ));
             }
             _ => {}
         }
     }
     if let Some((na, line)) = system.object_na
-        && !lens.iter().any(|s| s.stop && s.semi_diameter.is_some_and(|d| d > 0.0))
+        && !lens
+            .iter()
+            .any(|s| s.stop && s.semi_diameter.is_some_and(|d| d > 0.0))
     {
         return Err(error(
             Some(line),
-            format!("OBNA {na}: the system aperture is an object-space numerical aperture, which realcam cannot size the stop from; give the stop surface a DIAM"),
+            format!(
+                "OBNA {na}: the system aperture is an object-space numerical aperture, which realcam cannot size the stop from; give the stop surface a DIAM"
+            ),
         ));
     }
 
@@ -480,7 +517,10 @@ fn convert(
             let n_d = tokens.get(3).and_then(|t| number(t));
             let v_d = tokens.get(4).and_then(|t| number(t));
             let (Some(n_d), Some(v_d)) = (n_d, v_d) else {
-                return Err(at(format!("GLAS ___BLANK needs n_d and V_d: '{}'", tokens.join(" "))));
+                return Err(at(format!(
+                    "GLAS ___BLANK needs n_d and V_d: '{}'",
+                    tokens.join(" ")
+                )));
             };
             if v_d == 0.0 {
                 return Ok(Medium::Constant(n_d));
@@ -566,35 +606,55 @@ fn convert(
         .filter(|t| t.is_finite() && *t > 0.0);
     let image_semi = image.semi_diameter.filter(|&d| d > 0.0).map(|d| d * scale);
 
-    // Size the stop where the file leaves it to the system aperture, then the other clear
-    // apertures from the rays the design's fields send through that stop.
+    // The stop's size is the system aperture's, as in OpticStudio, where a semi-diameter clips
+    // no ray: an entrance-pupil diameter (ENPD) or an f-number (FNUM) sizes it paraxially, and
+    // only a floating stop (FLOA, or no system aperture at all) takes the stop's own DIAM; a
+    // floating stop without one opens as wide as the other clear apertures let an axial beam.
+    // Then the clear apertures the file leaves open are found from the rays the design's fields
+    // send through that stop.
     let name_of = |s: &ZemaxSurface| format!("SURF {}", s.number);
-    if missing_aperture[stop] {
-        let sized = if let Some(epd) = system.entrance_pupil_diameter {
-            clear_aperture::stop_for_entrance_pupil(&rows, stop, epd * scale)
-        } else if let Some(n) = system.f_number {
-            clear_aperture::stop_for_f_number(&rows, stop, n)
-        } else if system.floating_stop {
-            clear_aperture::widest_stop(&rows, stop, &missing_aperture)
-        } else {
-            Err("no system aperture (FNUM, ENPD or FLOA)".to_string())
-        };
+    let stop_diam = (!missing_aperture[stop]).then_some(rows[stop].aperture);
+    let sized = if let Some(epd) = system
+        .entrance_pupil_diameter
+        .filter(|_| !system.floating_stop)
+    {
+        Some(clear_aperture::stop_for_entrance_pupil(
+            &rows,
+            stop,
+            epd * scale,
+        ))
+    } else if let Some(n) = system.f_number.filter(|_| !system.floating_stop) {
+        Some(clear_aperture::stop_for_f_number(&rows, stop, n))
+    } else if stop_diam.is_some() {
+        None
+    } else if system.floating_stop {
+        Some(clear_aperture::widest_stop(&rows, stop, &missing_aperture))
+    } else {
+        Some(Err(
+            "the file gives no system aperture (FNUM, ENPD or FLOA)".to_string(),
+        ))
+    };
+    if let Some(sized) = sized {
         let diameter = sized.map_err(|why| {
             error(
                 Some(lens[stop].line),
-                format!("{}: the stop has no DIAM and cannot be sized: {why}", name_of(&lens[stop])),
+                format!("{}: cannot size the stop: {why}", name_of(&lens[stop])),
             )
         })?;
         rows[stop].aperture = diameter;
         missing_aperture[stop] = false;
     }
     if missing_aperture.iter().any(|&m| m) {
-        let fields = field_points(system, scale, &rows, film_distance).map_err(|m| error(None, m))?;
+        let fields =
+            field_points(system, scale, &rows, film_distance).map_err(|m| error(None, m))?;
         clear_aperture::fill_missing(&mut rows, &missing_aperture, &fields, object_distance)
             .map_err(|(i, why)| {
                 error(
                     Some(lens[i].line),
-                    format!("{}: has no DIAM and its clear aperture cannot be found: {why}", name_of(&lens[i])),
+                    format!(
+                        "{}: has no DIAM and its clear aperture cannot be found: {why}",
+                        name_of(&lens[i])
+                    ),
                 )
             })?;
     }
@@ -603,7 +663,17 @@ fn convert(
         .file_stem()
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_else(|| "lens".into());
-    let mut prescription = Prescription::from_rows(&stem, source, LensFormat::ThicknessAfter, rows)?;
+    // Validation locates problems by the row's line, the line of its SURF: name the SURF too.
+    let surf_at_line =
+        |line: Option<usize>| lens.iter().find(|s| Some(s.line) == line).map(|s| s.number);
+    let mut prescription = Prescription::from_rows(&stem, source, LensFormat::ThicknessAfter, rows)
+        .map_err(|e| match surf_at_line(e.line) {
+            Some(n) => PrescriptionError {
+                message: format!("SURF {n}: {}", e.message),
+                ..e
+            },
+            None => e,
+        })?;
     prescription.info = LensInfo {
         title: system.name.clone(),
         source: Some(format!("Zemax file {}", source.display())),
