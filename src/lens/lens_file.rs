@@ -192,8 +192,16 @@ pub fn read_lens_file(text: &str, source: &Path) -> Result<Prescription, Prescri
         });
     }
     let name = file.name.clone().unwrap_or_else(|| stem(source));
-    let mut prescription =
-        Prescription::from_rows(&name, source, LensFormat::ThicknessAfter, rows)?;
+    // Validation locates problems by line: name the surface too.
+    let lines: Vec<usize> = rows.iter().map(|r| r.line).collect();
+    let mut prescription = Prescription::from_rows(&name, source, LensFormat::ThicknessAfter, rows)
+        .map_err(|e| match lines.iter().position(|&l| Some(l) == e.line) {
+            Some(i) => PrescriptionError {
+                message: format!("surface {}: {}", i + 1, e.message),
+                ..e
+            },
+            None => e,
+        })?;
     let i = &file;
     prescription.info = LensInfo {
         title: i.title.clone(),
