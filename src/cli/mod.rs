@@ -1,6 +1,7 @@
 //! The `realcam` command line.
 
 pub mod bench;
+pub mod glass;
 pub mod interrupt;
 pub mod lens;
 pub mod merge;
@@ -33,6 +34,9 @@ pub enum Command {
     Lens(lens::LensArgs),
     /// Combine the shard partials of `realcam render --shard I/N` into the full frame.
     Merge(merge::MergeArgs),
+    /// Look up optical glass: catalogue formulas, n at the F, d, C lines, V_d, the nearest
+    /// catalogue glasses to an n_d and V_d.
+    Glass(glass::GlassArgs),
     /// Measure lens-tracing speed on this CPU: scalar per-ray vs SoA batches, one thread.
     Bench(bench::BenchArgs),
 }
@@ -58,6 +62,7 @@ pub fn main() -> ExitCode {
         Some(Command::Render(args)) => render::run(&args),
         Some(Command::Lens(args)) => lens::run(&args),
         Some(Command::Merge(args)) => merge::run(&args),
+        Some(Command::Glass(args)) => glass::run(&args),
         Some(Command::Bench(args)) => bench::run(&args),
     };
     match result {

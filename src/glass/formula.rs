@@ -101,15 +101,15 @@ impl DispersionFormula {
                 1.0 + c0 + terms.iter().map(|&(b, c)| b * l2 / (l2 - c)).sum::<f64>()
             }
             DispersionFormula::Polynomial { c0, terms } => {
-                // Every exponent in the catalogue is even, so λ^p = (λ²)^(p/2) costs no powf.
+                // Every exponent in the catalogue is even: λ^p = (λ²)^(p/2), and the negative
+                // powers share one division.
+                let inv_l2 = 1.0 / l2;
                 c0 + terms
                     .iter()
-                    .map(|&(a, p)| {
-                        if p % 2 == 0 {
-                            a * l2.powi(p / 2)
-                        } else {
-                            a * wavelength_um.powi(p)
-                        }
+                    .map(|&(a, p)| match (p % 2, p < 0) {
+                        (0, false) => a * l2.powi(p / 2),
+                        (0, true) => a * inv_l2.powi(-p / 2),
+                        _ => a * wavelength_um.powi(p),
                     })
                     .sum::<f64>()
             }
@@ -167,6 +167,17 @@ mod tests {
         let f = DispersionFormula::from_refractiveindex_info(3, &[2.0, -0.01, 2.0, 0.02, -2.0])
             .unwrap();
         assert!((f.index_um(0.5) - 2.0775_f64.sqrt()).abs() < 1e-15);
+    }
+
+    #[test]
+    fn odd_and_negative_powers_are_exact() {
+        // n² = 1 + 0.1·λ³ + 0.01·λ⁻³ + 0.001·λ⁻⁴ at λ = 0.5 µm: 1 + 0.0125 + 0.08 + 0.016.
+        let f = DispersionFormula::from_refractiveindex_info(
+            3,
+            &[1.0, 0.1, 3.0, 0.01, -3.0, 0.001, -4.0],
+        )
+        .unwrap();
+        assert!((f.index_um(0.5) - 1.1085_f64.sqrt()).abs() < 1e-15);
     }
 
     #[test]

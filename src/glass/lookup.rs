@@ -29,8 +29,8 @@
 
 use std::fmt;
 
+use super::GlassId;
 use super::catalogue::{Catalogue, Maker};
-use super::{GlassId, catalogue};
 
 /// How many spelling suggestions an unknown name's error lists.
 const SUGGESTIONS: usize = 5;
@@ -288,11 +288,6 @@ fn edit_distance(a: &str, b: &str) -> usize {
         }
     }
     row[b.len()]
-}
-
-/// Shorthand for [`Catalogue::find`] on the built-in catalogue.
-pub fn find(name: &str) -> Result<GlassId, GlassLookupError> {
-    catalogue().find(name)
 }
 
 #[cfg(test)]
