@@ -409,7 +409,11 @@ const REFUSED_LENSES: &[(&str, &str, Option<usize>)] = &[
         Some(1),
     ),
     ("lens-glass-for-air.dat", "given for air", Some(2)),
-    ("lens-coordinate-break.zmx", "SURF 1: TYPE COORDBRK", Some(5)),
+    (
+        "lens-coordinate-break.zmx",
+        "SURF 1: TYPE COORDBRK",
+        Some(5),
+    ),
     (
         "lens-index-not-a-number.dat",
         "index 'glass' is not a number",

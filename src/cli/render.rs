@@ -28,7 +28,9 @@ use crate::film::{Image, MAX_IMAGE_SIDE};
 use crate::lens::Prescription;
 use crate::lens::aperture::ApertureSetting;
 use crate::lens::bundled::{DEFAULT_LENS, load_lens};
-use crate::lens::elements::{FilmPlacement, FocusSetting, LensDerivationStats, LensGeometry};
+use crate::lens::elements::{
+    Dispersion, FilmPlacement, FocusSetting, LensDerivationStats, LensGeometry,
+};
 use crate::pipeline::{
     RenderSettings, RenderStats, Renderer, SceneInputs, SceneSource, SceneWarnings, Stage,
 };
@@ -129,6 +131,11 @@ pub struct RenderArgs {
     /// `realcam merge` combines (one shard per render-farm task).
     #[arg(long, value_name = "I/N", allow_hyphen_values = true, conflicts_with_all = ["focus_sweep", "aperture_sweep"])]
     pub shard: Option<Shard>,
+    /// Colour from the lens's glass: `on` gives every camera ray its own wavelength, refracted
+    /// with each glass's index at it (axial and lateral colour, from the glass data); `off`
+    /// renders every ray at the lens file's indices (n_d), as for a lens without glass data.
+    #[arg(long, value_name = "on|off", default_value = "on")]
+    pub dispersion: DispersionArg,
     /// Where a shard's partial goes [default: `<out stem>.shard-I-of-N.exr`].
     #[arg(long, value_name = "FILE.exr", requires = "shard")]
     pub partial: Option<PathBuf>,
@@ -264,6 +271,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<ExitCode> {
                 world_from_camera,
             );
             let entity = renderer.add_lens(&prescription, focus, aperture);
+            renderer.world.entity_mut(entity).insert(args.dispersion.0);
             RunLens {
                 prescription,
                 entity,
@@ -606,7 +614,7 @@ fn settings_fingerprint(
         .iter()
         .map(|r| [r.radius, r.thickness, r.index, r.aperture])
         .collect();
-    json!({
+    let mut fingerprint = json!({
         "scene": args.scene.as_ref().map_or(DEFAULT_SCENE_PATH.to_string(), |p| p.display().to_string()),
         "lens": lens.prescription.name,
         "lens_rows": rows,
@@ -621,7 +629,45 @@ fn settings_fingerprint(
         "max_depth": settings.max_depth,
         "camera": context.world_from_camera.to_cols_array().map(f64::from),
         "environment": args.env,
-    })
+    });
+    // What the four columns above do not say, recorded only when present, so a spherical lens
+    // without glass data keeps the fingerprint it always had.
+    let surfaces = &lens.prescription.rows;
+    if surfaces
+        .iter()
+        .any(|r| r.asphere != crate::lens::Asphere::NONE || r.stop != (r.radius == 0.0))
+    {
+        fingerprint["lens_shapes"] = surfaces
+            .iter()
+            .map(|r| json!({ "stop": r.stop, "conic": r.asphere.conic, "aspheric": r.asphere.coefficients }))
+            .collect();
+    }
+    if surfaces.iter().any(|r| r.glass.is_some()) {
+        fingerprint["lens_glasses"] = surfaces
+            .iter()
+            .map(|r| r.glass.map(|g| g.label()))
+            .collect();
+        fingerprint["dispersion"] = json!(args.dispersion.0 == Dispersion::On);
+    }
+    fingerprint
+}
+
+/// `--dispersion on|off`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct DispersionArg(pub Dispersion);
+
+impl std::str::FromStr for DispersionArg {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        match s {
+            "on" => Ok(DispersionArg(Dispersion::On)),
+            "off" => Ok(DispersionArg(Dispersion::Off)),
+            other => Err(format!(
+                "unknown dispersion setting '{other}': use on or off"
+            )),
+        }
+    }
 }
 
 /// The film and the samples still to render from a checkpoint, after checking it belongs to

@@ -22,6 +22,7 @@ pub mod camera;
 pub mod clear_aperture;
 pub mod dat_file;
 pub mod diagram;
+pub mod dispersion;
 pub mod elements;
 pub mod export;
 pub mod field;

@@ -1,9 +1,13 @@
 //! The packed form of a lens that tracing reads: surface parameters as structure-of-arrays.
 
+use std::sync::Arc;
+
 use num_traits::Float;
 
+use super::dispersion::DispersionTable;
 use super::prescription::SurfaceRow;
 use super::shape::{ASPHERIC_TERMS, Profile};
+use crate::glass::FRAUNHOFER_D_NM;
 
 /// Surface parameters in one precision, one array per parameter, indexed by surface (front to
 /// back). `f64` for the reference optics, `f32` for the batched render path.
@@ -67,7 +71,13 @@ impl<T: Copy> SurfaceArrays<T> {
         }
     }
 
-    fn from_rows(rows: &[SurfaceRow], convert: impl Fn(f64) -> T) -> Self {
+    /// The rows' arrays, with each medium's index from `index` (the row's own, or at a
+    /// wavelength).
+    fn from_rows(
+        rows: &[SurfaceRow],
+        convert: impl Fn(f64) -> T,
+        index: impl Fn(&SurfaceRow) -> f64,
+    ) -> Self {
         let mut arrays = SurfaceArrays {
             vertex_z: Vec::with_capacity(rows.len()),
             curvature: Vec::with_capacity(rows.len()),
@@ -97,22 +107,27 @@ impl<T: Copy> SurfaceArrays<T> {
                 .semi_aperture_sq
                 .push(convert((row.aperture / 2.0).powi(2)));
             arrays.index_front.push(convert(index_before));
-            arrays.index_back.push(convert(row.index));
+            arrays.index_back.push(convert(index(row)));
             z += row.thickness;
-            index_before = row.index;
+            index_before = index(row);
         }
         arrays
     }
 }
 
 /// A lens ready for tracing: its rows with the stop opened to the chosen diameter, and the
-/// same data packed as arrays in f64 and f32.
+/// same data packed as arrays in f64 and f32, with the indices at one wavelength (the rows'
+/// own indices, their n_d, unless built [`at_wavelength`](Self::at_wavelength)).
 #[derive(Clone, Debug, PartialEq)]
 pub struct LensSystem {
     pub rows: Vec<SurfaceRow>,
     pub stop: usize,
     pub f64s: SurfaceArrays<f64>,
     pub f32s: SurfaceArrays<f32>,
+    /// The wavelength of the arrays' indices, nm.
+    pub wavelength_nm: f64,
+    /// Every medium's index over the rendered wavelengths, when any surface has glass data.
+    pub dispersion: Option<Arc<DispersionTable>>,
 }
 
 impl LensSystem {
@@ -124,14 +139,34 @@ impl LensSystem {
         if let Some(d) = stop_diameter {
             rows[stop].aperture = d;
         }
-        let f64s = SurfaceArrays::from_rows(&rows, |v| v);
-        let f32s = SurfaceArrays::from_rows(&rows, |v| v as f32);
+        let f64s = SurfaceArrays::from_rows(&rows, |v| v, |r| r.index);
+        let f32s = SurfaceArrays::from_rows(&rows, |v| v as f32, |r| r.index);
+        let dispersion = DispersionTable::new(&rows).map(Arc::new);
         LensSystem {
             rows,
             stop,
             f64s,
             f32s,
+            wavelength_nm: FRAUNHOFER_D_NM,
+            dispersion,
         }
+    }
+
+    /// The same lens with every medium's index at `wavelength_nm` (see
+    /// [`SurfaceRow::index_at`]): for first-order data and reference rays at any wavelength.
+    pub fn at_wavelength(&self, wavelength_nm: f64) -> LensSystem {
+        let index = |r: &SurfaceRow| r.index_at(wavelength_nm);
+        LensSystem {
+            f64s: SurfaceArrays::from_rows(&self.rows, |v| v, index),
+            f32s: SurfaceArrays::from_rows(&self.rows, |v| v as f32, index),
+            wavelength_nm,
+            ..self.clone()
+        }
+    }
+
+    /// True when some surface's glass makes the lens's indices depend on wavelength.
+    pub fn is_dispersive(&self) -> bool {
+        self.dispersion.is_some()
     }
 
     pub fn surface_count(&self) -> usize {

@@ -22,6 +22,7 @@ use wide::f32x8;
 use self::refract::{
     CONIC, LaneRay, POLYNOMIAL, SPHERE, SurfaceConstants, normalise_direction, refract_at,
 };
+use super::dispersion::DispersionTable;
 use super::system::SurfaceArrays;
 use super::trace::Travel;
 use crate::batch::RayBatch;
@@ -117,10 +118,64 @@ pub fn trace_batch_on(
     kernel: Kernel,
     isa: Isa,
 ) {
+    run(surfaces, None, rays, travel, kernel, isa)
+}
+
+/// Each ray at its own wavelength: the rays' wavelengths (nm, one per ray of `rays`), and the
+/// lens's indices over wavelength.
+#[derive(Clone, Copy, Debug)]
+pub struct Wavelengths<'a> {
+    pub table: &'a DispersionTable,
+    pub nm: &'a [f32],
+}
+
+/// [`trace_batch`] with every ray refracted at its own wavelength (`surfaces` gives the shapes
+/// and apertures; the indices come from `wavelengths.table`).
+pub fn trace_batch_spectral(
+    surfaces: &SurfaceArrays<f32>,
+    wavelengths: Wavelengths,
+    rays: &mut RayBatch,
+    travel: Travel,
+) {
+    trace_batch_spectral_on(
+        surfaces,
+        wavelengths,
+        rays,
+        travel,
+        DEFAULT_KERNEL,
+        Isa::detect(),
+    )
+}
+
+/// [`trace_batch_spectral`] with a chosen kernel and instruction set.
+pub fn trace_batch_spectral_on(
+    surfaces: &SurfaceArrays<f32>,
+    wavelengths: Wavelengths,
+    rays: &mut RayBatch,
+    travel: Travel,
+    kernel: Kernel,
+    isa: Isa,
+) {
+    assert_eq!(wavelengths.nm.len(), rays.len(), "one wavelength per ray");
+    assert_eq!(wavelengths.table.surface_count(), surfaces.len());
+    run(surfaces, Some(wavelengths), rays, travel, kernel, isa)
+}
+
+fn run(
+    surfaces: &SurfaceArrays<f32>,
+    wavelengths: Option<Wavelengths>,
+    rays: &mut RayBatch,
+    travel: Travel,
+    kernel: Kernel,
+    isa: Isa,
+) {
     if travel == Travel::SceneToFilm {
         advance_to_front(surfaces, rays);
     }
-    let plan = SurfaceConstants::in_travel_order(surfaces, travel);
+    let plan = Plan {
+        surfaces: SurfaceConstants::in_travel_order(surfaces, travel),
+        spectral: wavelengths.map(|w| (w, travel)),
+    };
     match isa.min(Isa::detect()) {
         Isa::Baseline => run_kernel(kernel, &plan, rays),
         // SAFETY (both): `Isa::detect` found the instructions on this CPU.
@@ -130,6 +185,43 @@ pub fn trace_batch_on(
         Isa::Avx512 => unsafe { run_kernel_avx512(kernel, &plan, rays) },
         #[cfg(not(target_arch = "x86_64"))]
         _ => unreachable!("Isa::detect finds only the baseline here"),
+    }
+}
+
+/// What the kernels run: the surfaces in the order of travel and, for a spectral batch, the
+/// rays' wavelengths.
+struct Plan<'a> {
+    surfaces: Vec<SurfaceConstants<f32>>,
+    spectral: Option<(Wavelengths<'a>, Travel)>,
+}
+
+impl Plan<'_> {
+    /// For a spectral batch, fills `etas` with every lane's index ratio at every surface of the
+    /// block `start..start + n` (surface-major, [`BLOCK`] lanes per surface); returns whether it
+    /// did.
+    #[inline(always)]
+    fn block_etas(&self, start: usize, n: usize, etas: &mut [f32]) -> bool {
+        let Some((wavelengths, travel)) = self.spectral else {
+            return false;
+        };
+        let count = self.surfaces.len();
+        for lane in 0..n {
+            let at = wavelengths.table.position(wavelengths.nm[start + lane]);
+            for step in 0..count {
+                let (surface, forward) = match travel {
+                    Travel::SceneToFilm => (step, true),
+                    Travel::FilmToScene => (count - 1 - step, false),
+                };
+                let before = wavelengths.table.index_before(surface, at);
+                let after = wavelengths.table.index_after(surface, at);
+                etas[step * BLOCK + lane] = if forward {
+                    before / after
+                } else {
+                    after / before
+                };
+            }
+        }
+        true
     }
 }
 
@@ -157,7 +249,7 @@ fn advance_to_front(surfaces: &SurfaceArrays<f32>, rays: &mut RayBatch) {
 }
 
 #[inline(always)]
-fn run_kernel(kernel: Kernel, plan: &[SurfaceConstants<f32>], rays: &mut RayBatch) {
+fn run_kernel(kernel: Kernel, plan: &Plan, rays: &mut RayBatch) {
     match kernel {
         Kernel::Simd => trace_simd(plan, rays),
         Kernel::AutoVectorised => trace_plain(plan, rays),
@@ -169,25 +261,34 @@ fn run_kernel(kernel: Kernel, plan: &[SurfaceConstants<f32>], rays: &mut RayBatc
 /// build targets AVX.)
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-fn run_kernel_avx2(kernel: Kernel, plan: &[SurfaceConstants<f32>], rays: &mut RayBatch) {
+fn run_kernel_avx2(kernel: Kernel, plan: &Plan, rays: &mut RayBatch) {
     run_kernel(kernel, plan, rays)
 }
 
 /// The kernels compiled again for AVX-512: the plain loop vectorises 16 lanes wide.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f,avx512vl,avx512bw,avx512dq")]
-fn run_kernel_avx512(kernel: Kernel, plan: &[SurfaceConstants<f32>], rays: &mut RayBatch) {
+fn run_kernel_avx512(kernel: Kernel, plan: &Plan, rays: &mut RayBatch) {
     run_kernel(kernel, plan, rays)
 }
 
 /// The auto-vectorised kernel: in place on the batch's arrays, block by block.
 #[inline(always)]
-fn trace_plain(plan: &[SurfaceConstants<f32>], rays: &mut RayBatch) {
+fn trace_plain(plan: &Plan, rays: &mut RayBatch) {
     let len = rays.len();
+    let mut etas = vec![
+        0.0f32;
+        if plan.spectral.is_some() {
+            plan.surfaces.len() * BLOCK
+        } else {
+            0
+        }
+    ];
     let mut start = 0;
     while start < len {
         let end = (start + BLOCK).min(len);
         let n = end - start;
+        let spectral = plan.block_etas(start, n, &mut etas);
         let ox = &mut rays.ox[start..end];
         let oy = &mut rays.oy[start..end];
         let oz = &mut rays.oz[start..end];
@@ -195,12 +296,31 @@ fn trace_plain(plan: &[SurfaceConstants<f32>], rays: &mut RayBatch) {
         let dy = &mut rays.dy[start..end];
         let dz = &mut rays.dz[start..end];
         let alive = &mut rays.alive[start..end];
-        for surface in plan {
-            // The shape picks the kernel once per surface and block, never per ray.
-            let any_alive = match surface.shape {
-                SPHERE => plain_surface::<SPHERE>(surface, ox, oy, oz, dx, dy, dz, alive),
-                CONIC => plain_surface::<CONIC>(surface, ox, oy, oz, dx, dy, dz, alive),
-                _ => plain_surface::<POLYNOMIAL>(surface, ox, oy, oz, dx, dy, dz, alive),
+        for (step, surface) in plan.surfaces.iter().enumerate() {
+            let lanes = Lanes {
+                ox: &mut *ox,
+                oy: &mut *oy,
+                oz: &mut *oz,
+                dx: &mut *dx,
+                dy: &mut *dy,
+                dz: &mut *dz,
+                alive: &mut *alive,
+            };
+            // The shape (and whether indices vary per ray) picks the kernel once per surface and
+            // block, never per ray.
+            let any_alive = if spectral {
+                let eta = &etas[step * BLOCK..step * BLOCK + n];
+                match surface.shape {
+                    SPHERE => plain_surface::<SPHERE, true>(surface, lanes, eta),
+                    CONIC => plain_surface::<CONIC, true>(surface, lanes, eta),
+                    _ => plain_surface::<POLYNOMIAL, true>(surface, lanes, eta),
+                }
+            } else {
+                match surface.shape {
+                    SPHERE => plain_surface::<SPHERE, false>(surface, lanes, &[]),
+                    CONIC => plain_surface::<CONIC, false>(surface, lanes, &[]),
+                    _ => plain_surface::<POLYNOMIAL, false>(surface, lanes, &[]),
+                }
             };
             if !any_alive {
                 break;
@@ -218,29 +338,38 @@ fn trace_plain(plan: &[SurfaceConstants<f32>], rays: &mut RayBatch) {
     }
 }
 
-/// One surface over a block of rays in the plain kernel; returns whether any ray is alive.
+/// One block's rays, structure of arrays.
+struct Lanes<'a> {
+    ox: &'a mut [f32],
+    oy: &'a mut [f32],
+    oz: &'a mut [f32],
+    dx: &'a mut [f32],
+    dy: &'a mut [f32],
+    dz: &'a mut [f32],
+    alive: &'a mut [bool],
+}
+
+/// One surface over a block of rays in the plain kernel (each ray's index ratio from `etas`
+/// when `SPECTRAL`); returns whether any ray is alive.
 #[inline(always)]
-#[allow(clippy::too_many_arguments)]
-fn plain_surface<const SHAPE: u8>(
+fn plain_surface<const SHAPE: u8, const SPECTRAL: bool>(
     surface: &SurfaceConstants<f32>,
-    ox: &mut [f32],
-    oy: &mut [f32],
-    oz: &mut [f32],
-    dx: &mut [f32],
-    dy: &mut [f32],
-    dz: &mut [f32],
-    alive: &mut [bool],
+    lanes: Lanes,
+    etas: &[f32],
 ) -> bool {
-    let n = alive.len();
-    let (ox, oy, oz) = (&mut ox[..n], &mut oy[..n], &mut oz[..n]);
-    let (dx, dy, dz) = (&mut dx[..n], &mut dy[..n], &mut dz[..n]);
+    let n = lanes.alive.len();
+    let (ox, oy, oz) = (&mut lanes.ox[..n], &mut lanes.oy[..n], &mut lanes.oz[..n]);
+    let (dx, dy, dz) = (&mut lanes.dx[..n], &mut lanes.dy[..n], &mut lanes.dz[..n]);
+    let alive = &mut lanes.alive[..n];
+    let etas = if SPECTRAL { &etas[..n] } else { etas };
     let mut any_alive = false;
     for i in 0..n {
         let mut ray = LaneRay {
             origin: [ox[i], oy[i], oz[i]],
             direction: [dx[i], dy[i], dz[i]],
         };
-        let survives = refract_at::<f32, SHAPE>(surface, &mut ray, alive[i]);
+        let eta = if SPECTRAL { etas[i] } else { surface.eta };
+        let survives = refract_at::<f32, SHAPE>(surface, &mut ray, alive[i], eta);
         [ox[i], oy[i], oz[i]] = ray.origin;
         [dx[i], dy[i], dz[i]] = ray.direction;
         alive[i] = survives;
@@ -261,8 +390,16 @@ struct SimdBlock {
 /// The explicit 8-lane kernel: each block is copied into 8-lane arrays once, traced through
 /// every surface, and copied back.
 #[inline(always)]
-fn trace_simd(plan: &[SurfaceConstants<f32>], rays: &mut RayBatch) {
-    let plan: Vec<SurfaceConstants<f32x8>> = plan.iter().map(|s| s.splat()).collect();
+fn trace_simd(full_plan: &Plan, rays: &mut RayBatch) {
+    let plan: Vec<SurfaceConstants<f32x8>> = full_plan.surfaces.iter().map(|s| s.splat()).collect();
+    let mut etas = vec![
+        0.0f32;
+        if full_plan.spectral.is_some() {
+            plan.len() * BLOCK
+        } else {
+            0
+        }
+    ];
     let mut block = SimdBlock {
         rays: [LaneRay {
             origin: [f32x8::ZERO; 3],
@@ -275,12 +412,14 @@ fn trace_simd(plan: &[SurfaceConstants<f32>], rays: &mut RayBatch) {
     while start < len {
         let end = (start + BLOCK).min(len);
         let chunks = (end - start).div_ceil(LANES);
+        let spectral = full_plan.block_etas(start, end - start, &mut etas);
         load_block(rays, start, end, &mut block);
-        for surface in &plan {
+        for (step, surface) in plan.iter().enumerate() {
+            let eta = spectral.then(|| &etas[step * BLOCK..(step + 1) * BLOCK]);
             let any_alive = match surface.shape {
-                SPHERE => simd_surface::<SPHERE>(surface, &mut block, chunks),
-                CONIC => simd_surface::<CONIC>(surface, &mut block, chunks),
-                _ => simd_surface::<POLYNOMIAL>(surface, &mut block, chunks),
+                SPHERE => simd_surface::<SPHERE>(surface, &mut block, chunks, eta),
+                CONIC => simd_surface::<CONIC>(surface, &mut block, chunks, eta),
+                _ => simd_surface::<POLYNOMIAL>(surface, &mut block, chunks, eta),
             };
             if !any_alive {
                 break;
@@ -294,19 +433,30 @@ fn trace_simd(plan: &[SurfaceConstants<f32>], rays: &mut RayBatch) {
     }
 }
 
-/// One surface over the first `chunks` chunks of a block; returns whether any lane is alive.
+/// One surface over the first `chunks` chunks of a block (each lane's index ratio from `etas`
+/// when given: [`BLOCK`] lanes); returns whether any lane is alive.
 #[inline(always)]
 fn simd_surface<const SHAPE: u8>(
     surface: &SurfaceConstants<f32x8>,
     block: &mut SimdBlock,
     chunks: usize,
+    etas: Option<&[f32]>,
 ) -> bool {
     let mut any_alive = f32x8::ZERO;
-    for (ray, alive) in block.rays[..chunks]
+    for (c, (ray, alive)) in block.rays[..chunks]
         .iter_mut()
         .zip(&mut block.alive[..chunks])
+        .enumerate()
     {
-        *alive = refract_at::<f32x8, SHAPE>(surface, ray, *alive);
+        let eta = match etas {
+            Some(etas) => {
+                let mut lanes = [1.0f32; LANES];
+                lanes.copy_from_slice(&etas[c * LANES..(c + 1) * LANES]);
+                f32x8::from(lanes)
+            }
+            None => surface.eta,
+        };
+        *alive = refract_at::<f32x8, SHAPE>(surface, ray, *alive, eta);
         any_alive |= *alive;
     }
     any_alive.any()
@@ -574,6 +724,80 @@ mod tests {
                 }
             }
             assert!(disagreements <= 2, "{name}: {disagreements} disagreements");
+        }
+    }
+
+    /// Rays of many wavelengths in one batch, each refracted with its own indices, agree with
+    /// the f64 reference traced at that wavelength; every kernel gives the same bits.
+    #[test]
+    fn spectral_batch_agrees_with_the_reference_at_each_wavelength() {
+        let data = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/zmx");
+        for file in ["lens1.zmx", "US08427765-1-S-TIM28.zmx"] {
+            let p = crate::lens::Prescription::load(&data.join(file), None).unwrap();
+            let system = LensSystem::new(&p.rows, None);
+            let table = system.dispersion.as_deref().expect("catalogue glasses");
+            let rays = film_rays(&system, system.rear_z() * 0.6, 8003);
+            let lambdas = [
+                380.0f32, 430.0, 486.1327, 550.0, 587.5618, 656.2725, 720.0, 780.0,
+            ];
+            let nm: Vec<f32> = (0..rays.len())
+                .map(|i| lambdas[i % lambdas.len()])
+                .collect();
+            let mut batch = RayBatch::with_capacity(rays.len());
+            for r in &rays {
+                batch.push(
+                    r.origin.map(|v| v as f32),
+                    r.direction.map(|v| v as f32),
+                    0,
+                    0,
+                );
+            }
+            let input = batch.clone();
+            let wavelengths = Wavelengths { table, nm: &nm };
+            trace_batch_spectral(&system.f32s, wavelengths, &mut batch, Travel::FilmToScene);
+            for isa in Isa::available() {
+                for kernel in [Kernel::AutoVectorised, Kernel::Simd] {
+                    let mut other = input.clone();
+                    trace_batch_spectral_on(
+                        &system.f32s,
+                        wavelengths,
+                        &mut other,
+                        Travel::FilmToScene,
+                        kernel,
+                        isa,
+                    );
+                    assert_bit_identical(&batch, &other, &format!("{file} {kernel:?} {isa:?}"));
+                }
+            }
+            let references: Vec<LensSystem> = lambdas
+                .iter()
+                .map(|&l| system.at_wavelength(l as f64))
+                .collect();
+            let (mut passed, mut disagreements) = (0, 0);
+            for (i, r) in rays.iter().enumerate() {
+                let reference = &references[i % lambdas.len()];
+                match (
+                    trace(&reference.f64s, *r, Travel::FilmToScene),
+                    batch.alive[i],
+                ) {
+                    (Ok(out), true) => {
+                        passed += 1;
+                        let d = batch.direction(i);
+                        for k in 0..3 {
+                            assert!(
+                                (d[k] as f64 - out.direction[k]).abs() < 2e-4,
+                                "{file} at {} nm: {d:?} vs {:?}",
+                                nm[i],
+                                out.direction
+                            );
+                        }
+                    }
+                    (Ok(_), false) | (Err(_), true) => disagreements += 1,
+                    (Err(_), false) => {}
+                }
+            }
+            assert!(disagreements <= rays.len() / 500, "{file}: {disagreements}");
+            assert!(passed > 100, "{file}: only {passed} rays passed");
         }
     }
 }

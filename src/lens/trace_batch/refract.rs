@@ -45,9 +45,9 @@ pub struct SurfaceConstants<L> {
     pub coefficients: [L; ASPHERIC_TERMS],
     pub slope_coefficients: [L; ASPHERIC_TERMS],
     pub semi_aperture_sq: L,
-    /// n_incident / n_transmitted for the direction of travel, and its square.
+    /// n_incident / n_transmitted for the direction of travel (at the lens's own indices; a
+    /// spectral batch passes each lane's own ratio to [`refract_at`] instead).
     pub eta: L,
-    pub eta_sq: L,
     /// +1 when rays must leave toward +z, −1 toward −z.
     pub forward_sign: L,
 }
@@ -94,7 +94,6 @@ impl SurfaceConstants<f32> {
                     slope_coefficients,
                     semi_aperture_sq: surfaces.semi_aperture_sq[i],
                     eta,
-                    eta_sq: eta * eta,
                     forward_sign,
                 }
             })
@@ -115,7 +114,6 @@ impl SurfaceConstants<f32> {
             slope_coefficients: self.slope_coefficients.map(L::splat),
             semi_aperture_sq: L::splat(self.semi_aperture_sq),
             eta: L::splat(self.eta),
-            eta_sq: L::splat(self.eta_sq),
             forward_sign: L::splat(self.forward_sign),
         }
     }
@@ -129,13 +127,15 @@ pub struct LaneRay<L> {
 }
 
 /// Moves the `alive` lanes of `ray` onto surface `s` (whose shape is `SHAPE`, the value of
-/// `s.shape`) and refracts them; returns which lanes are still alive. Lanes that are or become
-/// blocked keep their previous state, so a miss never leaves a NaN behind.
+/// `s.shape`) and refracts them with index ratio `eta` (n_incident / n_transmitted: `s.eta`, or
+/// each lane's at its wavelength); returns which lanes are still alive. Lanes that are or
+/// become blocked keep their previous state, so a miss never leaves a NaN behind.
 #[inline(always)]
 pub fn refract_at<L: Lanes, const SHAPE: u8>(
     s: &SurfaceConstants<L>,
     ray: &mut LaneRay<L>,
     alive: L::Mask,
+    eta: L,
 ) -> L::Mask {
     let zero = L::splat(0.0);
     let one = L::splat(1.0);
@@ -181,16 +181,16 @@ pub fn refract_at<L: Lanes, const SHAPE: u8>(
     let cos_raw = -(vx * nx + vy * ny + vz * nz);
     let flip = L::select(cos_raw.lt(zero), -one, one);
     let cos_i = cos_raw * flip;
-    let cos_t_sq = one - s.eta_sq * (one - cos_i * cos_i);
+    let cos_t_sq = one - eta * eta * (one - cos_i * cos_i);
     let no_tir = cos_t_sq.ge(zero);
     let cos_t = cos_t_sq.max(zero).sqrt();
     // Snell's law in vector form, η·d + (η·cos_i − cos_t)·n: a unit vector when d and n are,
     // so it is renormalised only once, after the last surface ([`normalise_direction`]); the
     // rounding drift over a whole lens is ~1e-6.
-    let along_normal = (s.eta * cos_i - cos_t) * flip;
-    let rx = s.eta * vx + along_normal * nx;
-    let ry = s.eta * vy + along_normal * ny;
-    let rz = s.eta * vz + along_normal * nz;
+    let along_normal = (eta * cos_i - cos_t) * flip;
+    let rx = eta * vx + along_normal * nx;
+    let ry = eta * vy + along_normal * ny;
+    let rz = eta * vz + along_normal * nz;
     let forward = (rz * s.forward_sign).gt(zero);
 
     let survives = alive & hit & inside & no_tir & forward;
