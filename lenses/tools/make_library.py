@@ -229,18 +229,6 @@ DESIGNS = [
         "relative aperture F/2.8 quoted in lentil's notes (angle of field 75 degrees)",
     ),
     dict(
-        name="canon-retrofocus-wide-14mm-f2.8",
-        title="Canon retrofocus wide angle 14 mm f/2.8 (US 4,310,222)",
-        lentil="0005",
-        year=1982,
-        focal=14.2, f_number=2.8,
-        basis="the patent's f = 14.2, f/2.8 (angle of field 114 degrees), quoted in lentil's notes",
-        fixes=[(2, "radius", 40.28, 58.28,
-                "lentil changed surface 3's radius from the patent's 58.28 to 40.28, judging the "
-                "printed value wrong; with 40.28 the focal length is 15.32 mm, with the printed "
-                "58.28 it is 14.28 mm, the patent's f = 14.2: the printed value is used")],
-    ),
-    dict(
         name="kodak-petzval-1948",
         title="Kodak Petzval-type lens (US 2,500,046)",
         lentil="0006",
@@ -318,7 +306,7 @@ DESIGNS = [
         title="Rudolph's double Gauss (US 583,336, Example 2)",
         zmx="US00583336-2-scaled.zmx",
         repo_path="src/rayoptics/zemax/tests/US00583336-2-scaled.zmx",
-        patent="US 583,336 Example 2 (P. Rudolph, the Zeiss Planar)",
+        patent="US 583,336 Example 2 (P. Rudolph)",
         year=1897,
         focal=49.4, f_number=4.5,
         basis="the file's scaling of the patent example: its EFLY operand targets a 49.4 mm focal "
@@ -329,6 +317,24 @@ DESIGNS = [
         "field of the file.",
     ),
 ]
+
+# Left out, and why (lenses/README.md says the same):
+# - lentil 0005, Canon retrofocus 14 mm f/2.8 (US 4,310,222): lentil replaced the patent's
+#   printed radius 58.28 of surface 3 by 40.28 (focal length 15.32 mm, not the patent's 14.2);
+#   the printed value gives 14.28 mm, but then real chief rays put the patent's 114-degree field
+#   on a 33 mm image circle (-12 % distortion) and none reaches the 35 mm frame's corner, so some
+#   other value is wrong too, which the data alone cannot tell.
+# - lentil 0003 (Petzval, OPTI 517 course notes): its data give 86.2 mm, not the 100 mm listed;
+#   lentil's own note says it was never scaled to 100 mm.
+# - lentil 0007 (Cooke Speed Panchro, GB 157,040) and 0008 (Nikon f/1.25, US 8,721,094): the data
+#   give 25.96 mm and 53.35 mm, not the patents' 25.4 mm and 51.6 mm (lentil's own ray trace
+#   agrees with the data, 25.96 and 52.85), and no single plausible misprint restores them.
+# - lentil 0012, 0013 (not production-ready: lentil's notes say the data are wrong), 2001-2004
+#   and 9991 (cylindrical, anamorphic elements realcam cannot represent), 9992-9994 (tests).
+# - lenses-zmx: HoO-V2C18Ex27 (mirrors), zemax_double_gaussian (an ideal PARAXIAL surface),
+#   US08427765-1 (a moulded glass L-TIM28_MOLD not in any catalogue, and no published focal
+#   length in the file), lens1 and the Laikin wide angle (no published focal length or source
+#   design data), ef35mm_f2.0.zmx (the DeepLens JSON's design, converted from that instead).
 
 # ---------------------------------------------------------------------------------------------
 # Numbers

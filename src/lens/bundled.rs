@@ -69,7 +69,6 @@ pub const BUNDLED: &[BundledLens] = bundled![
     "angenieux-double-gauss-1953" => "angenieux-double-gauss-1953.toml",
     "meyer-primoplan-1936" => "meyer-primoplan-1936.toml",
     "nikon-retrofocus-wide-1971" => "nikon-retrofocus-wide-1971.toml",
-    "canon-retrofocus-wide-14mm-f2.8" => "canon-retrofocus-wide-14mm-f2.8.toml",
     "kodak-petzval-1948" => "kodak-petzval-1948.toml",
     "zeiss-biotar-1927" => "zeiss-biotar-1927.toml",
     "asahi-takumar-1969" => "asahi-takumar-1969.toml",
