@@ -349,6 +349,32 @@ fn the_widest_unclipped_stop_agrees_with_lentils_ray_trace() {
     }
 }
 
+/// The Zemax design as realcam's own `.zmx` reader reads it (tests/data/zmx, the same file the
+/// converter read) and the library's conversion are the same lens: the converter's paraxial
+/// stop sizing for the file's FNUM agrees with the reader's, and leaving out the file's dummy
+/// front plane changes nothing.
+#[test]
+fn rudolph_double_gauss_is_its_zemax_file() {
+    let (library, _, converted) = load("rudolph-double-gauss");
+    let zmx = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/zmx/US00583336-2-scaled.zmx");
+    let direct = Prescription::load(&zmx, None).unwrap();
+    let direct_fo = FirstOrder::compute(&LensSystem::new(&direct.rows, None)).unwrap();
+    assert!((converted.focal_length - direct_fo.focal_length).abs() < 1e-9);
+    // The converter took the glasses' n_d to five decimals (Schott's data sheets).
+    assert!(
+        (converted.f_number / direct_fo.f_number - 1.0).abs() < 1e-4,
+        "{} vs {}",
+        converted.f_number,
+        direct_fo.f_number
+    );
+    assert_eq!(library.rows.len() + 1, direct.rows.len());
+    for (a, b) in library.rows.iter().zip(&direct.rows[1..]) {
+        assert!((a.curvature() - b.curvature()).abs() < 1e-12);
+        assert!((a.index - b.index).abs() < 1e-12);
+        assert_eq!(a.stop, b.stop);
+    }
+}
+
 fn realcam(args: &[&str]) -> (i32, String, String) {
     let out = Command::new(env!("CARGO_BIN_EXE_realcam"))
         .args(args)
@@ -456,4 +482,30 @@ fn lenses_filter_and_its_errors() {
     assert!(stderr.contains("no-such-maker"), "{stderr}");
     let (code, _, stderr) = realcam(&["lenses", "--no-such-option"]);
     assert_eq!(code, 2, "{stderr}");
+}
+
+#[test]
+fn readme_documents_every_option_of_realcam_lenses() {
+    let (code, help, _) = realcam(&["lenses", "--help"]);
+    assert_eq!(code, 0);
+    let readme =
+        std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/README.md")).unwrap();
+    let section = readme
+        .split("## The lens library")
+        .nth(1)
+        .expect("README has a lens library section");
+    assert!(section.contains("`FILTER`") && help.contains("[FILTER]"));
+    let options: Vec<&str> = help
+        .split_whitespace()
+        .filter(|w| w.starts_with("--") && w.len() > 2)
+        .map(|w| w.trim_end_matches(|c: char| !c.is_ascii_alphanumeric()))
+        .filter(|w| *w != "--help")
+        .collect();
+    assert!(!options.is_empty());
+    for option in options {
+        assert!(
+            section.contains(&format!("`{option}")),
+            "README lacks {option}"
+        );
+    }
 }
