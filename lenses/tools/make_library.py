@@ -5,7 +5,8 @@ format, from the prescription data collected in the shared data folder (``lenses
 
     python3 lenses/tools/make_library.py [--shared DIR] [--out DIR] [--check]
 
-``--shared`` defaults to ``../shared`` next to the repository; ``--out`` to the repository's
+``--shared`` defaults to the ``shared`` folder next to the repository (or next to its parent,
+for a git worktree in a subfolder); ``--out`` to the repository's
 ``lenses/``. ``--check`` writes nothing and fails if any generated file differs from the one
 on disk (so a hand edit or a stale file is caught). Python 3 standard library only.
 
@@ -669,7 +670,11 @@ def write_toml(design, surfaces):
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--shared", type=Path, default=REPO.parent / "shared")
+    default_shared = next(
+        (p / "shared" for p in (REPO.parent, REPO.parent.parent) if (p / "shared" / "lenses-json").is_dir()),
+        REPO.parent / "shared",
+    )
+    parser.add_argument("--shared", type=Path, default=default_shared)
     parser.add_argument("--out", type=Path, default=REPO / "lenses")
     parser.add_argument("--check", action="store_true")
     args = parser.parse_args()
