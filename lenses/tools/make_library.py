@@ -287,8 +287,8 @@ DESIGNS = [
         scale=16.0,
         focal=16.0, f_number=2.8,
         basis="the patent's example at f = 1 (lentil's focal-length-mm-patent) scaled to 16 mm, the "
-        "focal length lentil's notes give for the product, and the patent's aperture ratio f/2.8 "
-        "quoted in lentil's notes (field 180 degrees)",
+        "focal length lentil's notes expect the product to have had, and the patent's aperture "
+        "ratio f/2.8 quoted in lentil's notes (field 180 degrees)",
     ),
     dict(
         name="canon-35mm-f1.8",
