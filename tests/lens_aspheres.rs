@@ -44,10 +44,7 @@ fn a_conic_with_k_minus_one_over_n_squared_focuses_stigmatically() {
     let (radius, n, semi) = (20.0, 1.5, 10.0);
     let focus = n * radius / (n - 1.0);
     let spread = |crossings: &[f64]| {
-        let rms = (crossings.iter().map(|z| (z - focus).powi(2)).sum::<f64>()
-            / crossings.len() as f64)
-            .sqrt();
-        rms
+        (crossings.iter().map(|z| (z - focus).powi(2)).sum::<f64>() / crossings.len() as f64).sqrt()
     };
     let conic = axial_crossings(radius, -1.0 / (n * n), n, semi);
     let sphere = axial_crossings(radius, 0.0, n, semi);

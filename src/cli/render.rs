@@ -245,12 +245,13 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<ExitCode> {
     for warning in prescriptions.iter().flat_map(|p| &p.warnings) {
         eprintln!("warning: {warning}");
     }
-    // The film: as asked, else the scene camera's, else the (first) lens's own format.
+    // The film: as asked, else the format the (first) lens was designed for (a phone lens's is
+    // a few mm), else the scene camera's.
     let film_diagonal = args
         .lens_options
         .film_diagonal
-        .or(placement.hints.film_diagonal_mm)
         .or(prescriptions[0].info.film_diagonal_mm)
+        .or(placement.hints.film_diagonal_mm)
         .unwrap_or(35.0);
     let (world_from_camera, framed_focus) = if placement.frame_bounds {
         let aperture = args.lens_options.aperture(ApertureSetting::Full);

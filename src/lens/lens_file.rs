@@ -2,9 +2,9 @@
 //! is easy to read and write by hand (documented with an example in `lenses/README.md`).
 //!
 //! ```toml
-//! title = "Cooke triplet"
-//! source = "US 1,480,489 (H. D. Taylor), via …"
-//! licence = "MIT"
+//! title = "A triplet with an aspheric element (an example, not a real design)"
+//! source = "where the numbers come from: patent, book, repository @ commit : path"
+//! licence = "the licence of the source's data"
 //! focal_length_mm = 50.0
 //! f_number = 4.5
 //! surfaces = [

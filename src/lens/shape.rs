@@ -177,13 +177,15 @@ impl<T: Float> Profile<T> {
         if !self.polynomial {
             return base;
         }
-        // Start Newton from the base conic, or from the vertex plane where the ray misses the
-        // conic (a strong polynomial can bend the surface into the ray's way).
-        let start = base.or_else(|| {
+        // Start Newton from the base conic; where the ray misses it (a strong polynomial can
+        // bend the surface into the ray's way), from the vertex plane if that is ahead, else
+        // from the ray's origin (a ray leaving a neighbouring surface whose rim reaches past
+        // this vertex plane).
+        let start = base.unwrap_or_else(|| {
             let dz = ray.direction[2];
             let t = (vertex_z - ray.origin[2]) / dz;
-            (dz != T::zero() && t > T::zero()).then_some(t)
-        })?;
+            if t > T::zero() { t } else { T::zero() }
+        });
         self.newton(vertex_z, ray, start)
     }
 
@@ -228,17 +230,21 @@ impl<T: Float> Profile<T> {
     /// Newton's method on f(t) = z(t) − sag(ρ(t)), f′(t) = d_z − 2·sag′·(x·d_x + y·d_y), from
     /// `t`; converged when a step is below 1e-10 mm (the point is then within 1e-9 mm of the
     /// surface along the ray), else a miss.
+    ///
+    /// z is taken from the vertex (o_z − z_vertex once, then + t·d_z), and in a precision that
+    /// cannot resolve 1e-10 mm (f32) a step counts as converged within a few ulps of the
+    /// lengths it is computed from: the distance, the origin's height over the vertex, the sag.
     fn newton(&self, vertex_z: T, ray: &Ray<T>, mut t: T) -> Option<T> {
         let tolerance = T::from(1e-10).unwrap();
-        // f32 cannot resolve 1e-10 mm: stop at a few ulps of the distance there.
-        let relative = T::epsilon() * T::from(4.0).unwrap();
+        let relative = T::epsilon() * T::from(16.0).unwrap();
         let [ox, oy, oz] = ray.origin;
         let [dx, dy, dz] = ray.direction;
+        let oz = oz - vertex_z;
         let two = T::one() + T::one();
         for _ in 0..MAX_NEWTON_STEPS {
             let x = ox + t * dx;
             let y = oy + t * dy;
-            let z = oz + t * dz - vertex_z;
+            let z = oz + t * dz;
             let (sag, slope) = self.sag_and_slope(x * x + y * y)?;
             let f = z - sag;
             let derivative = dz - two * slope * (x * dx + y * dy);
@@ -250,7 +256,8 @@ impl<T: Float> Profile<T> {
             if !t.is_finite() {
                 return None;
             }
-            if step.abs() <= tolerance.max(relative * t.abs()) {
+            let scale = t.abs() + oz.abs() + sag.abs();
+            if step.abs() <= tolerance.max(relative * scale) {
                 return (t > T::from(1e-9).unwrap_or_else(T::epsilon)).then_some(t);
             }
         }

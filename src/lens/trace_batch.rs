@@ -546,22 +546,39 @@ mod tests {
     }
 
     /// Random rays from the film plane toward the rear element: the render path's rays.
+    /// Random rays from the film plane toward the rear element: the render path's rays. Every
+    /// other one is aimed within the exit-pupil bounds, as the renderer aims (so lenses with a
+    /// small pupil still pass many), the rest anywhere over the rear element (so many are
+    /// blocked, at every surface).
     fn film_rays(system: &LensSystem, film_distance: f64, count: usize) -> Vec<Ray<f64>> {
         let mut rng = Rng::new(42, 7);
         let rear = system.rear_semi_aperture() * 1.1;
+        // A film about the lens's size (±15 mm for a camera lens, less for a phone's).
+        let film = 30.0f64.min(4.0 * system.rear_semi_aperture());
         let film_z = system.rear_z() + film_distance;
+        let pupil = crate::lens::pupil::ExitPupil::compute(
+            system,
+            film_distance,
+            film * std::f64::consts::SQRT_2,
+            crate::lens::pupil::PupilSampling::Bounds,
+        );
         (0..count)
-            .map(|_| {
+            .map(|i| {
                 let film = [
-                    (rng.next_f64() - 0.5) * 30.0,
-                    (rng.next_f64() - 0.5) * 30.0,
+                    (rng.next_f64() - 0.5) * film,
+                    (rng.next_f64() - 0.5) * film,
                     film_z,
                 ];
-                let target = [
-                    (rng.next_f64() - 0.5) * 2.0 * rear,
-                    (rng.next_f64() - 0.5) * 2.0 * rear,
-                    system.rear_z(),
-                ];
+                let u = [rng.next_f64(), rng.next_f64()];
+                let in_bounds = pupil.sample(film[0] as f32, film[1] as f32, u.map(|v| v as f32));
+                let target = match in_bounds {
+                    Some(sample) if i % 2 == 0 => sample.point.map(f64::from),
+                    _ => [
+                        (u[0] - 0.5) * 2.0 * rear,
+                        (u[1] - 0.5) * 2.0 * rear,
+                        system.rear_z(),
+                    ],
+                };
                 let d = crate::lens::trace::normalize([
                     target[0] - film[0],
                     target[1] - film[1],
@@ -612,7 +629,10 @@ mod tests {
         for (name, system) in test_lenses() {
             let name = name.as_str();
             // Not a multiple of the lane count or the block: exercises the padded last chunk.
-            let rays = film_rays(&system, system.rear_z() * 0.6, 4003);
+            // The film near focus, where the render's rays come from.
+            let film_distance = crate::lens::first_order::FirstOrder::compute(&system)
+                .map_or(system.rear_z() * 0.6, |fo| fo.back_focal_length);
+            let rays = film_rays(&system, film_distance, 4003);
             let mut batch = RayBatch::with_capacity(rays.len());
             for r in &rays {
                 let f = |a: [f64; 3]| [a[0] as f32, a[1] as f32, a[2] as f32];

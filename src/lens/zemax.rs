@@ -141,7 +141,7 @@ pub fn looks_like_zemax(bytes: &[u8]) -> bool {
 /// what OpticStudio writes), UTF-8 (with or without a mark), or Latin-1.
 fn decode(bytes: &[u8]) -> Result<String, String> {
     let utf16 = |body: &[u8], little: bool| -> Result<String, String> {
-        if body.len() % 2 != 0 {
+        if !body.len().is_multiple_of(2) {
             return Err("is UTF-16 with an odd number of bytes: the file is truncated".into());
         }
         let units: Vec<u16> = body

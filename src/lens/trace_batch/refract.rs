@@ -269,18 +269,23 @@ fn hit_polynomial<L: Lanes>(s: &SurfaceConstants<L>, ray: &LaneRay<L>) -> (L, L:
     let [px, py, pz] = ray.origin;
     let [vx, vy, vz] = ray.direction;
     let (conic_t, conic_hit) = hit_conic(s, ray);
+    // Where the conic is missed: the vertex plane if it lies ahead, else the ray's origin (the
+    // reference's start, [`crate::lens::shape::Profile::intersect`]).
     let plane_t = (s.vertex_z - pz) / vz;
+    let plane_t = L::select(plane_t.gt(zero), plane_t, zero);
     let mut t = L::select(conic_hit, conic_t, plane_t);
-    let started = conic_hit | plane_t.gt(zero);
-    // Converged once a step is within a few f32 ulps of the distance travelled.
-    let relative = L::splat(8.0 * f32::EPSILON);
+    // Converged once a step is within a few f32 ulps of the lengths it comes from: the
+    // distance, the origin's height over the vertex, the sag.
+    let relative = L::splat(16.0 * f32::EPSILON);
     let absolute = L::splat(1e-7);
-    let mut searching = started;
+    let ovz = pz - s.vertex_z;
+    // Every lane whose start is a number searches (vz = 0 gives NaN).
+    let mut searching = plane_t.ge(zero);
     let mut converged = zero.lt(zero);
     for _ in 0..NEWTON_STEPS {
         let x = px + t * vx;
         let y = py + t * vy;
-        let z = pz + t * vz - s.vertex_z;
+        let z = ovz + t * vz;
         let (sag, slope, defined) = sag_and_slope(s, x * x + y * y);
         let derivative = vz - (slope + slope) * (x * vx + y * vy);
         let step = (z - sag) / derivative;
@@ -289,7 +294,8 @@ fn hit_polynomial<L: Lanes>(s: &SurfaceConstants<L>, ray: &LaneRay<L>) -> (L, L:
         let valid = defined & finite;
         // Lanes leave the search converged or failed; either way their t no longer moves.
         t = L::select(searching & valid, next, t);
-        let done = step.abs().le(absolute + relative * next.abs());
+        let scale = next.abs() + ovz.abs() + sag.abs();
+        let done = step.abs().le(absolute + relative * scale);
         converged = converged | (searching & valid & done);
         searching = searching & valid & !done;
         if !L::any(searching) {
