@@ -16,6 +16,7 @@ use super::system::LensSystem;
 use super::trace::Travel;
 use super::trace_batch::{Isa, Wavelengths, trace_batch, trace_batch_spectral};
 use crate::batch::RayBatch;
+use crate::sampling::sobol::owen_sobol;
 use crate::sampling::{CorrelatedMultiJitter, Rng, hash32};
 use crate::spectral::sample_wavelength;
 
@@ -219,19 +220,22 @@ impl LensCamera<'_> {
     }
 
     /// The camera sample (film jitter, pupil point, and in a spectral render the wavelength) of
-    /// `sample` in every scratch pixel: correlated multi-jittered 2D patterns over the planned
-    /// samples, keyed per pixel and per pair of dimensions; independent random numbers past the
-    /// plan. The wavelength draws from a pattern of its own, so film and pupil samples are the
-    /// same whether a render is spectral or not.
+    /// `sample` in every scratch pixel. Film jitter: a correlated multi-jittered 2D pattern over
+    /// the planned samples, keyed per pixel; independent random numbers past the plan. Pupil
+    /// point: the same with a pattern of its own; in a spectral render, pupil point and
+    /// wavelength instead come together from a pixel's Owen-scrambled Sobol points, stratified
+    /// in the three dimensions jointly (the lens weight varies over the pupil and the film's
+    /// colour weights over the wavelength: only a joint pattern keeps their product from
+    /// adding both variances; see [`crate::sampling::sobol`]).
     #[inline(always)]
     fn camera_samples(&self, sample: u32, seed: u64, scratch: &mut Scratch) {
         let planned = self.samples_per_pixel.min(CorrelatedMultiJitter::MAX_COUNT);
         let spectral = self.dispersion.is_some();
-        let [film_u, film_v, pupil_u, pupil_v, wave_u, wave_v] = &mut scratch.u;
+        let [film_u, film_v, pupil_u, pupil_v, wave_u, _] = &mut scratch.u;
+        let mut seed_keys = Rng::for_sample(seed ^ CAMERA_KEY, u32::MAX, u32::MAX);
+        let (film_seed, pupil_seed) = (seed_keys.next_u32(), seed_keys.next_u32());
         if sample < planned {
-            let mut seed_keys = Rng::for_sample(seed ^ CAMERA_KEY, u32::MAX, u32::MAX);
-            let (film_seed, pupil_seed) = (seed_keys.next_u32(), seed_keys.next_u32());
-            let [film_keys, pupil_keys, wave_keys] = &mut scratch.keys;
+            let [film_keys, pupil_keys, _] = &mut scratch.keys;
             // hash32 is a bijection: distinct pixels get distinct keys, and the pupil key is
             // a further hash of the film key, so the two patterns of a pixel are unrelated.
             for ((&pixel, film), pupil) in scratch
@@ -245,21 +249,24 @@ impl LensCamera<'_> {
             }
             let pattern = CorrelatedMultiJitter::new(planned);
             pattern.fill(sample, film_keys, film_u, film_v);
-            pattern.fill(sample, pupil_keys, pupil_u, pupil_v);
-            if spectral {
-                for (wave, &pupil) in wave_keys.iter_mut().zip(pupil_keys.iter()) {
-                    *wave = hash32(pupil ^ WAVELENGTH_KEY);
-                }
-                pattern.fill(sample, wave_keys, wave_u, wave_v);
+            if !spectral {
+                pattern.fill(sample, pupil_keys, pupil_u, pupil_v);
             }
         } else {
             for (i, &pixel) in scratch.pixel.iter().enumerate() {
                 let mut rng = Rng::for_sample(seed, pixel, sample);
                 [film_u[i], film_v[i]] = rng.next_2d();
                 [pupil_u[i], pupil_v[i]] = rng.next_2d();
-                if spectral {
-                    [wave_u[i], wave_v[i]] = rng.next_2d();
-                }
+            }
+        }
+        if spectral {
+            let [.., wave_keys] = &mut scratch.keys;
+            for (i, &pixel) in scratch.pixel.iter().enumerate() {
+                let key = hash32(hash32(pixel ^ pupil_seed) ^ WAVELENGTH_KEY);
+                wave_keys[i] = key;
+                pupil_u[i] = owen_sobol(sample, 0, key);
+                pupil_v[i] = owen_sobol(sample, 1, key);
+                wave_u[i] = owen_sobol(sample, 2, key);
             }
         }
     }

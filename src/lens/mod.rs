@@ -16,9 +16,11 @@
 //!   object plane, in metres (as pbrt).
 //! * Every z reported to users (`realcam lens --json`) is a lens-frame z in mm.
 
+pub mod aiming;
 pub mod aperture;
 pub mod bundled;
 pub mod camera;
+pub mod chromatic;
 pub mod clear_aperture;
 pub mod dat_file;
 pub mod diagram;
