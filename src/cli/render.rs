@@ -399,10 +399,15 @@ fn lens_defaults(
     renderer: &mut Renderer,
     world_from_camera: Mat4,
 ) -> (FocusSetting, ApertureSetting) {
-    let hints_fit =
-        placement.hints.lens.as_deref().is_none_or(|hinted| {
-            load_lens(hinted, None).is_ok_and(|h| h.rows == prescription.rows)
-        });
+    let hints_fit = placement.hints.lens.as_deref().is_none_or(|hinted| {
+        load_lens(hinted, None).is_ok_and(|h| {
+            h.rows.len() == prescription.rows.len()
+                && h.rows
+                    .iter()
+                    .zip(&prescription.rows)
+                    .all(|(a, b)| a.same_optics(b))
+        })
+    });
     let hints = if hints_fit {
         placement.hints.clone()
     } else {

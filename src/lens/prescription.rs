@@ -155,6 +155,21 @@ impl SurfaceRow {
         self.stop
     }
 
+    /// The same surface for tracing at the rows' own indices: equal but for the source line and
+    /// the glass's dispersion (a copy of a lens file with other comments, or without its glass
+    /// column, focuses where the original does).
+    pub fn same_optics(&self, other: &SurfaceRow) -> bool {
+        SurfaceRow {
+            line: 0,
+            glass: None,
+            ..*self
+        } == SurfaceRow {
+            line: 0,
+            glass: None,
+            ..*other
+        }
+    }
+
     /// The surface's shape, in f64.
     pub fn profile(&self) -> Profile<f64> {
         Profile::new(self.curvature(), &self.asphere, |v| v)
