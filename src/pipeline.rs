@@ -457,7 +457,7 @@ pub fn weight(mut tiles: Query<&mut TileBatch>, mut stats: ResMut<RenderStats>) 
                 let w = camera.weight[i];
                 let (r, g, b) = (radiance.r[i] * w, radiance.g[i] * w, radiance.b[i] * w);
                 let [r, g, b] = if spectral {
-                    film.film_rgb(camera.wavelength[i], [r, g, b])
+                    film.film_rgb(camera.wavelength[i], camera.wavelength_weight[i], [r, g, b])
                 } else {
                     [r, g, b]
                 };

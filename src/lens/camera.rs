@@ -106,6 +106,8 @@ pub struct CameraRays {
     /// Each ray's wavelength, nm, in a spectral render (see [`LensCamera::dispersion`]);
     /// empty otherwise.
     pub wavelength: Vec<f32>,
+    /// The inverse of the density each ray's wavelength was drawn with, nm.
+    pub wavelength_weight: Vec<f32>,
     scratch: Scratch,
 }
 
@@ -163,8 +165,10 @@ impl LensCamera<'_> {
         out.weight.clear();
         out.weight.resize(n, 0.0);
         out.wavelength.clear();
+        out.wavelength_weight.clear();
         if self.dispersion.is_some() {
             out.wavelength.resize(n, 0.0);
+            out.wavelength_weight.resize(n, 0.0);
         }
         // The per-pixel loops are compiled again for wider vector units and the widest this
         // CPU has is chosen, as for the lens kernel.
@@ -201,8 +205,14 @@ impl LensCamera<'_> {
         match self.dispersion {
             None => trace_batch(&self.system.f32s, &mut out.rays, Travel::FilmToScene),
             Some(table) => {
-                for (nm, &u) in out.wavelength.iter_mut().zip(&out.scratch.u[4]) {
-                    *nm = sample_wavelength(u as f64) as f32;
+                for ((nm, weight), &u) in out
+                    .wavelength
+                    .iter_mut()
+                    .zip(out.wavelength_weight.iter_mut())
+                    .zip(&out.scratch.u[4])
+                {
+                    let sample = sample_wavelength(u);
+                    (*nm, *weight) = (sample.nm, sample.inverse_pdf);
                 }
                 let wavelengths = Wavelengths {
                     table,

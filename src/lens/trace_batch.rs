@@ -204,21 +204,46 @@ impl Plan<'_> {
         let Some((wavelengths, travel)) = self.spectral else {
             return false;
         };
+        let table = wavelengths.table;
         let count = self.surfaces.len();
+        let mut cell = [0usize; BLOCK];
+        let mut fraction = [0.0f32; BLOCK];
         for lane in 0..n {
-            let at = wavelengths.table.position(wavelengths.nm[start + lane]);
-            for step in 0..count {
-                let (surface, forward) = match travel {
-                    Travel::SceneToFilm => (step, true),
-                    Travel::FilmToScene => (count - 1 - step, false),
-                };
-                let before = wavelengths.table.index_before(surface, at);
-                let after = wavelengths.table.index_after(surface, at);
-                etas[step * BLOCK + lane] = if forward {
-                    before / after
-                } else {
-                    after / before
-                };
+            (cell[lane], fraction[lane]) = table.position(wavelengths.nm[start + lane]);
+        }
+        // Each medium's index is looked up once per ray: the index after one surface is the
+        // index before the next.
+        let index_after =
+            |surface: usize, lane: usize| table.index_after(surface, (cell[lane], fraction[lane]));
+        let mut carried = [1.0f32; BLOCK];
+        match travel {
+            Travel::SceneToFilm => {
+                for step in 0..count {
+                    let eta = &mut etas[step * BLOCK..step * BLOCK + n];
+                    for lane in 0..n {
+                        let after = index_after(step, lane);
+                        eta[lane] = carried[lane] / after;
+                        carried[lane] = after;
+                    }
+                }
+            }
+            Travel::FilmToScene => {
+                for lane in 0..n {
+                    carried[lane] = index_after(count - 1, lane);
+                }
+                for step in 0..count {
+                    let surface = count - 1 - step;
+                    let eta = &mut etas[step * BLOCK..step * BLOCK + n];
+                    for lane in 0..n {
+                        let before = if surface == 0 {
+                            1.0
+                        } else {
+                            index_after(surface - 1, lane)
+                        };
+                        eta[lane] = carried[lane] / before;
+                        carried[lane] = before;
+                    }
+                }
             }
         }
         true

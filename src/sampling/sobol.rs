@@ -6,8 +6,7 @@
 //! from picking up the product of both variances (independently stratified dimensions, paired
 //! at random, do). Sobol's first dimensions are such a pattern; each pixel gets its own random
 //! variant by nested uniform (Owen) scrambling, done with the hash-based permutation of Burley,
-//! "Practical Hash-based Owen Scrambling" (JCGT 2020), which also shuffles the sample order so
-//! that any prefix of a pixel's samples is well spread.
+//! "Practical Hash-based Owen Scrambling" (JCGT 2020).
 
 use super::hash32;
 
@@ -57,16 +56,15 @@ const fn directions() -> [[u32; 32]; DIMENSIONS] {
 }
 
 /// The unscrambled Sobol point `index` in dimension `dim`, as a 32-bit fraction.
+#[inline]
 pub fn sobol(index: u32, dim: usize) -> u32 {
+    let directions = &DIRECTIONS[dim];
     let mut x = 0;
     let mut bits = index;
-    let mut k = 0;
+    // One step per set bit of the index (a pixel's sample indices are small).
     while bits != 0 {
-        if bits & 1 == 1 {
-            x ^= DIRECTIONS[dim][k];
-        }
-        bits >>= 1;
-        k += 1;
+        x ^= directions[bits.trailing_zeros() as usize];
+        bits &= bits - 1;
     }
     x
 }

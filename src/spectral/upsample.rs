@@ -18,13 +18,15 @@
 //! film = M⁻¹·c̄(λ)·S(λ) / p(λ)        (M⁻¹: XYZ → linear sRGB, c̄ = (x̄, ȳ, z̄))
 //! ```
 //!
-//! to its pixel: an unbiased estimate of the sample's XYZ, in sRGB. [`SpectralFilm`] keeps
-//! both factors per nanometre, a(λ) = M⁻¹·c̄·k·D65/p and b(λ) = Cᵀ·ρ, so that film = a·(b·rgb).
+//! to its pixel: an unbiased estimate of the sample's XYZ, in sRGB, whatever the density.
+//! [`SpectralFilm`] keeps both factors per nanometre, a(λ) = M⁻¹·c̄·k·D65 and b(λ) = Cᵀ·ρ, so
+//! that film = a·(b·rgb)/p, and C is computed from the same interpolated tables, so the
+//! estimate's expectation is the colour exactly.
 
 use std::sync::OnceLock;
 
 use super::observer::{SRGB_FROM_XYZ, apply, cmf, d65, invert};
-use super::wavelengths::{LAMBDA_MAX, LAMBDA_MIN, wavelength_pdf};
+use super::wavelengths::{LAMBDA_MAX, LAMBDA_MIN};
 
 /// Band edges of the smooth basis (nm) and their width: chosen (over edges 470–520 and
 /// 560–630 nm, widths 4–20 nm) so that C stays close to the identity and even the sRGB
@@ -69,9 +71,7 @@ impl SpectralFilm {
         let luminance: f64 = quadrature(|l| cmf().at(l)[1] * d65().at(l)[0]);
         let scale = 1.0 / luminance;
         let a_at = |l: f64| -> [f64; 3] {
-            let xyz = cmf()
-                .at(l)
-                .map(|v| v * scale * d65().at(l)[0] / wavelength_pdf(l));
+            let xyz = cmf().at(l).map(|v| v * scale * d65().at(l)[0]);
             apply(&SRGB_FROM_XYZ, xyz)
         };
         let a: Vec<[f64; 3]> = (0..count).map(|i| a_at(grid(i))).collect();
@@ -82,12 +82,12 @@ impl SpectralFilm {
             let t = x - i as f64;
             std::array::from_fn(|k| table[i][k] + t * (table[i + 1][k] - table[i][k]))
         };
-        // Q = ∫ p·a·ρᵀ dλ with the interpolated tables the estimator reads; C = Q⁻¹ makes the
-        // estimate's expectation exactly the sample's colour.
+        // Q = ∫ a·ρᵀ dλ with the interpolated tables the estimator reads; C = Q⁻¹ makes the
+        // estimate's expectation, ∫ p·(a/p)·ρᵀ·C dλ, exactly the sample's colour.
         let mut q = [[0.0; 3]; 3];
         for (r, row) in q.iter_mut().enumerate() {
             for (c, v) in row.iter_mut().enumerate() {
-                *v = quadrature(|l| wavelength_pdf(l) * lerp(&a, l)[r] * lerp(&rho, l)[c]);
+                *v = quadrature(|l| lerp(&a, l)[r] * lerp(&rho, l)[c]);
             }
         }
         let correction = invert(q);
@@ -107,17 +107,18 @@ impl SpectralFilm {
         }
     }
 
-    /// What a sample of linear-sRGB radiance `rgb` at wavelength `lambda` (nm, drawn from
-    /// [`super::sample_wavelength`]) adds to the film, in linear sRGB.
+    /// What a sample of linear-sRGB radiance `rgb` at wavelength `lambda` (nm), drawn with
+    /// density 1/`inverse_pdf` (see [`super::sample_wavelength`]), adds to the film, in linear
+    /// sRGB.
     #[inline(always)]
-    pub fn film_rgb(&self, lambda: f32, rgb: [f32; 3]) -> [f32; 3] {
+    pub fn film_rgb(&self, lambda: f32, inverse_pdf: f32, rgb: [f32; 3]) -> [f32; 3] {
         let x = ((lambda - LAMBDA_MIN as f32) * PER_NM as f32)
             .clamp(0.0, (self.table.len() - 1) as f32);
         let i = (x as usize).min(self.table.len() - 2);
         let t = x - i as f32;
         let (p, q) = (&self.table[i], &self.table[i + 1]);
         let w: [f32; 6] = std::array::from_fn(|k| p[k] + t * (q[k] - p[k]));
-        let radiance = w[3] * rgb[0] + w[4] * rgb[1] + w[5] * rgb[2];
+        let radiance = (w[3] * rgb[0] + w[4] * rgb[1] + w[5] * rgb[2]) * inverse_pdf;
         [w[0] * radiance, w[1] * radiance, w[2] * radiance]
     }
 
@@ -213,8 +214,8 @@ mod tests {
         ] {
             let mut sum = [0.0f64; 3];
             for i in 0..n {
-                let lambda = sample_wavelength((i as f64 + 0.5) / n as f64) as f32;
-                let v = film.film_rgb(lambda, rgb.map(|c| c as f32));
+                let s = sample_wavelength((i as f32 + 0.5) / n as f32);
+                let v = film.film_rgb(s.nm, s.inverse_pdf, rgb.map(|c| c as f32));
                 for k in 0..3 {
                     sum[k] += v[k] as f64;
                 }
