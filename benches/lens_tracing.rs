@@ -22,7 +22,7 @@ fn main() {
 }
 
 fn lenses() -> impl Iterator<Item = &'static str> {
-    BUNDLED.iter().map(|(name, _)| *name)
+    BUNDLED.iter().map(|b| b.name)
 }
 
 fn workload(lens: &str) -> LensWorkload {
@@ -102,6 +102,7 @@ fn camera_generate<const PASS: u32>(bencher: Bencher, lens: &str) {
         pupil: &pupil,
         film: FilmGeometry::new(512, 512, LensWorkload::FILM_DIAGONAL_MM),
         world_from_camera: Mat4::IDENTITY,
+        dispersion: None,
         samples_per_pixel: 32,
     };
     let pixels: Vec<(u32, u32)> = (0..32)

@@ -16,3 +16,4 @@ pub mod pipeline;
 pub mod sampling;
 pub mod scene;
 pub mod shade;
+pub mod spectral;

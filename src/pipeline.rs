@@ -33,8 +33,8 @@ use crate::lens::Prescription;
 use crate::lens::aperture::ApertureSetting;
 use crate::lens::camera::{CameraRays, FilmGeometry, LensCamera};
 use crate::lens::elements::{
-    ActiveLens, FilmFormat, FilmPlacement, FocusSetting, LensDerivation, LensDerivationStats,
-    LensFault, LensGeometry, activate_lens, add_lens_systems, spawn_lens,
+    ActiveLens, Dispersion, FilmFormat, FilmPlacement, FocusSetting, LensDerivation,
+    LensDerivationStats, LensFault, LensGeometry, activate_lens, add_lens_systems, spawn_lens,
 };
 use crate::lens::pupil::{ExitPupil, PupilSampling};
 use crate::scene::{
@@ -339,6 +339,7 @@ type ActiveLensQuery<'w, 's> = Query<
         &'static LensGeometry,
         &'static FilmPlacement,
         &'static ExitPupil,
+        Option<&'static Dispersion>,
     ),
     With<ActiveLens>,
 >;
@@ -357,7 +358,7 @@ pub fn generate_rays(
     mut stats: ResMut<RenderStats>,
 ) {
     let start = Instant::now();
-    let (Ok((geometry, _placement, pupil)), Some(pose)) = (lens.single(), pose) else {
+    let (Ok((geometry, _placement, pupil, dispersion)), Some(pose)) = (lens.single(), pose) else {
         commands.insert_resource(PipelineFault(
             "no active lens with a valid focus, or no camera pose".into(),
         ));
@@ -369,6 +370,11 @@ pub fn generate_rays(
         film: FilmGeometry::new(settings.width, settings.height, pupil.film_radius * 2.0),
         world_from_camera: pose.0,
         samples_per_pixel: plan.map_or(0, |p| p.samples_per_pixel),
+        dispersion: geometry
+            .system
+            .dispersion
+            .as_deref()
+            .filter(|_| Dispersion::is_spectral(dispersion, geometry)),
     };
     let mut work: Vec<(&FilmTile, Mut<TileBatch>)> = tiles.iter_mut().collect();
     let passed: u64 = work
@@ -449,10 +455,13 @@ pub fn shade(
     stats.add_time(Stage::Shade, start);
 }
 
-/// Weight: multiplies radiance by the lens weight; non-finite samples never reach the film.
+/// Weight: multiplies radiance by the lens weight (and in a spectral render turns it into what
+/// its wavelength adds to the film, see [`crate::spectral`]); non-finite samples never reach
+/// the film.
 pub fn weight(mut tiles: Query<&mut TileBatch>, mut stats: ResMut<RenderStats>) {
     let start = Instant::now();
     let mut work: Vec<Mut<TileBatch>> = tiles.iter_mut().collect();
+    let film = crate::spectral::spectral_film();
     let rejected: u64 = work
         .par_iter_mut()
         .map(|batch| {
@@ -460,9 +469,15 @@ pub fn weight(mut tiles: Query<&mut TileBatch>, mut stats: ResMut<RenderStats>) 
                 camera, radiance, ..
             } = &mut **batch;
             let mut rejected = 0;
+            let spectral = !camera.wavelength.is_empty();
             for i in 0..camera.weight.len() {
                 let w = camera.weight[i];
                 let (r, g, b) = (radiance.r[i] * w, radiance.g[i] * w, radiance.b[i] * w);
+                let [r, g, b] = if spectral {
+                    film.film_rgb(camera.wavelength[i], camera.wavelength_weight[i], [r, g, b])
+                } else {
+                    [r, g, b]
+                };
                 let finite = r.is_finite() && g.is_finite() && b.is_finite();
                 rejected += u64::from(!finite);
                 radiance.r[i] = if finite { r } else { 0.0 };

@@ -402,7 +402,18 @@ const REFUSED_LENSES: &[(&str, &str, Option<usize>)] = &[
     ("lens-empty.dat", "no surfaces", None),
     ("lens-comments-only.dat", "no surfaces", None),
     ("lens-three-columns.dat", "expected 4 columns", Some(2)),
-    ("lens-five-columns.dat", "expected 4 columns", Some(1)),
+    ("lens-six-columns.dat", "expected 4 columns", Some(1)),
+    (
+        "lens-unknown-glass.dat",
+        "unknown glass 'UNOBTAINIUM'",
+        Some(1),
+    ),
+    ("lens-glass-for-air.dat", "given for air", Some(2)),
+    (
+        "lens-coordinate-break.zmx",
+        "SURF 1: TYPE COORDBRK",
+        Some(5),
+    ),
     (
         "lens-index-not-a-number.dat",
         "index 'glass' is not a number",
@@ -429,7 +440,7 @@ const REFUSED_LENSES: &[(&str, &str, Option<usize>)] = &[
     ),
     (
         "lens-surfaces-cross.dat",
-        "crosses the previous one",
+        "crosses the one before it",
         Some(2),
     ),
     ("lens-no-stop.dat", "no aperture stop", None),

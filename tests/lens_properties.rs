@@ -73,7 +73,7 @@ proptest! {
 
     #[test]
     fn mutated_lens_files_never_panic(lens in 0usize..8, edits in prop::collection::vec((any::<usize>(), any::<u8>(), any::<u8>()), 1..12)) {
-        let text = mutate(BUNDLED[lens].1, &edits);
+        let text = mutate(BUNDLED[lens].text, &edits);
         exercise(&text, None);
     }
 
@@ -83,7 +83,7 @@ proptest! {
         film in prop::array::uniform2(-15.0f64..15.0),
         aim in prop::array::uniform2(-1.0f64..1.0),
     ) {
-        let p = load_lens(BUNDLED[lens].0, None).unwrap();
+        let p = load_lens(BUNDLED[lens].name, None).unwrap();
         let system = LensSystem::new(&p.rows, None);
         let fo = FirstOrder::compute(&system).unwrap();
         let film_z = system.rear_z() + fo.back_focal_length;

@@ -10,7 +10,7 @@ use realcam::lens::LensSystem;
 use realcam::lens::aperture::ApertureSetting;
 use realcam::lens::bundled::load_lens;
 use realcam::lens::camera::FilmGeometry;
-use realcam::lens::elements::{FilmPlacement, FocusSetting, LensGeometry};
+use realcam::lens::elements::{Dispersion, FilmPlacement, FocusSetting, LensGeometry};
 use realcam::lens::focus::FocusMode;
 use realcam::lens::pupil::PupilSampling;
 use realcam::lens::trace::{Ray, Travel, normalize, trace};
@@ -19,44 +19,9 @@ use realcam::sampling::Rng;
 use realcam::scene::look_at;
 use realcam::shade::Environment;
 use serde_json::json;
-use support::GltfBuilder;
+use support::{GltfBuilder, emitter, matte, quad};
 
 /// A quad of `size` × `size` m centred at `centre`, facing +Z, with `material`.
-fn quad(
-    gltf: &mut GltfBuilder,
-    centre: [f32; 3],
-    size: f32,
-    material: usize,
-    uv_repeat: f32,
-) -> usize {
-    let h = size / 2.0;
-    let [x, y, z] = centre;
-    let positions = gltf.positions(&[
-        [x - h, y - h, z],
-        [x + h, y - h, z],
-        [x + h, y + h, z],
-        [x - h, y + h, z],
-    ]);
-    let normals = gltf.floats(
-        &[0.0, 0.0, 1.0, 0.0, 0.0, 1.0, 0.0, 0.0, 1.0, 0.0, 0.0, 1.0],
-        "VEC3",
-        4,
-    );
-    let r = uv_repeat;
-    let uvs = gltf.floats(&[0.0, r, r, r, r, 0.0, 0.0, 0.0], "VEC2", 4);
-    let indices = gltf.indices_u16(&[0, 1, 2, 0, 2, 3]);
-    let mesh = gltf.mesh(json!([{"attributes": {"POSITION": positions, "NORMAL": normals, "TEXCOORD_0": uvs}, "indices": indices, "material": material}]));
-    gltf.node(json!({"mesh": mesh}))
-}
-
-fn matte(gltf: &mut GltfBuilder, rgb: [f32; 3]) -> usize {
-    gltf.material(json!({"pbrMetallicRoughness": {"baseColorFactor": [rgb[0], rgb[1], rgb[2], 1.0], "metallicFactor": 0.0, "roughnessFactor": 1.0}}))
-}
-
-fn emitter(gltf: &mut GltfBuilder, nits: f32) -> usize {
-    gltf.material(json!({"pbrMetallicRoughness": {"baseColorFactor": [0.0, 0.0, 0.0, 1.0]}, "emissiveFactor": [1.0, 1.0, 1.0], "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": nits}}, "extensionsUsed": []}))
-}
-
 struct Shot<'a> {
     scene: &'a Path,
     lens: &'a str,
@@ -68,6 +33,8 @@ struct Shot<'a> {
     spp: u32,
     camera: Mat4,
     environment: Environment,
+    /// Whether a lens with glass data renders each ray at its own wavelength.
+    dispersion: Dispersion,
 }
 
 impl Shot<'_> {
@@ -92,6 +59,7 @@ impl Shot<'_> {
             },
             self.aperture,
         );
+        renderer.world.entity_mut(lens).insert(self.dispersion);
         renderer.set_active_lens(lens);
         let image = renderer.render(self.spp, |_, _| true).unwrap();
         (image, renderer)
@@ -185,6 +153,7 @@ fn uniform_sky_converges_to_radiance_times_expected_lens_weight() {
         spp: 192,
         camera: camera_at_origin(),
         environment: Environment::Uniform(Vec3::splat(sky)),
+        dispersion: Dispersion::On,
     };
     let (image, mut renderer) = shot.render();
     let mut query = renderer.world.query::<(&LensGeometry, &FilmPlacement)>();
@@ -224,6 +193,7 @@ fn white_matte_wall_under_sky_conserves_energy() {
         spp: 256,
         camera: camera_at_origin(),
         environment: sky.clone(),
+        dispersion: Dispersion::On,
     };
     let (wall, _) = base.render();
     let empty = empty_view_scene(dir.path());
@@ -288,6 +258,9 @@ fn the_focused_plane_is_sharper_than_an_off_focus_one() {
         spp: 64,
         camera: camera_at_origin(),
         environment: Environment::Uniform(Vec3::ONE),
+        // Focus is geometry: the colour noise of single-wavelength samples would count as
+        // "sharpness" in this neighbour-difference measure.
+        dispersion: Dispersion::Off,
     };
     let (focused, _) = shot(2.0).render();
     let (near, _) = shot(0.8).render();
@@ -332,6 +305,7 @@ fn swapping_width_and_height_transposes_the_field_upright_and_unmirrored() {
         spp: 8,
         camera: camera_at_origin(),
         environment: Environment::Uniform(Vec3::ZERO),
+        dispersion: Dispersion::On,
     };
     let (landscape, _) = shot(96, 48).render();
     let (portrait, _) = shot(48, 96).render();
@@ -359,31 +333,37 @@ fn swapping_width_and_height_transposes_the_field_upright_and_unmirrored() {
 fn emissive_only_scene_has_no_nan_and_no_rejected_samples() {
     let scene = support::sample_scene("CornellBox/cornellBox-2.80-Eevee-gltf.gltf");
     let camera = look_at(Vec3::new(0.0, 1.5, 7.0), Vec3::new(0.0, 1.5, 0.0), Vec3::Y);
-    let (image, renderer) = Shot {
-        scene: &scene,
-        lens: "wide.22mm",
-        focus_m: 7.0,
-        aperture: ApertureSetting::Full,
-        film_diagonal: 35.0,
-        width: 32,
-        height: 32,
-        spp: 8,
-        camera,
-        environment: Environment::Uniform(Vec3::ZERO),
+    for dispersion in [Dispersion::Off, Dispersion::On] {
+        let (image, renderer) = Shot {
+            scene: &scene,
+            lens: "wide.22mm",
+            focus_m: 7.0,
+            aperture: ApertureSetting::Full,
+            film_diagonal: 35.0,
+            width: 32,
+            height: 32,
+            spp: 8,
+            camera,
+            environment: Environment::Uniform(Vec3::ZERO),
+            dispersion,
+        }
+        .render();
+        assert!(image.sums.iter().flatten().all(|v| v.is_finite()));
+        if dispersion == Dispersion::Off {
+            assert!(image.sums.iter().flatten().all(|v| *v >= 0.0));
+        } else {
+            // A single wavelength's sRGB weights go negative outside its colour's gamut, so a
+            // channel's sum may too; its luminance (from ȳ ≥ 0) never does.
+            for [r, g, b] in &image.sums {
+                assert!(0.2126 * r + 0.7152 * g + 0.0722 * b >= -1e-6, "{r} {g} {b}");
+            }
+        }
+        assert!(
+            region_mean(&image, 0, 0, 32, 32) > 0.0,
+            "the ceiling light lights the box"
+        );
+        assert_eq!(renderer.world.resource::<RenderStats>().rejected_samples, 0);
     }
-    .render();
-    assert!(
-        image
-            .sums
-            .iter()
-            .flatten()
-            .all(|v| v.is_finite() && *v >= 0.0)
-    );
-    assert!(
-        region_mean(&image, 0, 0, 32, 32) > 0.0,
-        "the ceiling light lights the box"
-    );
-    assert_eq!(renderer.world.resource::<RenderStats>().rejected_samples, 0);
 }
 
 #[test]
@@ -407,6 +387,7 @@ fn same_seed_same_image_whatever_the_thread_count() {
                 spp: 4,
                 camera,
                 environment: Environment::Uniform(Vec3::ONE),
+                dispersion: Dispersion::On,
             }
             .render()
             .0

@@ -527,7 +527,7 @@ mod tests {
     /// flip a ray grazing an aperture edge), and every SoA variant passes exactly the same.
     #[test]
     fn scalar_and_every_soa_variant_trace_the_same_rays() {
-        for (lens, _) in BUNDLED {
+        for lens in BUNDLED.iter().map(|b| b.name) {
             let workload = LensWorkload::new(lens, 512).unwrap();
             let scalar = workload.trace_scalar(&mut Vec::new());
             let soa: Vec<usize> = [64, 100, 512]

@@ -9,14 +9,18 @@ use clap::Args;
 use serde_json::{Value, json};
 
 use super::options::LensOptions;
+use crate::glass::FRAUNHOFER_D_NM;
 use crate::lens::aperture::ApertureSetting;
 use crate::lens::bundled::load_lens;
+use crate::lens::chromatic::{LATERAL_FIELD, axial_colour, lateral_colour};
 use crate::lens::diagram::draw_diagram;
 use crate::lens::elements::{
     FilmFormat, FilmPlacement, FocusSetting, LensFault, LensGeometry, activate_lens, spawn_lens,
 };
+use crate::lens::export::export_text;
 use crate::lens::field::{field_angle, field_edge};
-use crate::lens::focus::closest_focus_mm;
+use crate::lens::first_order::FirstOrder;
+use crate::lens::focus::{closest_focus_mm, paraxial_focus_distance};
 use crate::lens::pupil::ExitPupil;
 use crate::lens::trace::{Ray, Travel, normalize, trace};
 use crate::lens::{Prescription, SurfaceKind};
@@ -38,13 +42,23 @@ pub struct LensArgs {
     /// Draw the lens cross-section with traced ray fans to this SVG file.
     #[arg(long, value_name = "FILE.svg")]
     pub diagram: Option<PathBuf>,
+    /// Report first-order data (and trace `--trace` rays without their own) at this wavelength,
+    /// nm; the film stays where the focus puts it at d.
+    #[arg(long, value_name = "NM", default_value_t = FRAUNHOFER_D_NM, allow_negative_numbers = true)]
+    pub wavelength: f64,
+    /// Write the lens to this file: `.toml` (realcam's lens format: everything realcam
+    /// represents) or `.dat` (a pbrt table: spherical lenses only).
+    #[arg(long, value_name = "OUT.toml|OUT.dat")]
+    pub export: Option<PathBuf>,
 }
 
 /// Everything `realcam lens` reports, derived through the same entities and systems the
 /// renderer uses.
 pub struct LensReport {
     pub prescription: Prescription,
+    /// The lens with its first-order data at [`Self::wavelength_nm`].
     pub geometry: LensGeometry,
+    pub wavelength_nm: f64,
     pub film_distance: f64,
     pub film_diagonal: f64,
     pub focus: FocusSetting,
@@ -56,7 +70,10 @@ impl LensReport {
     pub fn derive(prescription: Prescription, options: &LensOptions) -> anyhow::Result<LensReport> {
         options.validate()?;
         let focus = options.focus(FocusSetting::default());
-        let film_diagonal = options.film_diagonal.unwrap_or(35.0);
+        let film_diagonal = options
+            .film_diagonal
+            .or(prescription.info.film_diagonal_mm)
+            .unwrap_or(35.0);
         let mut renderer = Renderer::new();
         renderer.world.insert_resource(FilmFormat {
             diagonal_mm: film_diagonal,
@@ -94,11 +111,80 @@ impl LensReport {
         Ok(LensReport {
             prescription,
             geometry,
+            wavelength_nm: FRAUNHOFER_D_NM,
             film_distance,
             film_diagonal,
             focus,
             pupil,
             pupil_seconds,
+        })
+    }
+
+    /// The same report with first-order data at `wavelength_nm` (the film where the focus put
+    /// it at d).
+    pub fn at_wavelength(mut self, wavelength_nm: f64) -> anyhow::Result<LensReport> {
+        if !(wavelength_nm.is_finite() && (200.0..=3000.0).contains(&wavelength_nm)) {
+            bail!(
+                "--wavelength {wavelength_nm} nm is not a wavelength realcam's glass data cover (200–3000 nm)"
+            );
+        }
+        if wavelength_nm == self.wavelength_nm {
+            return Ok(self);
+        }
+        for (i, row) in self.prescription.rows.iter().enumerate() {
+            if let Some(range) = row.glass.and_then(|g| g.valid_range_nm())
+                && !range.contains(&wavelength_nm)
+            {
+                eprintln!(
+                    "warning: surface {i}'s glass {} has data for {:.0}–{:.0} nm; {wavelength_nm} nm is extrapolated",
+                    row.glass.map(|g| g.label()).unwrap_or_default(),
+                    range.start(),
+                    range.end()
+                );
+            }
+        }
+        let system = self.geometry.system.at_wavelength(wavelength_nm);
+        self.geometry.first_order = FirstOrder::compute(&system)
+            .map_err(|e| anyhow::anyhow!("at {wavelength_nm} nm: {e}"))?;
+        self.geometry.system = system;
+        self.wavelength_nm = wavelength_nm;
+        Ok(self)
+    }
+
+    /// The in-focus object distance (film plane → object, mm; ∞ at infinity focus).
+    pub fn focus_distance_mm(&self) -> f64 {
+        match self.focus {
+            FocusSetting::Distance { metres, .. } => metres * 1000.0,
+            FocusSetting::FilmDistance(mm) => {
+                let d_line = self.geometry.system.at_wavelength(FRAUNHOFER_D_NM);
+                FirstOrder::compute(&d_line).map_or(f64::INFINITY, |fo| {
+                    paraxial_focus_distance(&d_line, &fo, mm)
+                })
+            }
+        }
+    }
+
+    /// `chromatic`: axial and lateral colour and the glasses (see [`crate::lens::chromatic`]).
+    pub fn chromatic_json(&self) -> Value {
+        let system = &self.geometry.system;
+        let glasses: Vec<Value> = system
+            .rows
+            .iter()
+            .enumerate()
+            .map(|(i, row)| {
+                json!({
+                    "surface": i,
+                    "glass": row.glass.map(|g| g.label()),
+                    "n_d": row.index,
+                    "v_d": row.glass.map(|g| g.v_d()),
+                })
+            })
+            .collect();
+        json!({
+            "axial_colour_mm": axial_colour(system),
+            "lateral_colour_mm": lateral_colour(system, self.film_distance, self.film_diagonal, self.focus_distance_mm()),
+            "lateral_colour_film_height_mm": LATERAL_FIELD * self.film_diagonal / 2.0,
+            "glasses": glasses,
         })
     }
 
@@ -132,12 +218,15 @@ impl LensReport {
             .map(|(i, row)| {
                 let thickness = if i == last { self.film_distance } else { row.thickness };
                 json!({
-                    "radius_mm": match row.kind() { SurfaceKind::Flat => Value::Null, _ => json!(row.radius) },
+                    "radius_mm": match row.curvature() { 0.0 => Value::Null, _ => json!(row.radius) },
                     "curvature_per_mm": row.curvature(),
                     "thickness_mm": thickness,
                     "index": row.index,
                     "aperture_mm": row.aperture,
                     "kind": row.kind(),
+                    "stop": row.stop,
+                    "conic": row.asphere.conic,
+                    "aspheric_coefficients": &row.asphere.coefficients[..row.asphere.order()],
                     "z_mm": system.f64s.vertex_z[i],
                 })
             })
@@ -145,6 +234,9 @@ impl LensReport {
         json!({
             "name": self.prescription.name,
             "source": self.prescription.source.display().to_string(),
+            "design": self.prescription.info,
+            "wavelength_nm": self.wavelength_nm,
+            "chromatic": self.chromatic_json(),
             "format": self.prescription.format,
             "focal_length_mm": fo.focal_length,
             "back_focal_length_mm": fo.back_focal_length,
@@ -183,14 +275,31 @@ impl LensReport {
             let radius = match row.kind() {
                 SurfaceKind::Stop => "stop".to_string(),
                 SurfaceKind::Flat => "flat".to_string(),
-                SurfaceKind::Spherical => format!("{:.3}", row.radius),
+                SurfaceKind::Spherical | SurfaceKind::Aspheric => format!("{:.3}", row.radius),
             };
+            let mut notes = Vec::new();
+            if row.stop && row.kind() != SurfaceKind::Stop {
+                notes.push("stop".to_string());
+            }
+            if row.kind() == SurfaceKind::Aspheric {
+                notes.push(aspheric_note(row));
+            }
+            if let Some(glass) = row.glass {
+                notes.push(glass.label());
+            }
             let thickness = if i == last {
                 self.film_distance
             } else {
                 row.thickness
             };
-            let note = if i == last { "  (to film)" } else { "" };
+            if i == last {
+                notes.push("to film".into());
+            }
+            let note = if notes.is_empty() {
+                String::new()
+            } else {
+                format!("  {}", notes.join("; "))
+            };
             out += &format!(
                 "{i:4} {radius:>10} {thickness:>10.3} {:>8.4} {:>10.2}{note}\n",
                 row.index, row.aperture
@@ -213,7 +322,7 @@ impl LensReport {
             }),
         };
         out += &format!(
-            "\nfocal length        {:10.3} mm\nback focal length   {:10.3} mm\nfront focal point   z = {:.3} mm\nprincipal planes    front z = {:.3} mm, rear z = {:.3} mm\nentrance pupil      z = {:.3} mm, diameter {:.3} mm\nexit pupil          z = {:.3} mm, diameter {:.3} mm\nf-number            f/{:.2} (stop {:.2} mm)\ntotal track         {:10.3} mm (front vertex to film)\nfilm distance       {:10.3} mm ({focus})\nclosest focus       {:10.3} m\nfield of view       {fov} diagonal on a {} mm film diagonal\nexit-pupil bounds   {} segments, {} rays, {:.3} s to derive\n\nz: lens frame, mm, origin at the front vertex, +z toward the film.\n",
+            "\nfocal length        {:10.3} mm\nback focal length   {:10.3} mm\nfront focal point   z = {:.3} mm\nprincipal planes    front z = {:.3} mm, rear z = {:.3} mm\nentrance pupil      z = {:.3} mm, diameter {:.3} mm\nexit pupil          z = {:.3} mm, diameter {:.3} mm\nf-number            f/{:.2} (stop {:.2} mm)\ntotal track         {:10.3} mm (front vertex to film)\nfilm distance       {:10.3} mm ({focus})\nclosest focus       {:10.3} m\nfield of view       {fov} diagonal on a {:.1} mm film diagonal\nexit-pupil bounds   {} segments, {} rays, {:.3} s to derive\n",
             fo.focal_length,
             fo.back_focal_length,
             fo.front_focal_z,
@@ -233,13 +342,64 @@ impl LensReport {
             self.pupil.rays_traced,
             self.pupil_seconds,
         );
+        if system.is_dispersive() {
+            let mm = |v: Option<f64>| v.map_or("n/a".to_string(), |v| format!("{v:+.4} mm"));
+            out += &format!(
+                "axial colour        {} (back focal length at F minus at C)\nlateral colour      {} (image height at F minus at C, {:.0} % of the half-diagonal)\n",
+                mm(axial_colour(system)),
+                mm(lateral_colour(
+                    system,
+                    self.film_distance,
+                    self.film_diagonal,
+                    self.focus_distance_mm()
+                )),
+                LATERAL_FIELD * 100.0
+            );
+        } else {
+            out += "colour              none: the lens file gives no glass, every wavelength sees the same indices\n";
+        }
+        if self.wavelength_nm != FRAUNHOFER_D_NM {
+            out += &format!("first-order data at {} nm\n", self.wavelength_nm);
+        }
+        out += "\nz: lens frame, mm, origin at the front vertex, +z toward the film.\n";
         out
     }
 }
 
+/// "asph k −1.2, A4 1.1e-5, A6 −3e-8": a surface's departure from its sphere, shortly.
+fn aspheric_note(row: &crate::lens::SurfaceRow) -> String {
+    let mut parts = vec![format!("asph k {}", row.asphere.conic)];
+    for (i, a) in row.asphere.coefficients[..row.asphere.order()]
+        .iter()
+        .enumerate()
+    {
+        if *a != 0.0 {
+            parts.push(format!("A{} {a:.4e}", 2 * i + 2));
+        }
+    }
+    parts.join(", ")
+}
+
 pub fn run(args: &LensArgs) -> anyhow::Result<ExitCode> {
+    if !args.wavelength.is_finite() {
+        bail!(
+            "--wavelength must be a number of nanometres, got {}",
+            args.wavelength
+        );
+    }
     let prescription = load_lens(&args.file, args.lens.lens_format)?;
-    let report = LensReport::derive(prescription, &args.lens)?;
+    for warning in &prescription.warnings {
+        eprintln!("warning: {warning}");
+    }
+    if let Some(path) = &args.export {
+        let text = export_text(&prescription, path).map_err(|m| anyhow::anyhow!(m))?;
+        crate::film::output::write_atomically(path, |w| {
+            w.extend_from_slice(text.as_bytes());
+            Ok(())
+        })?;
+        eprintln!("wrote {}", path.display());
+    }
+    let report = LensReport::derive(prescription, &args.lens)?.at_wavelength(args.wavelength)?;
     if let Some(path) = &args.diagram {
         let svg = draw_diagram(
             &report.geometry.system,
@@ -269,15 +429,21 @@ pub fn run(args: &LensArgs) -> anyhow::Result<ExitCode> {
 }
 
 #[derive(serde::Deserialize)]
+#[serde(deny_unknown_fields)]
 struct InputRay {
     origin: [f64; 3],
     direction: [f64; 3],
+    /// The ray's wavelength, nm [default: the report's].
+    wavelength_nm: Option<f64>,
 }
 
 /// Traces the JSON array of rays in `input` scene→film, in f64.
 pub fn trace_json(report: &LensReport, input: &str) -> anyhow::Result<Value> {
-    let rays: Vec<InputRay> = serde_json::from_str(input)
-        .context("stdin: expected a JSON array of {\"origin\":[x,y,z],\"direction\":[x,y,z]}")?;
+    let rays: Vec<InputRay> = serde_json::from_str(input).context(
+        "stdin: expected a JSON array of {\"origin\":[x,y,z],\"direction\":[x,y,z]} (and optionally \"wavelength_nm\")",
+    )?;
+    // One system per wavelength asked for.
+    let mut systems: Vec<(f64, crate::lens::LensSystem)> = Vec::new();
     let results = rays
         .iter()
         .enumerate()
@@ -291,14 +457,23 @@ pub fn trace_json(report: &LensReport, input: &str) -> anyhow::Result<Value> {
                 origin: r.origin,
                 direction: normalize(r.direction),
             };
-            Ok(
-                match trace(&report.geometry.system.f64s, ray, Travel::SceneToFilm) {
-                    Ok(out) => json!({ "point": out.origin, "direction": out.direction }),
-                    Err(blocked) => {
-                        json!({ "blocked": blocked.reason, "surface": blocked.surface })
-                    }
-                },
-            )
+            let nm = r.wavelength_nm.unwrap_or(report.wavelength_nm);
+            if !(nm.is_finite() && (200.0..=3000.0).contains(&nm)) {
+                bail!("stdin: ray {i} has wavelength_nm {nm}, not a wavelength in 200–3000 nm");
+            }
+            let system = match systems.iter().position(|(w, _)| *w == nm) {
+                Some(k) => &systems[k].1,
+                None => {
+                    systems.push((nm, report.geometry.system.at_wavelength(nm)));
+                    &systems.last().expect("just pushed").1
+                }
+            };
+            Ok(match trace(&system.f64s, ray, Travel::SceneToFilm) {
+                Ok(out) => json!({ "point": out.origin, "direction": out.direction }),
+                Err(blocked) => {
+                    json!({ "blocked": blocked.reason, "surface": blocked.surface })
+                }
+            })
         })
         .collect::<anyhow::Result<Vec<Value>>>()?;
     Ok(Value::Array(results))

@@ -4,6 +4,7 @@ pub mod bench;
 pub mod glass;
 pub mod interrupt;
 pub mod lens;
+pub mod lenses;
 pub mod merge;
 pub mod options;
 pub mod plan;
@@ -33,6 +34,9 @@ pub enum Command {
     Render(Box<render::RenderArgs>),
     /// Inspect a lens: first-order data, focus, pupils; trace rays; draw its cross-section.
     Lens(lens::LensArgs),
+    /// List the lenses built into realcam: focal length, f-number, field of view on 35 mm,
+    /// elements, aspheres, year and source.
+    Lenses(lenses::LensesArgs),
     /// Combine the shard partials of `realcam render --shard I/N` into the full frame.
     Merge(merge::MergeArgs),
     /// Look up optical glass: catalogue formulas, n at the F, d, C lines, V_d, the nearest
@@ -62,6 +66,7 @@ pub fn main() -> ExitCode {
         },
         Some(Command::Render(args)) => render::run(&args),
         Some(Command::Lens(args)) => lens::run(&args),
+        Some(Command::Lenses(args)) => lenses::run(&args),
         Some(Command::Merge(args)) => merge::run(&args),
         Some(Command::Glass(args)) => glass::run(&args),
         Some(Command::Bench(args)) => bench::run(&args),

@@ -37,7 +37,9 @@ use crate::film::{Image, MAX_IMAGE_SIDE, MAX_SPP};
 use crate::lens::Prescription;
 use crate::lens::aperture::ApertureSetting;
 use crate::lens::bundled::{DEFAULT_LENS, load_lens};
-use crate::lens::elements::{FilmPlacement, FocusSetting, LensDerivationStats, LensGeometry};
+use crate::lens::elements::{
+    Dispersion, FilmPlacement, FocusSetting, LensDerivationStats, LensGeometry,
+};
 use crate::memory::MAX_THREADS;
 use crate::pipeline::{
     RenderSettings, RenderStats, Renderer, SceneInputs, SceneSource, SceneWarnings, Stage,
@@ -148,6 +150,11 @@ pub struct RenderArgs {
     /// `realcam merge` combines (one shard per render-farm task).
     #[arg(long, value_name = "I/N", allow_hyphen_values = true, conflicts_with_all = ["focus_sweep", "aperture_sweep"])]
     pub shard: Option<Shard>,
+    /// Colour from the lens's glass: `on` gives every camera ray its own wavelength, refracted
+    /// with each glass's index at it (axial and lateral colour, from the glass data); `off`
+    /// renders every ray at the lens file's indices (n_d), as for a lens without glass data.
+    #[arg(long, value_name = "on|off", default_value = "on")]
+    pub dispersion: DispersionArg,
     /// Where a shard's partial goes [default: `<out stem>.shard-I-of-N.exr`].
     #[arg(long, value_name = "FILE.exr", requires = "shard")]
     pub partial: Option<PathBuf>,
@@ -242,11 +249,6 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<ExitCode> {
     renderer.set_environment(environment);
 
     let placement = place_camera(args, &mut renderer)?;
-    let film_diagonal = args
-        .lens_options
-        .film_diagonal
-        .or(placement.hints.film_diagonal_mm)
-        .unwrap_or(35.0);
     let specs: Vec<String> = if args.lens.is_empty() {
         vec![
             placement
@@ -262,6 +264,17 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<ExitCode> {
         .iter()
         .map(|spec| load_lens(spec, args.lens_options.lens_format))
         .collect::<Result<Vec<_>, _>>()?;
+    for warning in prescriptions.iter().flat_map(|p| &p.warnings) {
+        eprintln!("warning: {warning}");
+    }
+    // The film: as asked, else the format the (first) lens was designed for (a phone lens's is
+    // a few mm), else the scene camera's.
+    let film_diagonal = args
+        .lens_options
+        .film_diagonal
+        .or(prescriptions[0].info.film_diagonal_mm)
+        .or(placement.hints.film_diagonal_mm)
+        .unwrap_or(35.0);
     let (world_from_camera, framed_focus) = if placement.frame_bounds {
         let aperture = args.lens_options.aperture(ApertureSetting::Full);
         frame_scene(&mut renderer, &prescriptions[0], aperture, film_diagonal)
@@ -281,6 +294,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<ExitCode> {
                 world_from_camera,
             );
             let entity = renderer.add_lens(&prescription, focus, aperture);
+            renderer.world.entity_mut(entity).insert(args.dispersion.0);
             RunLens {
                 prescription,
                 entity,
@@ -426,10 +440,15 @@ fn lens_defaults(
     renderer: &mut Renderer,
     world_from_camera: Mat4,
 ) -> (FocusSetting, ApertureSetting) {
-    let hints_fit =
-        placement.hints.lens.as_deref().is_none_or(|hinted| {
-            load_lens(hinted, None).is_ok_and(|h| h.rows == prescription.rows)
-        });
+    let hints_fit = placement.hints.lens.as_deref().is_none_or(|hinted| {
+        load_lens(hinted, None).is_ok_and(|h| {
+            h.rows.len() == prescription.rows.len()
+                && h.rows
+                    .iter()
+                    .zip(&prescription.rows)
+                    .all(|(a, b)| a.same_optics(b))
+        })
+    });
     let hints = if hints_fit {
         placement.hints.clone()
     } else {
@@ -674,7 +693,7 @@ fn settings_fingerprint(
         .iter()
         .map(|r| [r.radius, r.thickness, r.index, r.aperture])
         .collect();
-    json!({
+    let mut fingerprint = json!({
         "scene": args.scene.as_ref().map_or(DEFAULT_SCENE_PATH.to_string(), |p| p.display().to_string()),
         "lens": lens.prescription.name,
         "lens_rows": rows,
@@ -689,7 +708,45 @@ fn settings_fingerprint(
         "max_depth": settings.max_depth,
         "camera": context.world_from_camera.to_cols_array().map(f64::from),
         "environment": args.env,
-    })
+    });
+    // What the four columns above do not say, recorded only when present, so a spherical lens
+    // without glass data keeps the fingerprint it always had.
+    let surfaces = &lens.prescription.rows;
+    if surfaces
+        .iter()
+        .any(|r| r.asphere != crate::lens::Asphere::NONE || r.stop != (r.radius == 0.0))
+    {
+        fingerprint["lens_shapes"] = surfaces
+            .iter()
+            .map(|r| json!({ "stop": r.stop, "conic": r.asphere.conic, "aspheric": r.asphere.coefficients }))
+            .collect();
+    }
+    if surfaces.iter().any(|r| r.glass.is_some()) {
+        fingerprint["lens_glasses"] = surfaces
+            .iter()
+            .map(|r| r.glass.map(|g| g.label()))
+            .collect();
+        fingerprint["dispersion"] = json!(args.dispersion.0 == Dispersion::On);
+    }
+    fingerprint
+}
+
+/// `--dispersion on|off`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct DispersionArg(pub Dispersion);
+
+impl std::str::FromStr for DispersionArg {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        match s {
+            "on" => Ok(DispersionArg(Dispersion::On)),
+            "off" => Ok(DispersionArg(Dispersion::Off)),
+            other => Err(format!(
+                "unknown dispersion setting '{other}': use on or off"
+            )),
+        }
+    }
 }
 
 /// The film and the samples still to render from a checkpoint, after checking it belongs to

@@ -10,12 +10,15 @@
 
 use glam::Mat4;
 
+use super::dispersion::DispersionTable;
 use super::pupil::{ExitPupil, FilmRays};
 use super::system::LensSystem;
 use super::trace::Travel;
-use super::trace_batch::{Isa, trace_batch};
+use super::trace_batch::{Isa, Wavelengths, trace_batch, trace_batch_spectral};
 use crate::batch::RayBatch;
+use crate::sampling::sobol::owen_sobol;
 use crate::sampling::{CorrelatedMultiJitter, Rng, hash32};
+use crate::spectral::sample_wavelength;
 
 /// The film's size in pixels and millimetres.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -88,6 +91,10 @@ pub struct LensCamera<'a> {
     /// 0) samples are independent. Plans beyond [`CorrelatedMultiJitter::MAX_COUNT`] stratify
     /// that many.
     pub samples_per_pixel: u32,
+    /// When set, every camera ray gets its own wavelength and is refracted with the lens's
+    /// indices at it (a lens with glass data, dispersion on); `None`: all at the lens's own
+    /// indices, as the lens file gives them.
+    pub dispersion: Option<&'a DispersionTable>,
 }
 
 /// Camera rays of one batch: rays in the world frame and the lens weight of each.
@@ -96,6 +103,11 @@ pub struct CameraRays {
     pub rays: RayBatch,
     /// Camera-measurement weight (see [`super::pupil::PupilSample`]); 0 for blocked rays.
     pub weight: Vec<f32>,
+    /// Each ray's wavelength, nm, in a spectral render (see [`LensCamera::dispersion`]);
+    /// empty otherwise.
+    pub wavelength: Vec<f32>,
+    /// The inverse of the density each ray's wavelength was drawn with, nm.
+    pub wavelength_weight: Vec<f32>,
     scratch: Scratch,
 }
 
@@ -105,14 +117,17 @@ struct Scratch {
     pixel: Vec<u32>,
     px: Vec<f32>,
     py: Vec<f32>,
-    /// Pattern keys: film, pupil.
-    keys: [Vec<u32>; 2],
-    /// The 4D camera sample: film jitter x, y; pupil u, v.
-    u: [Vec<f32>; 4],
+    /// Pattern keys: film, pupil, wavelength.
+    keys: [Vec<u32>; 3],
+    /// The camera sample: film jitter x, y; pupil u, v; wavelength (and an unused partner).
+    u: [Vec<f32>; 6],
 }
 
 /// Seed key of the camera's sample patterns, apart from the shading streams.
 const CAMERA_KEY: u64 = 0x4341_4d45_5241_5f4b; // "CAMERA_K"
+
+/// Mixed into a pixel's pupil key for its wavelength pattern.
+const WAVELENGTH_KEY: u32 = 0x5741_5645; // "WAVE"
 
 impl LensCamera<'_> {
     fn film_z(&self) -> f32 {
@@ -149,6 +164,12 @@ impl LensCamera<'_> {
         out.rays.resize(n);
         out.weight.clear();
         out.weight.resize(n, 0.0);
+        out.wavelength.clear();
+        out.wavelength_weight.clear();
+        if self.dispersion.is_some() {
+            out.wavelength.resize(n, 0.0);
+            out.wavelength_weight.resize(n, 0.0);
+        }
         // The per-pixel loops are compiled again for wider vector units and the widest this
         // CPU has is chosen, as for the lens kernel.
         match Isa::detect() {
@@ -181,21 +202,50 @@ impl LensCamera<'_> {
         let film_z = self.film_z();
         self.camera_samples(sample, seed, &mut out.scratch);
         self.film_to_pupil(sample, film_z, out);
-        trace_batch(&self.system.f32s, &mut out.rays, Travel::FilmToScene);
+        match self.dispersion {
+            None => trace_batch(&self.system.f32s, &mut out.rays, Travel::FilmToScene),
+            Some(table) => {
+                for ((nm, weight), &u) in out
+                    .wavelength
+                    .iter_mut()
+                    .zip(out.wavelength_weight.iter_mut())
+                    .zip(&out.scratch.u[4])
+                {
+                    let sample = sample_wavelength(u);
+                    (*nm, *weight) = (sample.nm, sample.inverse_pdf);
+                }
+                let wavelengths = Wavelengths {
+                    table,
+                    nm: &out.wavelength,
+                };
+                trace_batch_spectral(
+                    &self.system.f32s,
+                    wavelengths,
+                    &mut out.rays,
+                    Travel::FilmToScene,
+                );
+            }
+        }
         self.move_to_world(film_z, out);
     }
 
-    /// The 4D camera sample (film jitter, pupil point) of `sample` in every scratch pixel: two
-    /// correlated multi-jittered 2D patterns over the planned samples, keyed per pixel and per
-    /// pair of dimensions; independent random numbers past the plan.
+    /// The camera sample (film jitter, pupil point, and in a spectral render the wavelength) of
+    /// `sample` in every scratch pixel. Film jitter: a correlated multi-jittered 2D pattern over
+    /// the planned samples, keyed per pixel; independent random numbers past the plan. Pupil
+    /// point: the same with a pattern of its own; in a spectral render, pupil point and
+    /// wavelength instead come together from a pixel's Owen-scrambled Sobol points, stratified
+    /// in the three dimensions jointly (the lens weight varies over the pupil and the film's
+    /// colour weights over the wavelength: only a joint pattern keeps their product from
+    /// adding both variances; see [`crate::sampling::sobol`]).
     #[inline(always)]
     fn camera_samples(&self, sample: u32, seed: u64, scratch: &mut Scratch) {
         let planned = self.samples_per_pixel.min(CorrelatedMultiJitter::MAX_COUNT);
-        let [film_u, film_v, pupil_u, pupil_v] = &mut scratch.u;
+        let spectral = self.dispersion.is_some();
+        let [film_u, film_v, pupil_u, pupil_v, wave_u, _] = &mut scratch.u;
+        let mut seed_keys = Rng::for_sample(seed ^ CAMERA_KEY, u32::MAX, u32::MAX);
+        let (film_seed, pupil_seed) = (seed_keys.next_u32(), seed_keys.next_u32());
         if sample < planned {
-            let mut seed_keys = Rng::for_sample(seed ^ CAMERA_KEY, u32::MAX, u32::MAX);
-            let (film_seed, pupil_seed) = (seed_keys.next_u32(), seed_keys.next_u32());
-            let [film_keys, pupil_keys] = &mut scratch.keys;
+            let [film_keys, pupil_keys, _] = &mut scratch.keys;
             // hash32 is a bijection: distinct pixels get distinct keys, and the pupil key is
             // a further hash of the film key, so the two patterns of a pixel are unrelated.
             for ((&pixel, film), pupil) in scratch
@@ -209,12 +259,24 @@ impl LensCamera<'_> {
             }
             let pattern = CorrelatedMultiJitter::new(planned);
             pattern.fill(sample, film_keys, film_u, film_v);
-            pattern.fill(sample, pupil_keys, pupil_u, pupil_v);
+            if !spectral {
+                pattern.fill(sample, pupil_keys, pupil_u, pupil_v);
+            }
         } else {
             for (i, &pixel) in scratch.pixel.iter().enumerate() {
                 let mut rng = Rng::for_sample(seed, pixel, sample);
                 [film_u[i], film_v[i]] = rng.next_2d();
                 [pupil_u[i], pupil_v[i]] = rng.next_2d();
+            }
+        }
+        if spectral {
+            let [.., wave_keys] = &mut scratch.keys;
+            for (i, &pixel) in scratch.pixel.iter().enumerate() {
+                let key = hash32(hash32(pixel ^ pupil_seed) ^ WAVELENGTH_KEY);
+                wave_keys[i] = key;
+                pupil_u[i] = owen_sobol(sample, 0, key);
+                pupil_v[i] = owen_sobol(sample, 1, key);
+                wave_u[i] = owen_sobol(sample, 2, key);
             }
         }
     }
@@ -227,7 +289,7 @@ impl LensCamera<'_> {
         let s = &out.scratch;
         let rays = &mut out.rays;
         let n = s.pixel.len();
-        let [film_u, film_v, pupil_u, pupil_v] = &s.u;
+        let [film_u, film_v, pupil_u, pupil_v, ..] = &s.u;
         let (px, py, film_u, film_v) = (&s.px[..n], &s.py[..n], &film_u[..n], &film_v[..n]);
         let (ox, oy) = (&mut rays.ox[..n], &mut rays.oy[..n]);
         for i in 0..n {

@@ -9,6 +9,7 @@ use super::first_order::FirstOrder;
 use super::prescription::sag;
 use super::system::LensSystem;
 use super::trace::{Ray, Travel, normalize, trace_path};
+use crate::glass::{FRAUNHOFER_C_NM, FRAUNHOFER_D_NM, FRAUNHOFER_F_NM};
 
 const WIDTH: f64 = 1000.0;
 const RAYS_PER_FAN: usize = 11;
@@ -137,6 +138,58 @@ pub fn draw_diagram(
         x = view.x(film_z)
     );
 
+    // A lens with glass data gets its fans at the F, d and C lines in their colours (the colour
+    // errors show as fans that part); one without, the on-axis fan green and the corner red.
+    let edge = field_edge(system, film_distance, half_film);
+    let field = edge.map_or(0.0, |(_, angle)| angle);
+    if system.is_dispersive() {
+        for (nm, colour) in [
+            (FRAUNHOFER_F_NM, "#1f4fd8"),
+            (FRAUNHOFER_D_NM, "#c99700"),
+            (FRAUNHOFER_C_NM, "#d0202a"),
+        ] {
+            let at = system.at_wavelength(nm);
+            draw_fans(&mut svg, &view, &at, film_z, z0, edge, [colour, colour]);
+        }
+        let _ = writeln!(
+            svg,
+            r##"<text x="20" y="{:.0}" fill="#444">on-axis and film-corner ({:.1}° off axis) bundles at <tspan fill="#1f4fd8">F 486 nm</tspan>, <tspan fill="#c99700">d 588 nm</tspan>, <tspan fill="#d0202a">C 656 nm</tspan>; dashed: blocked</text>"##,
+            view.height + 12.0,
+            field.to_degrees()
+        );
+    } else {
+        draw_fans(
+            &mut svg,
+            &view,
+            system,
+            film_z,
+            z0,
+            edge,
+            ["#1b7f3b", "#c0392b"],
+        );
+        let _ = writeln!(
+            svg,
+            r##"<text x="20" y="{:.0}" fill="#444">green: on-axis bundle; red: film-corner bundle ({:.1}° off axis); dashed: blocked</text>"##,
+            view.height + 12.0,
+            field.to_degrees()
+        );
+    }
+    svg.push_str("</svg>\n");
+    svg
+}
+
+/// The on-axis fan and the fan from the film point at the field edge (`edge`: its height and
+/// angle), traced through `system`, in `colours` [on axis, edge].
+fn draw_fans(
+    svg: &mut String,
+    view: &View,
+    system: &LensSystem,
+    film_z: f64,
+    z0: f64,
+    edge: Option<(f64, f64)>,
+    colours: [&str; 2],
+) {
+    let s = &system.f64s;
     // On axis: a parallel bundle from infinity filling the entrance pupil (a little over, so
     // the clipping shows). At the field edge: rays from the film point back out through the
     // rear element, which finds the real pupil however strongly it is aberrated (a fisheye's).
@@ -161,9 +214,8 @@ pub fn draw_diagram(
             let t = (film_z - out.origin[2]) / out.direction[2];
             path.push((film_z, out.origin[1] + t * out.direction[1]));
         }
-        draw_ray(&mut svg, &view, &path, "#1b7f3b", result.is_ok());
+        draw_ray(svg, view, &path, colours[0], result.is_ok());
     }
-    let edge = field_edge(system, film_distance, half_film);
     if let Some((height, _)) = edge {
         let rear = 1.5 * system.rear_semi_aperture();
         let from = [0.0, -height, film_z];
@@ -190,19 +242,10 @@ pub fn draw_diagram(
                     let t = (z0 - out.origin[2]) / out.direction[2];
                     path.push((z0, out.origin[1] + t * out.direction[1]));
                 }
-                draw_ray(&mut svg, &view, &path, "#c0392b", result.is_ok());
+                draw_ray(svg, view, &path, colours[1], result.is_ok());
             }
         }
     }
-    let field = edge.map_or(0.0, |(_, angle)| angle);
-    let _ = writeln!(
-        svg,
-        r##"<text x="20" y="{:.0}" fill="#444">green: on-axis bundle; red: film-corner bundle ({:.1}° off axis); dashed: blocked</text>"##,
-        view.height + 12.0,
-        field.to_degrees()
-    );
-    svg.push_str("</svg>\n");
-    svg
 }
 
 /// A ray path as a polyline, dashed when the ray was blocked.

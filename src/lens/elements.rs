@@ -52,6 +52,23 @@ pub struct LensSurface {
 #[derive(Component, Clone, Copy, Debug, Default)]
 pub struct ActiveLens;
 
+/// Whether a lens with glass data renders each camera ray at its own wavelength (colour
+/// fringes), or every ray at the lens file's indices (n_d). A lens without the component
+/// renders spectrally; one without glass data is the same either way.
+#[derive(Component, Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum Dispersion {
+    #[default]
+    On,
+    Off,
+}
+
+impl Dispersion {
+    /// True when rays of `geometry`'s lens get wavelengths under this setting.
+    pub fn is_spectral(setting: Option<&Dispersion>, geometry: &LensGeometry) -> bool {
+        setting != Some(&Dispersion::Off) && geometry.system.is_dispersive()
+    }
+}
+
 /// Where the lens is focused.
 #[derive(Component, Clone, Copy, Debug, PartialEq)]
 pub enum FocusSetting {
@@ -292,23 +309,35 @@ pub fn film_distance_for(geometry: &LensGeometry, focus: FocusSetting) -> Result
     }
 }
 
-/// Bounds the exit pupil of every lens whose placement changed, or of all when the film did.
+/// Bounds the exit pupil of every lens whose placement or dispersion setting changed, or of
+/// all when the film did: over every rendered wavelength for a spectral lens.
 pub fn bound_exit_pupil(
     mut commands: Commands,
-    lenses: Query<(Entity, Ref<LensGeometry>, Ref<FilmPlacement>)>,
+    lenses: Query<(
+        Entity,
+        Ref<LensGeometry>,
+        Ref<FilmPlacement>,
+        Option<Ref<Dispersion>>,
+    )>,
     film: Res<FilmFormat>,
     mut stats: ResMut<LensDerivationStats>,
 ) {
-    for (entity, geometry, placement) in &lenses {
-        if !(geometry.is_changed() || placement.is_changed() || film.is_changed()) {
+    for (entity, geometry, placement, dispersion) in &lenses {
+        let dispersion_changed = dispersion.as_ref().is_some_and(|d| d.is_changed());
+        if !(geometry.is_changed()
+            || placement.is_changed()
+            || film.is_changed()
+            || dispersion_changed)
+        {
             continue;
         }
         let start = Instant::now();
-        let pupil = ExitPupil::compute(
+        let pupil = ExitPupil::compute_over(
             &geometry.system,
             placement.film_distance,
             film.diagonal_mm,
             film.pupil_sampling,
+            Dispersion::is_spectral(dispersion.as_deref(), &geometry),
         );
         commands.entity(entity).insert(pupil);
         stats.pupil_runs += 1;

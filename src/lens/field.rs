@@ -11,6 +11,12 @@ use super::trace::{Ray, Travel, normalize, trace_with};
 /// Field angle (radians, from the axis) seen by the film point at height `height` (mm) on a
 /// film `film_distance` behind the rear vertex; `None` if no chief ray exists.
 pub fn field_angle(system: &LensSystem, film_distance: f64, height: f64) -> Option<f64> {
+    chief_ray(system, film_distance, height).map(|out| (-out.direction[2]).acos())
+}
+
+/// The chief ray of the film point (`height`, 0) on a film `film_distance` behind the rear
+/// vertex, as it leaves the front surface toward the scene (lens frame, direction toward −z).
+pub fn chief_ray(system: &LensSystem, film_distance: f64, height: f64) -> Option<Ray<f64>> {
     let film_z = system.rear_z() + film_distance;
     let stop_z = system.f64s.vertex_z[system.stop];
     let rear_group = system.f64s.slice(system.stop + 1..system.surface_count());
@@ -48,8 +54,7 @@ pub fn field_angle(system: &LensSystem, film_distance: f64, height: f64) -> Opti
         }
     }
     let x1 = 0.5 * (lo.0 + hi.0);
-    let out = trace_with(&system.f64s, ray_towards(x1), Travel::FilmToScene, true).ok()?;
-    Some((-out.direction[2]).acos())
+    trace_with(&system.f64s, ray_towards(x1), Travel::FilmToScene, true).ok()
 }
 
 /// The largest film height up to `film_radius` (mm) that still has a chief ray, and its field

@@ -4,6 +4,7 @@
 //! at a surface of power φ = (n' − n)·c is `[[1, 0], [−φ, 1]]`; travelling a distance t in a
 //! medium of index n is `[[1, t/n], [0, 1]]`. Object and image space are air, so the system
 //! matrix [[A, B], [C, D]] from the front vertex to the rear vertex gives EFL = −1/C directly.
+//! An asphere's c is its curvature at the vertex, c + 2·A₂ (see [`super::shape`]).
 //! All z are lens-frame z (mm, origin at the front vertex, +z toward the film).
 
 use super::system::LensSystem;
@@ -69,7 +70,9 @@ pub fn transfer_between(system: &LensSystem, from: usize, to: usize) -> Transfer
             let gap = s.vertex_z[i] - s.vertex_z[i - 1];
             m = m.then(Transfer::translation(gap, s.index_front[i]));
         }
-        let power = (s.index_back[i] - s.index_front[i]) * s.curvature[i];
+        // Paraxial rays see the curvature at the vertex: an asphere's base curvature plus
+        // twice its r² coefficient (the conic constant and higher terms act at order r⁴).
+        let power = (s.index_back[i] - s.index_front[i]) * s.profile(i).vertex_curvature();
         m = m.then(Transfer::refraction(power));
     }
     m

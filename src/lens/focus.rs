@@ -98,6 +98,25 @@ pub fn paraxial_film_distance(
     Ok(v)
 }
 
+/// The focus distance (film plane → in-focus object plane, mm) of a film `film_distance` behind
+/// the rear vertex: the paraxial conjugate (∞ when the film is at or inside the back focal
+/// point, where the object would be at or beyond infinity).
+pub fn paraxial_focus_distance(
+    system: &LensSystem,
+    first_order: &FirstOrder,
+    film_distance: f64,
+) -> f64 {
+    // T(v)·M·T(s) images when its B term vanishes: A·s + B + v·(C·s + D) = 0.
+    let Transfer { a, b, c, d } = first_order.system;
+    let v = film_distance;
+    let denominator = a + v * c;
+    let s = -(b + v * d) / denominator;
+    if !(s.is_finite() && s > 0.0) {
+        return f64::INFINITY;
+    }
+    v + system.rear_z() + s
+}
+
 /// Film distance minimising the RMS radius of the real-ray spot of the on-axis point at
 /// `focus_distance_mm`, starting from `initial` (the paraxial answer).
 ///

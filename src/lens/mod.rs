@@ -16,19 +16,30 @@
 //!   object plane, in metres (as pbrt).
 //! * Every z reported to users (`realcam lens --json`) is a lens-frame z in mm.
 
+pub mod aiming;
 pub mod aperture;
 pub mod bundled;
 pub mod camera;
+pub mod chromatic;
+pub mod clear_aperture;
+pub mod dat_file;
 pub mod diagram;
+pub mod dispersion;
 pub mod elements;
+pub mod export;
 pub mod field;
 pub mod first_order;
 pub mod focus;
+pub mod info;
+pub mod lens_file;
 pub mod prescription;
 pub mod pupil;
+pub mod shape;
 pub mod system;
 pub mod trace;
 pub mod trace_batch;
+pub mod zemax;
 
 pub use prescription::{LensFormat, Prescription, PrescriptionError, SurfaceKind, SurfaceRow};
+pub use shape::Asphere;
 pub use system::{LensSystem, SurfaceArrays};

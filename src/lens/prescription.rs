@@ -16,6 +16,13 @@ use std::fmt;
 use std::io::Read;
 use std::path::{Path, PathBuf};
 
+use super::dat_file::parse_dat;
+use super::info::LensInfo;
+use super::lens_file::read_lens_file;
+use super::shape::{Asphere, Profile};
+use super::zemax::{MAX_ZEMAX_BYTES, looks_like_zemax, read_zemax};
+use crate::glass::Glass;
+
 /// Radii at or beyond this magnitude (mm) are flat surfaces: a sphere that large has a sag
 /// below 1e-8 mm over any real clear aperture, and treating it as a plane keeps f32 tracing
 /// free of catastrophic cancellation.
@@ -75,15 +82,18 @@ pub enum SurfaceKind {
     Spherical,
     /// A plane refracting surface (`inf` or a huge radius in the file).
     Flat,
-    /// The aperture stop (radius 0 in the file): a plane hole in an opaque diaphragm.
+    /// The aperture stop on no refracting surface (radius 0 in a `.dat` file): a plane hole in
+    /// an opaque diaphragm.
     Stop,
+    /// A conic or even-polynomial asphere (see [`super::shape`]).
+    Aspheric,
 }
 
 /// One normalised row: thickness is the distance to the next surface (the last row's is 0).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SurfaceRow {
-    /// Signed radius of curvature, mm; > 0 when the centre lies on the film side. Infinite
-    /// for flat surfaces, 0 for the stop.
+    /// Signed radius of curvature of the (base) surface at its vertex, mm; > 0 when the centre
+    /// lies on the film side. Infinite for flat surfaces; 0 (flat) for a `.dat` file's stop.
     pub radius: f64,
     pub thickness: f64,
     /// Refractive index of the medium after the surface, toward the film (1 for air, the
@@ -93,29 +103,88 @@ pub struct SurfaceRow {
     pub aperture: f64,
     /// 1-based line in the source file (0 for rows made in code).
     pub line: usize,
+    /// This surface carries the aperture stop: its clear aperture is the diaphragm's opening,
+    /// which `--aperture` and `--f-number` set. Usually a flat surface of its own; a lens file
+    /// may also put the stop on a refracting surface.
+    pub stop: bool,
+    /// Conic constant and polynomial terms ([`Asphere::NONE`] for a sphere or a plane).
+    pub asphere: Asphere,
+    /// The glass of the medium after the surface, when the file names one: it gives the
+    /// dispersion around `index` (see [`SurfaceRow::index_at`]). `None`: a fixed index.
+    pub glass: Option<Glass>,
 }
 
 impl SurfaceRow {
-    pub fn kind(&self) -> SurfaceKind {
-        if self.radius == 0.0 {
-            SurfaceKind::Stop
-        } else if self.radius.abs() >= FLAT_RADIUS_MM {
-            SurfaceKind::Flat
-        } else {
-            SurfaceKind::Spherical
+    /// A spherical (or flat, or with radius 0 the stop's) row as a `.dat` file gives it.
+    pub fn new(radius: f64, thickness: f64, index: f64, aperture: f64) -> SurfaceRow {
+        SurfaceRow {
+            radius,
+            thickness,
+            index,
+            aperture,
+            line: 0,
+            stop: radius == 0.0,
+            asphere: Asphere::NONE,
+            glass: None,
         }
     }
 
-    /// Curvature 1/R (0 for flat surfaces and the stop).
+    pub fn kind(&self) -> SurfaceKind {
+        let curvature = self.curvature();
+        if self.asphere.is_aspheric(curvature) {
+            SurfaceKind::Aspheric
+        } else if curvature != 0.0 {
+            SurfaceKind::Spherical
+        } else if self.stop {
+            SurfaceKind::Stop
+        } else {
+            SurfaceKind::Flat
+        }
+    }
+
+    /// Curvature 1/R of the base surface at the vertex (0 for flat surfaces and a bare stop).
     pub fn curvature(&self) -> f64 {
-        match self.kind() {
-            SurfaceKind::Spherical => 1.0 / self.radius,
-            SurfaceKind::Flat | SurfaceKind::Stop => 0.0,
+        if self.radius == 0.0 || self.radius.abs() >= FLAT_RADIUS_MM {
+            0.0
+        } else {
+            1.0 / self.radius
         }
     }
 
     pub fn is_stop(&self) -> bool {
-        self.kind() == SurfaceKind::Stop
+        self.stop
+    }
+
+    /// The same surface for tracing at the rows' own indices: equal but for the source line and
+    /// the glass's dispersion (a copy of a lens file with other comments, or without its glass
+    /// column, focuses where the original does).
+    pub fn same_optics(&self, other: &SurfaceRow) -> bool {
+        SurfaceRow {
+            line: 0,
+            glass: None,
+            ..*self
+        } == SurfaceRow {
+            line: 0,
+            glass: None,
+            ..*other
+        }
+    }
+
+    /// The surface's shape, in f64.
+    pub fn profile(&self) -> Profile<f64> {
+        Profile::new(self.curvature(), &self.asphere, |v| v)
+    }
+
+    /// Index of the medium after the surface at `wavelength_nm`: the row's index (its n_d)
+    /// shifted by the glass's dispersion, n(λ) = index + n_glass(λ) − n_glass(d), so the file's
+    /// own n_d is kept exactly and a glass without data is the fixed index.
+    pub fn index_at(&self, wavelength_nm: f64) -> f64 {
+        match self.glass {
+            Some(glass) => {
+                self.index + glass.index(wavelength_nm) - glass.index(crate::glass::FRAUNHOFER_D_NM)
+            }
+            None => self.index,
+        }
     }
 }
 
@@ -128,6 +197,10 @@ pub struct Prescription {
     /// The layout the file was read in.
     pub format: LensFormat,
     pub rows: Vec<SurfaceRow>,
+    /// What the file says about the design.
+    pub info: LensInfo,
+    /// Things worth telling the user that do not stop the lens from loading.
+    pub warnings: Vec<String>,
 }
 
 /// A problem with a prescription file, located by line where it has one.
@@ -166,48 +239,42 @@ impl Prescription {
         // Read through a limit rather than trusting the size: a device such as /dev/zero
         // reports 0 bytes and never ends.
         let mut bytes = Vec::new();
-        file.take(MAX_FILE_BYTES + 1)
+        file.take(MAX_ZEMAX_BYTES + 1)
             .read_to_end(&mut bytes)
             .map_err(cannot_read)?;
+        // Zemax files (often UTF-16, whatever their name) have their own decoding and limit.
+        if extension(path) == "zmx" || looks_like_zemax(&bytes) {
+            if bytes.len() as u64 > MAX_ZEMAX_BYTES {
+                return Err(error(format!(
+                    "is more than {MAX_ZEMAX_BYTES} bytes: too large for a Zemax lens file"
+                )));
+            }
+            return read_zemax(&bytes, path);
+        }
         if bytes.len() as u64 > MAX_FILE_BYTES {
             return Err(error(format!(
-                "is more than {MAX_FILE_BYTES} bytes; a lens prescription is a small text table of rows 'radius thickness index aperture'"
+                "is more than {MAX_FILE_BYTES} bytes; a lens file is a small text table (a .dat of rows 'radius thickness index aperture', a realcam .toml or a Zemax .zmx)"
             )));
         }
         let text = String::from_utf8(bytes).map_err(|_| {
-            error("is not a text file (invalid UTF-8); expected rows of 'radius thickness index aperture'".into())
+            error("is not a text file (invalid UTF-8); expected a .dat table of rows 'radius thickness index aperture', a realcam .toml or a Zemax .zmx".into())
         })?;
         Prescription::parse(&text, path, format)
     }
 
-    /// Parses prescription text; `source` names it in errors and gives the lens its name.
+    /// Parses lens-file text; `source` names it in errors, gives the lens its name, and by its
+    /// extension picks the format (`.toml`: realcam's own, `.zmx`: Zemax, else rows of a
+    /// pbrt/Kolb `.dat` table, whose layout `format` overrides).
     pub fn parse(
         text: &str,
         source: &Path,
         format: Option<LensFormat>,
     ) -> Result<Prescription, PrescriptionError> {
-        let raw = parse_rows(text, source)?;
-        let error = |line: Option<usize>, message: String| PrescriptionError {
-            file: source.to_path_buf(),
-            line,
-            message,
-        };
-        if raw.is_empty() {
-            return Err(error(
-                None,
-                "no surfaces: expected rows of 'radius thickness index aperture' (mm)".into(),
-            ));
+        match extension(source).as_str() {
+            "toml" => read_lens_file(text, source),
+            "zmx" => read_zemax(text.as_bytes(), source),
+            _ => parse_dat(text, source, format),
         }
-        let format = match format {
-            Some(f) => f,
-            None => detect_format(&raw).map_err(|m| error(None, m))?,
-        };
-        let rows = normalise(&raw, format);
-        let name = source
-            .file_name()
-            .map(|n| n.to_string_lossy().trim_end_matches(".dat").to_string())
-            .unwrap_or_else(|| "lens".into());
-        Prescription::from_rows(&name, source, format, rows)
     }
 
     /// A prescription from rows already in thickness-after form (edited lens entities),
@@ -230,6 +297,8 @@ impl Prescription {
             source: source.to_path_buf(),
             format,
             rows,
+            info: LensInfo::default(),
+            warnings: Vec::new(),
         };
         prescription.validate()?;
         Ok(prescription)
@@ -323,14 +392,8 @@ impl Prescription {
                     ),
                 ));
             }
-            if row.kind() == SurfaceKind::Spherical && row.aperture / 2.0 > row.radius.abs() {
-                return Err(error(
-                    row.line,
-                    format!(
-                        "clear aperture {} mm is wider than the sphere of radius {} mm allows",
-                        row.aperture, row.radius
-                    ),
-                ));
+            if let Some(message) = undefined_sag(row) {
+                return Err(error(row.line, message));
             }
         }
         if self.rows[last].is_stop() {
@@ -347,7 +410,7 @@ impl Prescription {
     /// glass or air gaps have negative thickness anywhere is not buildable, and tracing it
     /// would send rays backwards.
     fn check_overlaps(&self) -> Result<(), PrescriptionError> {
-        const SAMPLES: usize = 32;
+        const SAMPLES: usize = 64;
         const TOLERANCE_MM: f64 = 1e-6;
         for pair in self.rows.windows(2) {
             let (front, back) = (&pair[0], &pair[1]);
@@ -360,8 +423,19 @@ impl Prescription {
                         file: self.source.clone(),
                         line: Some(back.line).filter(|&l| l > 0),
                         message: format!(
-                            "this surface crosses the previous one (line {}) {:.3} mm from the axis, inside their clear apertures; check the thickness column and the layout (--lens-format)",
-                            front.line, h
+                            "this surface crosses the one before it {h:.3} mm from the axis, inside their clear apertures (the {} between them would be {gap:.4} mm thick there): check the thicknesses and clear apertures{}",
+                            if front.index > 1.0 {
+                                "glass"
+                            } else {
+                                "air gap"
+                            },
+                            if self.format == LensFormat::GapBefore
+                                || self.source.extension().is_none_or(|e| e == "dat")
+                            {
+                                ", and the thickness column's layout (--lens-format)"
+                            } else {
+                                ""
+                            }
                         ),
                     });
                 }
@@ -372,87 +446,61 @@ impl Prescription {
 }
 
 /// Sag (axial depth) of a surface at height `h` from the axis, measured from its vertex
-/// toward +z (the film).
+/// toward +z (the film); at the rim of the conic where `h` lies beyond it (only for heights
+/// outside a validated clear aperture).
 pub fn sag(row: &SurfaceRow, h: f64) -> f64 {
-    let c = row.curvature();
-    if c == 0.0 {
-        return 0.0;
-    }
-    // c h² / (1 + sqrt(1 − c² h²)) is R − sign(R) sqrt(R² − h²) without the cancellation.
-    let root = (1.0 - c * c * h * h).max(0.0).sqrt();
-    c * h * h / (1.0 + root)
+    let profile = row.profile();
+    profile.sag(h).unwrap_or_else(|| {
+        // Beyond the rim: the rim's sag, 1/(κc), is where the conic part closes.
+        let rim = profile.curvature * profile.conic_factor;
+        if rim == 0.0 { 0.0 } else { 1.0 / rim }
+    })
 }
 
-/// A row as written in the file, before layout normalisation.
-struct RawRow {
-    values: [f64; 4],
-    line: usize,
-}
-
-fn parse_rows(text: &str, source: &Path) -> Result<Vec<RawRow>, PrescriptionError> {
-    let mut rows = Vec::new();
-    for (i, line) in text.lines().enumerate() {
-        let line_number = i + 1;
-        let error = |message: String| PrescriptionError {
-            file: source.to_path_buf(),
-            line: Some(line_number),
-            message,
-        };
-        let content = line.split('#').next().unwrap_or("").trim();
-        if content.is_empty() {
-            continue;
-        }
-        if content.len() > 1000 {
-            return Err(error(format!(
-                "line is {} characters long; expected 4 numbers",
-                content.len()
-            )));
-        }
-        let fields: Vec<&str> = content.split_whitespace().collect();
-        if fields.len() != 4 {
-            return Err(error(format!(
-                "expected 4 columns 'radius thickness index aperture', found {}: '{}'",
-                fields.len(),
-                shorten(content)
-            )));
-        }
-        let mut values = [0.0; 4];
-        const COLUMNS: [&str; 4] = ["radius", "thickness", "index", "aperture"];
-        for (c, field) in fields.iter().enumerate() {
-            let value = parse_number(field, c == 0).ok_or_else(|| {
-                error(format!(
-                    "{} '{}' is not a number{}",
-                    COLUMNS[c],
-                    shorten(field),
-                    if c == 0 {
-                        " (use inf for a flat surface)"
-                    } else {
-                        ""
-                    }
-                ))
-            })?;
-            values[c] = value;
-        }
-        rows.push(RawRow {
-            values,
-            line: line_number,
-        });
-    }
-    Ok(rows)
-}
-
-/// A finite number, or for the radius column also ±inf (a flat surface).
-fn parse_number(field: &str, allow_infinite: bool) -> Option<f64> {
-    let value: f64 = field.parse().ok()?;
-    if value.is_nan() || (value.is_infinite() && !allow_infinite) {
+/// Why a row's surface is not defined over its whole clear aperture, if it is not: the conic
+/// part needs 1 − (1+k)·c²·r² ≥ 0, and the polynomial must stay finite.
+fn undefined_sag(row: &SurfaceRow) -> Option<String> {
+    let semi = row.aperture / 2.0;
+    let profile = row.profile();
+    let defined = (0..=64).all(|k| {
+        let h = semi * k as f64 / 64.0;
+        profile.sag(h).is_some_and(f64::is_finite)
+    });
+    if defined {
         return None;
     }
-    Some(value)
+    let c = row.curvature();
+    let kappa = 1.0 + row.asphere.conic;
+    if row.kind() == SurfaceKind::Spherical {
+        return Some(format!(
+            "clear aperture {} mm is wider than the sphere of radius {} mm allows",
+            row.aperture, row.radius
+        ));
+    }
+    let rim = if kappa * c * c > 0.0 {
+        format!(
+            "; the conic closes at r = {:.4} mm",
+            1.0 / (kappa * c * c).sqrt()
+        )
+    } else {
+        String::new()
+    };
+    Some(format!(
+        "the surface's sag is undefined inside its clear aperture (semi-diameter {semi} mm): 1 − (1+k)·c²·r² < 0 with radius {} mm and conic {}{rim}",
+        row.radius, row.asphere.conic
+    ))
 }
 
-/// A field as it may be shown in a message: at most 60 characters, control characters escaped
+/// A path's extension, lower case ("" when it has none).
+pub fn extension(path: &Path) -> String {
+    path.extension()
+        .map(|e| e.to_string_lossy().to_ascii_lowercase())
+        .unwrap_or_default()
+}
+
+/// A text as it may be shown in a message: at most 60 characters, control characters escaped
 /// (binary garbage must not scramble the user's terminal).
-fn shorten(s: &str) -> String {
+pub fn shorten(s: &str) -> String {
     const MAX: usize = 60;
     let shown: String = s.chars().take(MAX).flat_map(|c| c.escape_debug()).collect();
     if s.chars().count() <= MAX {
@@ -460,49 +508,6 @@ fn shorten(s: &str) -> String {
     } else {
         format!("{shown}…")
     }
-}
-
-fn detect_format(rows: &[RawRow]) -> Result<LensFormat, String> {
-    // One row reads the same in both layouts; validation then says what is missing.
-    if rows.len() == 1 {
-        return Ok(LensFormat::ThicknessAfter);
-    }
-    let first_zero = rows[0].values[1] == 0.0;
-    let last_zero = rows[rows.len() - 1].values[1] == 0.0;
-    match (first_zero, last_zero) {
-        (true, false) => Ok(LensFormat::GapBefore),
-        (false, true) => Ok(LensFormat::ThicknessAfter),
-        _ => Err(format!(
-            "cannot tell the layout of the thickness column ({}): pass --lens-format thickness-after (distance to the next surface, last row 0) or --lens-format gap-before (distance from the previous surface, first row 0)",
-            if first_zero {
-                "first and last rows are both 0"
-            } else {
-                "neither the first nor the last row is 0"
-            }
-        )),
-    }
-}
-
-fn normalise(raw: &[RawRow], format: LensFormat) -> Vec<SurfaceRow> {
-    let n = raw.len();
-    (0..n)
-        .map(|i| {
-            let [radius, column2, index, aperture] = raw[i].values;
-            let thickness = match format {
-                LensFormat::ThicknessAfter if i + 1 < n => column2,
-                LensFormat::GapBefore if i + 1 < n => raw[i + 1].values[1],
-                _ => 0.0,
-            };
-            SurfaceRow {
-                radius,
-                thickness,
-                // The stop's 0 (and any 0) in the index column means air.
-                index: if index == 0.0 { 1.0 } else { index },
-                aperture,
-                line: raw[i].line,
-            }
-        })
-        .collect()
 }
 
 #[cfg(test)]
@@ -637,7 +642,7 @@ mod tests {
             ),
             (
                 "20 0.5 1.5 20\n-20 5 1 20\n0 0 0 10\n-50 0 1 20\n",
-                "crosses the previous one",
+                "crosses the one before it",
                 Some(2),
             ),
             (
@@ -659,13 +664,7 @@ mod tests {
 
     #[test]
     fn sag_matches_sphere_geometry() {
-        let row = SurfaceRow {
-            radius: -40.0,
-            thickness: 0.0,
-            index: 1.0,
-            aperture: 20.0,
-            line: 0,
-        };
+        let row = SurfaceRow::new(-40.0, 0.0, 1.0, 20.0);
         let h: f64 = 10.0;
         let expected = -(40.0 - (40.0f64 * 40.0 - h * h).sqrt());
         assert!((sag(&row, h) - expected).abs() < 1e-12);

@@ -125,12 +125,32 @@ pub struct ExitPupil {
 }
 
 impl ExitPupil {
+    /// The bounds of `system` at its own indices.
     pub fn compute(
         system: &LensSystem,
         film_distance: f64,
         film_diagonal: f64,
         sampling: PupilSampling,
     ) -> ExitPupil {
+        ExitPupil::compute_over(system, film_distance, film_diagonal, sampling, false)
+    }
+
+    /// As [`compute`](Self::compute); with `all_wavelengths` (a spectral render of a lens with
+    /// glass data) the bounds hold for every rendered wavelength: the union of the bounds at
+    /// the rendered range's ends and at d (the pupil's size and place move monotonically with
+    /// the indices between them).
+    pub fn compute_over(
+        system: &LensSystem,
+        film_distance: f64,
+        film_diagonal: f64,
+        sampling: PupilSampling,
+        all_wavelengths: bool,
+    ) -> ExitPupil {
+        let mut systems = vec![system.clone()];
+        if all_wavelengths && system.is_dispersive() {
+            systems.push(system.at_wavelength(crate::spectral::LAMBDA_MIN));
+            systems.push(system.at_wavelength(crate::spectral::LAMBDA_MAX));
+        }
         let film_radius = film_diagonal / 2.0;
         let rear_z = system.rear_z();
         let rear_radius = system.rear_semi_aperture();
@@ -144,13 +164,20 @@ impl ExitPupil {
             .map(|k| {
                 let r0 = film_radius * k as f64 / SEGMENTS as f64;
                 let r1 = film_radius * (k + 1) as f64 / SEGMENTS as f64;
-                segment_bounds(
-                    system,
-                    rear_z + film_distance,
-                    rear_radius,
-                    [r0, r1],
-                    coarse_grid,
-                )
+                systems
+                    .iter()
+                    .map(|system| {
+                        segment_bounds(
+                            system,
+                            rear_z + film_distance,
+                            rear_radius,
+                            [r0, r1],
+                            coarse_grid,
+                        )
+                    })
+                    .fold((Rect::EMPTY, 0), |(bounds, traced), (b, t)| {
+                        (bounds.union(&b), traced + t)
+                    })
             })
             .collect();
         ExitPupil {
@@ -475,7 +502,7 @@ mod tests {
         const N: usize = 2000;
         let mut rng = Rng::new(3, 4);
         let mut compared = 0;
-        for (lens, _) in BUNDLED {
+        for lens in BUNDLED.iter().map(|b| b.name) {
             let w = LensWorkload::new(lens, 1).unwrap();
             for sampling in [PupilSampling::Bounds, PupilSampling::RearElement] {
                 let diagonal = LensWorkload::FILM_DIAGONAL_MM;

@@ -1,6 +1,13 @@
 //! The packed form of a lens that tracing reads: surface parameters as structure-of-arrays.
 
-use super::prescription::{SurfaceKind, SurfaceRow};
+use std::sync::Arc;
+
+use num_traits::Float;
+
+use super::dispersion::DispersionTable;
+use super::prescription::SurfaceRow;
+use super::shape::{ASPHERIC_TERMS, Profile};
+use crate::glass::FRAUNHOFER_D_NM;
 
 /// Surface parameters in one precision, one array per parameter, indexed by surface (front to
 /// back). `f64` for the reference optics, `f32` for the batched render path.
@@ -8,14 +15,37 @@ use super::prescription::{SurfaceKind, SurfaceRow};
 pub struct SurfaceArrays<T> {
     /// Lens-frame z of each vertex (the first is 0).
     pub vertex_z: Vec<T>,
-    /// 1/R; 0 for flat surfaces and the stop.
+    /// 1/R of the base surface; 0 for flat surfaces and a bare stop.
     pub curvature: Vec<T>,
+    /// κ = 1 + k (1 for spheres and planes).
+    pub conic_factor: Vec<T>,
+    /// A₂ … A₁₆ (all 0 unless the surface is a polynomial asphere).
+    pub aspheric: Vec<[T; ASPHERIC_TERMS]>,
+    /// Whether each surface has polynomial terms (and needs the iterative intersection).
+    pub polynomial: Vec<bool>,
     /// Square of the clear semi-aperture (the stop's as currently set).
     pub semi_aperture_sq: Vec<T>,
     /// Refractive index on the scene side of each surface.
     pub index_front: Vec<T>,
     /// Refractive index on the film side of each surface.
     pub index_back: Vec<T>,
+}
+
+impl<T: Float> SurfaceArrays<T> {
+    /// The shape of surface `i`.
+    pub fn profile(&self, i: usize) -> Profile<T> {
+        Profile {
+            curvature: self.curvature[i],
+            conic_factor: self.conic_factor[i],
+            coefficients: self.aspheric[i],
+            polynomial: self.polynomial[i],
+        }
+    }
+
+    /// True when every surface is a sphere or a plane (the fast batch kernel's case).
+    pub fn all_spherical(&self) -> bool {
+        !self.polynomial.iter().any(|&p| p) && self.conic_factor.iter().all(|&k| k == T::one())
+    }
 }
 
 impl<T: Copy> SurfaceArrays<T> {
@@ -32,16 +62,28 @@ impl<T: Copy> SurfaceArrays<T> {
         SurfaceArrays {
             vertex_z: self.vertex_z[range.clone()].to_vec(),
             curvature: self.curvature[range.clone()].to_vec(),
+            conic_factor: self.conic_factor[range.clone()].to_vec(),
+            aspheric: self.aspheric[range.clone()].to_vec(),
+            polynomial: self.polynomial[range.clone()].to_vec(),
             semi_aperture_sq: self.semi_aperture_sq[range.clone()].to_vec(),
             index_front: self.index_front[range.clone()].to_vec(),
             index_back: self.index_back[range].to_vec(),
         }
     }
 
-    fn from_rows(rows: &[SurfaceRow], convert: impl Fn(f64) -> T) -> Self {
+    /// The rows' arrays, with each medium's index from `index` (the row's own, or at a
+    /// wavelength).
+    fn from_rows(
+        rows: &[SurfaceRow],
+        convert: impl Fn(f64) -> T,
+        index: impl Fn(&SurfaceRow) -> f64,
+    ) -> Self {
         let mut arrays = SurfaceArrays {
             vertex_z: Vec::with_capacity(rows.len()),
             curvature: Vec::with_capacity(rows.len()),
+            conic_factor: Vec::with_capacity(rows.len()),
+            aspheric: Vec::with_capacity(rows.len()),
+            polynomial: Vec::with_capacity(rows.len()),
             semi_aperture_sq: Vec::with_capacity(rows.len()),
             index_front: Vec::with_capacity(rows.len()),
             index_back: Vec::with_capacity(rows.len()),
@@ -50,27 +92,42 @@ impl<T: Copy> SurfaceArrays<T> {
         let mut index_before = 1.0;
         for row in rows {
             arrays.vertex_z.push(convert(z));
-            arrays.curvature.push(convert(row.curvature()));
+            let curvature = row.curvature();
+            arrays.curvature.push(convert(curvature));
+            // A conic constant on a plane changes nothing: keep planes on the sphere kernel.
+            let conic = if curvature == 0.0 {
+                0.0
+            } else {
+                row.asphere.conic
+            };
+            arrays.conic_factor.push(convert(1.0 + conic));
+            arrays.aspheric.push(row.asphere.coefficients.map(&convert));
+            arrays.polynomial.push(row.asphere.has_polynomial());
             arrays
                 .semi_aperture_sq
                 .push(convert((row.aperture / 2.0).powi(2)));
             arrays.index_front.push(convert(index_before));
-            arrays.index_back.push(convert(row.index));
+            arrays.index_back.push(convert(index(row)));
             z += row.thickness;
-            index_before = row.index;
+            index_before = index(row);
         }
         arrays
     }
 }
 
 /// A lens ready for tracing: its rows with the stop opened to the chosen diameter, and the
-/// same data packed as arrays in f64 and f32.
+/// same data packed as arrays in f64 and f32, with the indices at one wavelength (the rows'
+/// own indices, their n_d, unless built [`at_wavelength`](Self::at_wavelength)).
 #[derive(Clone, Debug, PartialEq)]
 pub struct LensSystem {
     pub rows: Vec<SurfaceRow>,
     pub stop: usize,
     pub f64s: SurfaceArrays<f64>,
     pub f32s: SurfaceArrays<f32>,
+    /// The wavelength of the arrays' indices, nm.
+    pub wavelength_nm: f64,
+    /// Every medium's index over the rendered wavelengths, when any surface has glass data.
+    pub dispersion: Option<Arc<DispersionTable>>,
 }
 
 impl LensSystem {
@@ -78,21 +135,38 @@ impl LensSystem {
     /// aperture when given (the caller clamps it to the row's maximum).
     pub fn new(rows: &[SurfaceRow], stop_diameter: Option<f64>) -> LensSystem {
         let mut rows = rows.to_vec();
-        let stop = rows
-            .iter()
-            .position(|r| r.kind() == SurfaceKind::Stop)
-            .unwrap_or(0);
+        let stop = rows.iter().position(|r| r.stop).unwrap_or(0);
         if let Some(d) = stop_diameter {
             rows[stop].aperture = d;
         }
-        let f64s = SurfaceArrays::from_rows(&rows, |v| v);
-        let f32s = SurfaceArrays::from_rows(&rows, |v| v as f32);
+        let f64s = SurfaceArrays::from_rows(&rows, |v| v, |r| r.index);
+        let f32s = SurfaceArrays::from_rows(&rows, |v| v as f32, |r| r.index);
+        let dispersion = DispersionTable::new(&rows).map(Arc::new);
         LensSystem {
             rows,
             stop,
             f64s,
             f32s,
+            wavelength_nm: FRAUNHOFER_D_NM,
+            dispersion,
         }
+    }
+
+    /// The same lens with every medium's index at `wavelength_nm` (see
+    /// [`SurfaceRow::index_at`]): for first-order data and reference rays at any wavelength.
+    pub fn at_wavelength(&self, wavelength_nm: f64) -> LensSystem {
+        let index = |r: &SurfaceRow| r.index_at(wavelength_nm);
+        LensSystem {
+            f64s: SurfaceArrays::from_rows(&self.rows, |v| v, index),
+            f32s: SurfaceArrays::from_rows(&self.rows, |v| v as f32, index),
+            wavelength_nm,
+            ..self.clone()
+        }
+    }
+
+    /// True when some surface's glass makes the lens's indices depend on wavelength.
+    pub fn is_dispersive(&self) -> bool {
+        self.dispersion.is_some()
     }
 
     pub fn surface_count(&self) -> usize {

@@ -1,7 +1,7 @@
 //! Exact ray tracing through the lens, one ray at a time: the reference implementation.
 //!
-//! Written for clarity in the textbook form (sphere centre, quadratic, Snell's law in vector
-//! form) and generic over the float type, so the same code is the f64 reference for the optics
+//! Written for clarity in the textbook form (each surface's shape from [`super::shape`], Snell's
+//! law in vector form) and generic over the float type, so the same code is the f64 reference for the optics
 //! and the f32 per-ray path that the batched SoA tracer ([`super::trace_batch`]) is measured
 //! against. Lens frame, mm (see [`crate::lens`]).
 
@@ -84,15 +84,19 @@ pub fn trace_path<T: Float>(
             Travel::FilmToScene => (surfaces.index_back[i], surfaces.index_front[i]),
         };
         let blocked = |reason| Blocked { reason, surface: i };
-        let curvature = surfaces.curvature[i];
+        let profile = surfaces.profile(i);
         let vertex_z = surfaces.vertex_z[i];
-        let t = intersect_surface(vertex_z, curvature, &ray).ok_or(blocked(BlockReason::Miss))?;
+        let t = profile
+            .intersect(vertex_z, &ray)
+            .ok_or(blocked(BlockReason::Miss))?;
         let p = add(ray.origin, scale(ray.direction, t));
         visit(i, p);
         if check_apertures && p[0] * p[0] + p[1] * p[1] > surfaces.semi_aperture_sq[i] {
             return Err(blocked(BlockReason::Aperture));
         }
-        let normal = surface_normal(vertex_z, curvature, p);
+        let normal = profile
+            .normal(vertex_z, p)
+            .ok_or(blocked(BlockReason::Miss))?;
         let direction = refract(ray.direction, normal, index_in / index_out)
             .ok_or(blocked(BlockReason::Tir))?;
         let forward = match travel {
@@ -108,65 +112,6 @@ pub fn trace_path<T: Float>(
         };
     }
     Ok(ray)
-}
-
-/// Distance along the ray to the surface's cap next to its vertex, if the ray reaches it ahead.
-///
-/// A sphere is met twice by a line; a lens surface is only the cap around the vertex, i.e. the
-/// points with c·(z − z_vertex) < 1 (nearer the vertex than the sphere's equator). The quadratic
-/// is solved in the numerically stable form (q = −b − sign(b)·√Δ; roots q and c/q) with the
-/// constant term expanded about the vertex, so flat-ish surfaces lose no precision.
-pub fn intersect_surface<T: Float>(vertex_z: T, curvature: T, ray: &Ray<T>) -> Option<T> {
-    let [ox, oy, oz] = ray.origin;
-    let [dx, dy, dz] = ray.direction;
-    let ovz = oz - vertex_z;
-    let epsilon = T::from(1e-9).unwrap_or_else(T::epsilon);
-    if curvature == T::zero() {
-        if dz == T::zero() {
-            return None;
-        }
-        let t = -ovz / dz;
-        return (t > epsilon).then_some(t);
-    }
-    let radius = curvature.recip();
-    // Relative to the centre (0, 0, vertex_z + R): b = oc·d, c0 = |oc|² − R² expanded about the
-    // vertex as |ov|² − 2R·ov_z to avoid cancelling two large squares.
-    let b = ox * dx + oy * dy + (ovz - radius) * dz;
-    let c0 = ox * ox + oy * oy + ovz * ovz - (radius + radius) * ovz;
-    let discriminant = b * b - c0;
-    if discriminant < T::zero() {
-        return None;
-    }
-    let root = discriminant.sqrt();
-    let q = -b - if b < T::zero() { -root } else { root };
-    let mut best: Option<T> = None;
-    for t in [
-        q,
-        if q != T::zero() {
-            c0 / q
-        } else {
-            T::infinity()
-        },
-    ] {
-        let z = ovz + t * dz;
-        let on_vertex_cap = curvature * z < T::one();
-        if t > epsilon && t.is_finite() && on_vertex_cap && best.is_none_or(|b| t < b) {
-            best = Some(t);
-        }
-    }
-    best
-}
-
-/// Unit normal of the surface at `p`, pointing toward the scene (−z) at the vertex.
-///
-/// For a sphere, (p − centre)/R = (c·x, c·y, c·(z − z_vertex) − 1), which is (0, 0, −1) on
-/// the axis whatever the sign of R, and stays well defined as c → 0.
-pub fn surface_normal<T: Float>(vertex_z: T, curvature: T, p: [T; 3]) -> [T; 3] {
-    normalize([
-        curvature * p[0],
-        curvature * p[1],
-        curvature * (p[2] - vertex_z) - T::one(),
-    ])
 }
 
 /// Snell refraction of unit `direction` at a surface with unit `normal` (either orientation),
@@ -213,16 +158,11 @@ pub fn normalize<T: Float>(a: [T; 3]) -> [T; 3] {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::lens::shape::Profile;
     use crate::lens::{LensSystem, SurfaceRow};
 
     fn row(radius: f64, thickness: f64, index: f64, aperture: f64) -> SurfaceRow {
-        SurfaceRow {
-            radius,
-            thickness,
-            index,
-            aperture,
-            line: 0,
-        }
+        SurfaceRow::new(radius, thickness, index, aperture)
     }
 
     #[test]
@@ -232,7 +172,7 @@ mod tests {
                 origin: [1.0, 0.0, -30.0 * dz],
                 direction: [0.0, 0.0, dz],
             };
-            let t = intersect_surface(0.0, 1.0 / radius, &ray).unwrap();
+            let t = Profile::sphere(1.0 / radius).intersect(0.0, &ray).unwrap();
             let z = ray.origin[2] + t * dz;
             let expected_z = radius - (radius * radius - 1.0f64).sqrt() * radius.signum();
             assert!((z - expected_z).abs() < 1e-12, "R={radius} dz={dz}: z={z}");

@@ -220,3 +220,41 @@ pub fn sample_json(relative: &str) -> Value {
     let text = std::fs::read_to_string(sample_scene(relative)).expect("read sample");
     serde_json::from_str(&text).expect("sample is JSON")
 }
+
+/// A square of side `size` (m) facing +z at `centre`, with UVs repeating `uv_repeat` times.
+pub fn quad(
+    gltf: &mut GltfBuilder,
+    centre: [f32; 3],
+    size: f32,
+    material: usize,
+    uv_repeat: f32,
+) -> usize {
+    let h = size / 2.0;
+    let [x, y, z] = centre;
+    let positions = gltf.positions(&[
+        [x - h, y - h, z],
+        [x + h, y - h, z],
+        [x + h, y + h, z],
+        [x - h, y + h, z],
+    ]);
+    let normals = gltf.floats(
+        &[0.0, 0.0, 1.0, 0.0, 0.0, 1.0, 0.0, 0.0, 1.0, 0.0, 0.0, 1.0],
+        "VEC3",
+        4,
+    );
+    let r = uv_repeat;
+    let uvs = gltf.floats(&[0.0, r, r, r, r, 0.0, 0.0, 0.0], "VEC2", 4);
+    let indices = gltf.indices_u16(&[0, 1, 2, 0, 2, 3]);
+    let mesh = gltf.mesh(json!([{"attributes": {"POSITION": positions, "NORMAL": normals, "TEXCOORD_0": uvs}, "indices": indices, "material": material}]));
+    gltf.node(json!({"mesh": mesh}))
+}
+
+/// A matte dielectric of base colour `rgb`.
+pub fn matte(gltf: &mut GltfBuilder, rgb: [f32; 3]) -> usize {
+    gltf.material(json!({"pbrMetallicRoughness": {"baseColorFactor": [rgb[0], rgb[1], rgb[2], 1.0], "metallicFactor": 0.0, "roughnessFactor": 1.0}}))
+}
+
+/// A white emitter of `nits` (KHR_materials_emissive_strength).
+pub fn emitter(gltf: &mut GltfBuilder, nits: f32) -> usize {
+    gltf.material(json!({"pbrMetallicRoughness": {"baseColorFactor": [0.0, 0.0, 0.0, 1.0]}, "emissiveFactor": [1.0, 1.0, 1.0], "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": nits}}, "extensionsUsed": []}))
+}

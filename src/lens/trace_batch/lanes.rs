@@ -34,12 +34,21 @@ pub trait Lanes:
     fn ge(self, other: Self) -> Self::Mask;
     fn select(mask: Self::Mask, if_true: Self, if_false: Self) -> Self;
 
+    /// True when any lane of `mask` is set.
+    fn any(mask: Self::Mask) -> bool;
+
     /// `if self > other { self } else { other }`, spelled out with a compare and a select so
     /// that every implementation agrees for NaN and signed zeros too (platform `max`
     /// instructions differ there).
     #[inline(always)]
     fn max(self, other: Self) -> Self {
         Self::select(self.gt(other), self, other)
+    }
+
+    /// |self| as a compare and a select, for the same reason.
+    #[inline(always)]
+    fn abs(self) -> Self {
+        Self::select(self.lt(Self::splat(0.0)), -self, self)
     }
 }
 
@@ -75,6 +84,10 @@ impl Lanes for f32 {
     fn select(mask: bool, if_true: Self, if_false: Self) -> Self {
         if mask { if_true } else { if_false }
     }
+    #[inline(always)]
+    fn any(mask: bool) -> bool {
+        mask
+    }
 }
 
 impl LaneMask for f32x8 {}
@@ -108,5 +121,9 @@ impl Lanes for f32x8 {
     #[inline(always)]
     fn select(mask: f32x8, if_true: Self, if_false: Self) -> Self {
         mask.select(if_true, if_false)
+    }
+    #[inline(always)]
+    fn any(mask: f32x8) -> bool {
+        mask.any()
     }
 }

@@ -1,15 +1,18 @@
 //! One surface of the lens for a group of lanes: intersection, clear aperture, Snell's law.
 //!
-//! The physics of [`crate::lens::trace`] (the per-ray reference) in the curvature form of the
-//! sphere, so flat surfaces (c = 0) need no special case, and without branches: every lane
-//! computes both roots, the cap test, the aperture test and the refraction, and blocked lanes
-//! are masked off.
+//! The physics of [`crate::lens::trace`] (the per-ray reference) without branches: every lane
+//! computes the roots, the sheet test, the aperture test and the refraction, and blocked lanes
+//! are masked off. The shapes are those of [`crate::lens::shape`], in three kernels chosen per
+//! surface (not per ray), so an all-spherical lens runs exactly the sphere kernel:
 //!
-//! The surface through vertex z_v is c(x² + y² + (z − z_v)²) − 2(z − z_v) = 0; along o + t·d
-//! (|d| = 1) this is c·t² + 2b·t + k = 0 with b = c(o'·d) − d_z, k = c|o'|² − 2o'_z,
-//! o' = o − z_v ẑ.
+//! * [`SPHERE`]: c(x² + y² + z²) − 2z = 0 (z from the vertex); along o + t·d (|d| = 1) this is
+//!   c·t² + 2b·t + k = 0 with b = c(o·d) − d_z, k = c|o|² − 2o_z. Planes are c = 0.
+//! * [`CONIC`]: c(x² + y²) + κc·z² − 2z = 0, i.e. a·t² + 2b·t + k = 0 with a = c(1 + (κ−1)d_z²),
+//!   b = c(o_x d_x + o_y d_y + κ o_z d_z) − d_z, k = c(o_x² + o_y² + κ o_z²) − 2o_z.
+//! * [`POLYNOMIAL`]: Newton's method on z − sag(ρ) from the base conic's root.
 
 use super::lanes::Lanes;
+use crate::lens::shape::ASPHERIC_TERMS;
 use crate::lens::system::SurfaceArrays;
 use crate::lens::trace::Travel;
 
@@ -17,17 +20,34 @@ use crate::lens::trace::Travel;
 /// starts on).
 const T_MIN: f32 = 1e-6;
 
+/// Newton steps before a lane that has not converged counts as a miss: started from the base
+/// conic, real aspheres converge in 3–6 steps in f32.
+const NEWTON_STEPS: usize = 16;
+
+/// The kernel shapes (const-generic parameters of [`refract_at`]).
+pub const SPHERE: u8 = 0;
+pub const CONIC: u8 = 1;
+pub const POLYNOMIAL: u8 = 2;
+
 /// One surface's parameters for the direction of travel, worked out once per batch.
 #[derive(Clone, Copy, Debug)]
 pub struct SurfaceConstants<L> {
+    /// [`SPHERE`], [`CONIC`] or [`POLYNOMIAL`].
+    pub shape: u8,
     pub vertex_z: L,
     pub curvature: L,
-    /// 1/c (infinite for flat surfaces): the far root q/c becomes a multiplication.
+    /// 1/c (infinite for flat surfaces): the sphere's far root q/c becomes a multiplication.
     pub radius: L,
+    /// κ = 1 + k, and κ − 1 = k.
+    pub conic_factor: L,
+    pub conic: L,
+    /// A₂ … A₁₆, and i·A_{2i} for the slope.
+    pub coefficients: [L; ASPHERIC_TERMS],
+    pub slope_coefficients: [L; ASPHERIC_TERMS],
     pub semi_aperture_sq: L,
-    /// n_incident / n_transmitted for the direction of travel, and its square.
+    /// n_incident / n_transmitted for the direction of travel (at the lens's own indices; a
+    /// spectral batch passes each lane's own ratio to [`refract_at`] instead).
     pub eta: L,
-    pub eta_sq: L,
     /// +1 when rays must leave toward +z, −1 toward −z.
     pub forward_sign: L,
 }
@@ -50,13 +70,30 @@ impl SurfaceConstants<f32> {
                     }
                 };
                 let curvature = surfaces.curvature[i];
+                let conic_factor = surfaces.conic_factor[i];
+                let shape = if surfaces.polynomial[i] {
+                    POLYNOMIAL
+                } else if conic_factor != 1.0 {
+                    CONIC
+                } else {
+                    SPHERE
+                };
+                let coefficients = surfaces.aspheric[i];
+                let mut slope_coefficients = coefficients;
+                for (k, a) in slope_coefficients.iter_mut().enumerate() {
+                    *a *= (k + 1) as f32;
+                }
                 SurfaceConstants {
+                    shape,
                     vertex_z: surfaces.vertex_z[i],
                     curvature,
                     radius: 1.0 / curvature,
+                    conic_factor,
+                    conic: conic_factor - 1.0,
+                    coefficients,
+                    slope_coefficients,
                     semi_aperture_sq: surfaces.semi_aperture_sq[i],
                     eta,
-                    eta_sq: eta * eta,
                     forward_sign,
                 }
             })
@@ -67,12 +104,16 @@ impl SurfaceConstants<f32> {
     #[inline(always)]
     pub fn splat<L: Lanes>(&self) -> SurfaceConstants<L> {
         SurfaceConstants {
+            shape: self.shape,
             vertex_z: L::splat(self.vertex_z),
             curvature: L::splat(self.curvature),
             radius: L::splat(self.radius),
+            conic_factor: L::splat(self.conic_factor),
+            conic: L::splat(self.conic),
+            coefficients: self.coefficients.map(L::splat),
+            slope_coefficients: self.slope_coefficients.map(L::splat),
             semi_aperture_sq: L::splat(self.semi_aperture_sq),
             eta: L::splat(self.eta),
-            eta_sq: L::splat(self.eta_sq),
             forward_sign: L::splat(self.forward_sign),
         }
     }
@@ -85,69 +126,71 @@ pub struct LaneRay<L> {
     pub direction: [L; 3],
 }
 
-/// Moves the `alive` lanes of `ray` onto surface `s` and refracts them; returns which lanes
-/// are still alive. Lanes that are or become blocked keep their previous state, so a miss
-/// never leaves a NaN behind.
+/// Moves the `alive` lanes of `ray` onto surface `s` (whose shape is `SHAPE`, the value of
+/// `s.shape`) and refracts them with index ratio `eta` (n_incident / n_transmitted: `s.eta`, or
+/// each lane's at its wavelength); returns which lanes are still alive. Lanes that are or
+/// become blocked keep their previous state, so a miss never leaves a NaN behind.
 #[inline(always)]
-pub fn refract_at<L: Lanes>(
+pub fn refract_at<L: Lanes, const SHAPE: u8>(
     s: &SurfaceConstants<L>,
     ray: &mut LaneRay<L>,
     alive: L::Mask,
+    eta: L,
 ) -> L::Mask {
     let zero = L::splat(0.0);
     let one = L::splat(1.0);
     let [px, py, pz] = ray.origin;
     let [vx, vy, vz] = ray.direction;
-    let c = s.curvature;
 
-    let ovz = pz - s.vertex_z;
-    let b = c * (px * vx + py * vy + ovz * vz) - vz;
-    let k = c * (px * px + py * py + ovz * ovz) - (ovz + ovz);
-    let discriminant = b * b - c * k;
-    let root = discriminant.max(zero).sqrt();
-    // q = −b − sign(b)·√Δ adds two terms of one sign (no cancellation); the roots are k/q and
-    // q/c, and k/q is the one that tends to the plane's as c → 0.
-    let q = L::select(b.lt(zero), root - b, -b - root);
-    let t_near = k / q;
-    let t_far = q * s.radius;
-    // A root counts if it lies ahead, is finite (t < ∞ also rejects NaN) and on the cap next
-    // to the vertex, c·(z − z_v) < 1.
-    let infinity = L::splat(f32::INFINITY);
-    let ok_near =
-        t_near.gt(L::splat(T_MIN)) & t_near.lt(infinity) & (c * (ovz + t_near * vz)).lt(one);
-    let ok_far = t_far.gt(L::splat(T_MIN)) & t_far.lt(infinity) & (c * (ovz + t_far * vz)).lt(one);
-    let use_near = ok_near & (!ok_far | t_near.le(t_far));
-    let t = L::select(use_near, t_near, t_far);
-    let hit = discriminant.ge(zero) & (ok_near | ok_far);
-
+    let (t, hit) = match SHAPE {
+        SPHERE => hit_sphere(s, ray),
+        CONIC => hit_conic(s, ray),
+        _ => hit_polynomial(s, ray),
+    };
     let hx = px + t * vx;
     let hy = py + t * vy;
     let hz = pz + t * vz;
     let inside = (hx * hx + hy * hy).le(s.semi_aperture_sq);
 
-    // Normal (c·x, c·y, c·(z − z_v) − 1) = (h − centre)/R. Its squared length is
-    // 1 + c·S(h), where S(h) = 0 is the surface equation above: a unit vector at an exact hit,
-    // but a hit found from far away (t ~ 1000 mm in f32) can sit 1e-3 mm off the sphere, and
-    // that error would scale the refracted direction. Normalising makes it a tiny tilt instead.
-    let nx = c * hx;
-    let ny = c * hy;
-    let nz = c * (hz - s.vertex_z) - one;
+    // The surface normal, facing the scene at the vertex. A hit found from far away (t ~ 1000
+    // mm in f32) can sit 1e-3 mm off the surface, and an unnormalised normal would scale the
+    // refracted direction by that error: normalising makes it a tiny tilt instead.
+    let (nx, ny, nz) = match SHAPE {
+        // (h − centre)/R = (c·x, c·y, c·z − 1).
+        SPHERE => (
+            s.curvature * hx,
+            s.curvature * hy,
+            s.curvature * (hz - s.vertex_z) - one,
+        ),
+        // ∇ of the quadric: (c·x, c·y, κc·z − 1).
+        CONIC => (
+            s.curvature * hx,
+            s.curvature * hy,
+            s.conic_factor * s.curvature * (hz - s.vertex_z) - one,
+        ),
+        // ∇(sag(ρ) − z) = (2x·sag′, 2y·sag′, −1).
+        _ => {
+            let (_, slope, _) = sag_and_slope(s, hx * hx + hy * hy);
+            let two_slope = slope + slope;
+            (two_slope * hx, two_slope * hy, -one)
+        }
+    };
     let inv_length = one / (nx * nx + ny * ny + nz * nz).sqrt();
     let (nx, ny, nz) = (nx * inv_length, ny * inv_length, nz * inv_length);
     // Face the normal against the incoming ray: flip = ±1 multiplies exactly.
     let cos_raw = -(vx * nx + vy * ny + vz * nz);
     let flip = L::select(cos_raw.lt(zero), -one, one);
     let cos_i = cos_raw * flip;
-    let cos_t_sq = one - s.eta_sq * (one - cos_i * cos_i);
+    let cos_t_sq = one - eta * eta * (one - cos_i * cos_i);
     let no_tir = cos_t_sq.ge(zero);
     let cos_t = cos_t_sq.max(zero).sqrt();
     // Snell's law in vector form, η·d + (η·cos_i − cos_t)·n: a unit vector when d and n are,
     // so it is renormalised only once, after the last surface ([`normalise_direction`]); the
     // rounding drift over a whole lens is ~1e-6.
-    let along_normal = (s.eta * cos_i - cos_t) * flip;
-    let rx = s.eta * vx + along_normal * nx;
-    let ry = s.eta * vy + along_normal * ny;
-    let rz = s.eta * vz + along_normal * nz;
+    let along_normal = (eta * cos_i - cos_t) * flip;
+    let rx = eta * vx + along_normal * nx;
+    let ry = eta * vy + along_normal * ny;
+    let rz = eta * vz + along_normal * nz;
     let forward = (rz * s.forward_sign).gt(zero);
 
     let survives = alive & hit & inside & no_tir & forward;
@@ -155,6 +198,131 @@ pub fn refract_at<L: Lanes>(
     ray.origin = [keep(hx, px), keep(hy, py), keep(hz, pz)];
     ray.direction = [keep(rx, vx), keep(ry, vy), keep(rz, vz)];
     survives
+}
+
+/// The nearer valid root of a·t² + 2b·t + k = 0 whose far root is `far(q)`: q = −b − sign(b)·√Δ
+/// adds two terms of one sign (no cancellation); the roots are k/q (which tends to the plane's
+/// as c → 0) and the far one. A root counts if it lies ahead, is finite (t < ∞ also rejects
+/// NaN) and on the sheet through the vertex, κc·z < 1.
+#[inline(always)]
+fn nearer_root<L: Lanes>(
+    ovz: L,
+    vz: L,
+    b: L,
+    k: L,
+    discriminant: L,
+    far: impl Fn(L) -> L,
+    sheet: impl Fn(L) -> L,
+) -> (L, L::Mask) {
+    let zero = L::splat(0.0);
+    let one = L::splat(1.0);
+    let root = discriminant.max(zero).sqrt();
+    let q = L::select(b.lt(zero), root - b, -b - root);
+    let t_near = k / q;
+    let t_far = far(q);
+    let infinity = L::splat(f32::INFINITY);
+    let t_min = L::splat(T_MIN);
+    let ok_near = t_near.gt(t_min) & t_near.lt(infinity) & sheet(ovz + t_near * vz).lt(one);
+    let ok_far = t_far.gt(t_min) & t_far.lt(infinity) & sheet(ovz + t_far * vz).lt(one);
+    let use_near = ok_near & (!ok_far | t_near.le(t_far));
+    (
+        L::select(use_near, t_near, t_far),
+        discriminant.ge(zero) & (ok_near | ok_far),
+    )
+}
+
+/// Distance to a sphere or plane, and which lanes hit it.
+#[inline(always)]
+fn hit_sphere<L: Lanes>(s: &SurfaceConstants<L>, ray: &LaneRay<L>) -> (L, L::Mask) {
+    let [px, py, pz] = ray.origin;
+    let [vx, vy, vz] = ray.direction;
+    let c = s.curvature;
+    let ovz = pz - s.vertex_z;
+    let b = c * (px * vx + py * vy + ovz * vz) - vz;
+    let k = c * (px * px + py * py + ovz * ovz) - (ovz + ovz);
+    let discriminant = b * b - c * k;
+    nearer_root(ovz, vz, b, k, discriminant, |q| q * s.radius, |z| c * z)
+}
+
+/// Distance to a conic, and which lanes hit it.
+#[inline(always)]
+fn hit_conic<L: Lanes>(s: &SurfaceConstants<L>, ray: &LaneRay<L>) -> (L, L::Mask) {
+    let one = L::splat(1.0);
+    let [px, py, pz] = ray.origin;
+    let [vx, vy, vz] = ray.direction;
+    let c = s.curvature;
+    let kappa = s.conic_factor;
+    let ovz = pz - s.vertex_z;
+    let a = c * (one + s.conic * vz * vz);
+    let b = c * (px * vx + py * vy + kappa * ovz * vz) - vz;
+    let k = c * (px * px + py * py + kappa * ovz * ovz) - (ovz + ovz);
+    let discriminant = b * b - a * k;
+    let kappa_c = kappa * c;
+    nearer_root(ovz, vz, b, k, discriminant, |q| q / a, |z| kappa_c * z)
+}
+
+/// Distance to a polynomial asphere by Newton's method from the base conic's root (or the
+/// vertex plane where the conic is missed), and which lanes converged onto it.
+#[inline(always)]
+fn hit_polynomial<L: Lanes>(s: &SurfaceConstants<L>, ray: &LaneRay<L>) -> (L, L::Mask) {
+    let zero = L::splat(0.0);
+    let [px, py, pz] = ray.origin;
+    let [vx, vy, vz] = ray.direction;
+    let (conic_t, conic_hit) = hit_conic(s, ray);
+    // Where the conic is missed: the vertex plane if it lies ahead, else the ray's origin (the
+    // reference's start, [`crate::lens::shape::Profile::intersect`]).
+    let plane_t = (s.vertex_z - pz) / vz;
+    let plane_t = L::select(plane_t.gt(zero), plane_t, zero);
+    let mut t = L::select(conic_hit, conic_t, plane_t);
+    // Converged once a step is within a few f32 ulps of the lengths it comes from: the
+    // distance, the origin's height over the vertex, the sag.
+    let relative = L::splat(16.0 * f32::EPSILON);
+    let absolute = L::splat(1e-7);
+    let ovz = pz - s.vertex_z;
+    // Every lane whose start is a number searches (vz = 0 gives NaN).
+    let mut searching = plane_t.ge(zero);
+    let mut converged = zero.lt(zero);
+    for _ in 0..NEWTON_STEPS {
+        let x = px + t * vx;
+        let y = py + t * vy;
+        let z = ovz + t * vz;
+        let (sag, slope, defined) = sag_and_slope(s, x * x + y * y);
+        let derivative = vz - (slope + slope) * (x * vx + y * vy);
+        let step = (z - sag) / derivative;
+        let next = t - step;
+        let finite = next.abs().lt(L::splat(f32::INFINITY));
+        let valid = defined & finite;
+        // Lanes leave the search converged or failed; either way their t no longer moves.
+        t = L::select(searching & valid, next, t);
+        let scale = next.abs() + ovz.abs() + sag.abs();
+        let done = step.abs().le(absolute + relative * scale);
+        converged = converged | (searching & valid & done);
+        searching = searching & valid & !done;
+        if !L::any(searching) {
+            break;
+        }
+    }
+    (t, converged & t.gt(L::splat(T_MIN)))
+}
+
+/// sag(ρ), d sag/dρ and where they are defined (1 − κc²ρ ≥ 0), for every lane.
+#[inline(always)]
+fn sag_and_slope<L: Lanes>(s: &SurfaceConstants<L>, rho: L) -> (L, L, L::Mask) {
+    let zero = L::splat(0.0);
+    let one = L::splat(1.0);
+    let c = s.curvature;
+    let under_root = one - s.conic_factor * c * c * rho;
+    let defined = under_root.ge(zero);
+    let root = under_root.max(zero).sqrt();
+    let mut value = zero;
+    let mut derivative = zero;
+    for k in (0..ASPHERIC_TERMS).rev() {
+        derivative = derivative * rho + s.slope_coefficients[k];
+        value = value * rho + s.coefficients[k];
+    }
+    let sag = c * rho / (one + root) + value * rho;
+    let slope = c / (root + root) + derivative;
+    (sag, slope, defined)
 }
 
 /// Rescales the direction of the `alive` lanes to unit length (after the last surface).

@@ -4,6 +4,8 @@
 //! does not depend on which thread renders which tile or in which order: the same seed gives
 //! the same image bit for bit whatever the thread count.
 
+pub mod sobol;
+
 /// PCG32 (O'Neill 2014, XSH-RR variant): small state, good statistical quality, cheap to seed.
 #[derive(Clone, Debug)]
 pub struct Rng {

@@ -1,0 +1,83 @@
+//! Writing a lens in another format: realcam's own (`.toml`, everything realcam represents)
+//! or a pbrt `.dat` table (spheres, planes and a plane stop only; glass in the fifth column).
+
+use std::fmt::Write;
+use std::path::Path;
+
+use super::lens_file::write_lens_file;
+use super::prescription::{Prescription, SurfaceKind, extension};
+use crate::glass::Glass;
+
+/// The text of `prescription` in the format `path`'s extension names.
+pub fn export_text(prescription: &Prescription, path: &Path) -> Result<String, String> {
+    match extension(path).as_str() {
+        "toml" => Ok(write_lens_file(prescription)),
+        "dat" => write_dat(prescription),
+        other => Err(format!(
+            "{}: cannot export a lens as '.{other}': use .toml (realcam's lens format) or .dat (a pbrt table)",
+            path.display()
+        )),
+    }
+}
+
+/// A pbrt-v3/v4 `.dat` table (thickness after each surface; radius 0 for the stop). Refuses
+/// what the format cannot say: aspheres and a stop on a refracting surface.
+pub fn write_dat(prescription: &Prescription) -> Result<String, String> {
+    let mut out = String::new();
+    let _ = writeln!(
+        out,
+        "# {} — exported by realcam",
+        prescription
+            .info
+            .title
+            .as_deref()
+            .unwrap_or(&prescription.name)
+    );
+    if let Some(source) = &prescription.info.source {
+        let _ = writeln!(out, "# source: {source}");
+    }
+    let _ = writeln!(
+        out,
+        "# radius  thickness  index  aperture  [glass: V_d or MAKER:NAME]   (mm; thickness after each surface)"
+    );
+    for (i, row) in prescription.rows.iter().enumerate() {
+        let n = i + 1;
+        if row.kind() == SurfaceKind::Aspheric {
+            return Err(format!(
+                "surface {n} is aspheric (conic {}, {} polynomial terms): a pbrt .dat table holds spheres only; export to .toml instead",
+                row.asphere.conic,
+                row.asphere.order()
+            ));
+        }
+        if row.stop && row.curvature() != 0.0 {
+            return Err(format!(
+                "the stop is on a curved surface (surface {n}): a pbrt .dat table's stop is a plane of its own; export to .toml instead"
+            ));
+        }
+        let radius = match row.kind() {
+            SurfaceKind::Stop => "0".to_string(),
+            SurfaceKind::Flat => "inf".to_string(),
+            _ => format!("{:?}", row.radius),
+        };
+        let glass = match row.glass {
+            None => String::new(),
+            Some(Glass::Model { v_d, .. }) => format!("  {v_d:?}"),
+            Some(Glass::Catalogue(id)) => {
+                let g = id.get();
+                if g.name.chars().any(char::is_whitespace) {
+                    return Err(format!(
+                        "surface {n}: glass '{}' has a space in its name, which a .dat column cannot hold",
+                        g.name
+                    ));
+                }
+                format!("  {}:{}", g.maker.name().to_ascii_uppercase(), g.name)
+            }
+        };
+        let _ = writeln!(
+            out,
+            "{radius}  {:?}  {:?}  {:?}{glass}",
+            row.thickness, row.index, row.aperture
+        );
+    }
+    Ok(out)
+}

@@ -1,0 +1,352 @@
+//! realcam's own lens format: a small TOML file that says everything realcam represents, and
+//! is easy to read and write by hand (documented with an example in `lenses/README.md`).
+//!
+//! ```toml
+//! title = "A triplet with an aspheric element (an example, not a real design)"
+//! source = "where the numbers come from: patent, book, repository @ commit : path"
+//! licence = "the licence of the source's data"
+//! focal_length_mm = 50.0
+//! f_number = 4.5
+//! surfaces = [
+//!   { radius = 21.48,  thickness = 2.0,  glass = "N-SK16", diameter = 16 },
+//!   { radius = -124.1, thickness = 5.26, diameter = 16 },
+//!   { stop = true,     thickness = 1.0,  diameter = 9.8 },
+//!   { radius = -8.98, thickness = 1.0, glass = { n_d = 1.6477, v_d = 33.8 }, diameter = 10,
+//!     conic = -0.3, aspheric = [0, 1.2e-5, -4e-8] },
+//!   { radius = "inf", thickness = 42.9, diameter = 12 },
+//! ]
+//! ```
+//!
+//! Lengths are millimetres in the lens frame (see [`crate::lens`]); surfaces run front (scene)
+//! to back (film). `radius` is signed (> 0: centre toward the film) or `"inf"` for a plane;
+//! a surface with `stop = true` and no radius is the diaphragm. `thickness` is the distance to
+//! the next surface (the last one's: the design's image distance, optional). `glass` is the
+//! medium after the surface: a catalogue name, `{ n_d, v_d }`, `{ n = … }` for a fixed index,
+//! or absent for air. `diameter` is the clear aperture's full diameter. `aspheric` lists
+//! [A₂, A₄, …] (the coefficients of r², r⁴, …, in mm units).
+
+use std::fmt::Write;
+use std::path::Path;
+
+use serde::Deserialize;
+
+use super::info::LensInfo;
+use super::prescription::{LensFormat, Prescription, PrescriptionError, SurfaceRow};
+use super::shape::{ASPHERIC_TERMS, Asphere};
+use crate::glass::{FRAUNHOFER_D_NM, Glass, catalogue};
+
+/// The file's top level: the lens's name, [`LensInfo`]'s fields, and the surfaces.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct LensFile {
+    format: Option<String>,
+    name: Option<String>,
+    title: Option<String>,
+    source: Option<String>,
+    licence: Option<String>,
+    year: Option<u32>,
+    focal_length_mm: Option<f64>,
+    f_number: Option<f64>,
+    film_diagonal_mm: Option<f64>,
+    notes: Option<String>,
+    surfaces: Vec<toml::Spanned<SurfaceEntry>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SurfaceEntry {
+    radius: Option<Radius>,
+    thickness: Option<f64>,
+    glass: Option<GlassEntry>,
+    diameter: f64,
+    #[serde(default)]
+    stop: bool,
+    #[serde(default)]
+    conic: f64,
+    #[serde(default)]
+    aspheric: Vec<f64>,
+}
+
+#[derive(Deserialize)]
+#[serde(untagged)]
+enum Radius {
+    Number(f64),
+    Word(String),
+}
+
+#[derive(Deserialize)]
+#[serde(untagged)]
+enum GlassEntry {
+    Name(String),
+    Model { n_d: f64, v_d: f64 },
+    Fixed { n: f64 },
+}
+
+/// The format version this module writes (and the only one it reads).
+pub const FORMAT: &str = "realcam-lens/1";
+
+/// Reads realcam's lens format.
+pub fn read_lens_file(text: &str, source: &Path) -> Result<Prescription, PrescriptionError> {
+    let error = |line: Option<usize>, message: String| PrescriptionError {
+        file: source.to_path_buf(),
+        line,
+        message,
+    };
+    let file: LensFile = toml::from_str(text).map_err(|e| {
+        let line = e
+            .span()
+            .map(|s| text[..s.start.min(text.len())].lines().count().max(1));
+        error(line, format!("not a realcam lens file: {}", e.message()))
+    })?;
+    if let Some(format) = &file.format
+        && format != FORMAT
+    {
+        return Err(error(
+            None,
+            format!("format '{format}' is not '{FORMAT}', the one this realcam reads"),
+        ));
+    }
+    if file.surfaces.is_empty() {
+        return Err(error(
+            None,
+            "no surfaces: the 'surfaces' array is empty".into(),
+        ));
+    }
+    let line_of = |offset: usize| text[..offset.min(text.len())].lines().count().max(1);
+    let mut rows = Vec::with_capacity(file.surfaces.len());
+    let last = file.surfaces.len() - 1;
+    let mut film_distance = None;
+    for (i, spanned) in file.surfaces.iter().enumerate() {
+        let line = line_of(spanned.span().start);
+        let entry = spanned.get_ref();
+        let at = |message: String| error(Some(line), format!("surface {}: {message}", i + 1));
+        let radius = match &entry.radius {
+            None if entry.stop => 0.0,
+            None => {
+                return Err(at(
+                    "no radius (give a number, or \"inf\" for a plane)".into()
+                ));
+            }
+            Some(Radius::Number(r)) if r.is_finite() && *r != 0.0 => *r,
+            Some(Radius::Number(r)) => {
+                return Err(at(format!(
+                    "radius {r} is not a radius (use \"inf\" for a plane)"
+                )));
+            }
+            Some(Radius::Word(w))
+                if matches!(
+                    w.to_ascii_lowercase().as_str(),
+                    "inf" | "infinity" | "flat" | "plane"
+                ) =>
+            {
+                f64::INFINITY
+            }
+            Some(Radius::Word(w)) => {
+                return Err(at(format!("radius '{w}' is not a number or \"inf\"")));
+            }
+        };
+        let (index, glass) = match &entry.glass {
+            None => (1.0, None),
+            Some(GlassEntry::Name(name)) if name.eq_ignore_ascii_case("air") => (1.0, None),
+            Some(GlassEntry::Name(name)) => {
+                let id = catalogue()
+                    .find(name)
+                    .map_err(|e| at(format!("glass: {e}")))?;
+                let glass = Glass::Catalogue(id);
+                (glass.index(FRAUNHOFER_D_NM), Some(glass))
+            }
+            Some(GlassEntry::Model { n_d, v_d }) => {
+                let glass = Glass::model(*n_d, *v_d).map_err(|e| at(format!("glass: {e}")))?;
+                (*n_d, Some(glass))
+            }
+            Some(GlassEntry::Fixed { n }) => (*n, None),
+        };
+        if entry.aspheric.len() > ASPHERIC_TERMS {
+            return Err(at(format!(
+                "{} aspheric coefficients; realcam takes up to {ASPHERIC_TERMS} (A2 … A{})",
+                entry.aspheric.len(),
+                2 * ASPHERIC_TERMS
+            )));
+        }
+        let mut asphere = Asphere {
+            conic: entry.conic,
+            ..Asphere::NONE
+        };
+        asphere.coefficients[..entry.aspheric.len()].copy_from_slice(&entry.aspheric);
+        if !asphere.conic.is_finite() || asphere.coefficients.iter().any(|a| !a.is_finite()) {
+            return Err(at("conic and aspheric coefficients must be finite".into()));
+        }
+        let thickness = entry.thickness.unwrap_or(0.0);
+        if i == last {
+            film_distance = entry.thickness.filter(|t| *t > 0.0);
+        }
+        rows.push(SurfaceRow {
+            radius,
+            thickness: if i == last { 0.0 } else { thickness },
+            index,
+            aperture: entry.diameter,
+            line,
+            stop: entry.stop,
+            asphere,
+            glass,
+        });
+    }
+    let name = file.name.clone().unwrap_or_else(|| stem(source));
+    // Validation locates problems by line: name the surface too.
+    let lines: Vec<usize> = rows.iter().map(|r| r.line).collect();
+    let mut prescription = Prescription::from_rows(&name, source, LensFormat::ThicknessAfter, rows)
+        .map_err(|e| match lines.iter().position(|&l| Some(l) == e.line) {
+            Some(i) => PrescriptionError {
+                message: format!("surface {}: {}", i + 1, e.message),
+                ..e
+            },
+            None => e,
+        })?;
+    let i = &file;
+    prescription.info = LensInfo {
+        title: i.title.clone(),
+        source: i.source.clone(),
+        licence: i.licence.clone(),
+        year: i.year,
+        focal_length_mm: i.focal_length_mm,
+        f_number: i.f_number,
+        film_diagonal_mm: i.film_diagonal_mm,
+        film_distance_mm: film_distance,
+        notes: i.notes.clone(),
+    };
+    Ok(prescription)
+}
+
+fn stem(path: &Path) -> String {
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "lens".into());
+    name.trim_end_matches(".toml")
+        .trim_end_matches(".lens")
+        .to_string()
+}
+
+/// A TOML basic string.
+fn quoted(s: &str) -> String {
+    let mut out = String::with_capacity(s.len() + 2);
+    out.push('"');
+    for c in s.chars() {
+        match c {
+            '"' => out.push_str("\\\""),
+            '\\' => out.push_str("\\\\"),
+            '\n' => out.push_str("\\n"),
+            '\t' => out.push_str("\\t"),
+            c if c.is_control() => {
+                let _ = write!(out, "\\u{:04X}", c as u32);
+            }
+            c => out.push(c),
+        }
+    }
+    out.push('"');
+    out
+}
+
+/// A number as TOML reads it back exactly (Rust's shortest round-trip form, e.g. `1.5`,
+/// `1e-5`, `-0.25`).
+fn num(v: f64) -> String {
+    format!("{v:?}")
+}
+
+/// `prescription` in realcam's lens format. `film_distance` (the last surface's thickness)
+/// is written when known.
+pub fn write_lens_file(prescription: &Prescription) -> String {
+    let info = &prescription.info;
+    let mut out = String::new();
+    let _ = writeln!(
+        out,
+        "# realcam lens file: lengths in mm, surfaces front (scene) to back (film)."
+    );
+    let _ = writeln!(
+        out,
+        "# Format: see lenses/README.md in the realcam repository."
+    );
+    let _ = writeln!(out, "format = {}", quoted(FORMAT));
+    let _ = writeln!(out, "name = {}", quoted(&prescription.name));
+    let strings = [
+        ("title", &info.title),
+        ("source", &info.source),
+        ("licence", &info.licence),
+    ];
+    for (key, value) in strings {
+        if let Some(v) = value {
+            let _ = writeln!(out, "{key} = {}", quoted(v));
+        }
+    }
+    if let Some(year) = info.year {
+        let _ = writeln!(out, "year = {year}");
+    }
+    let numbers = [
+        ("focal_length_mm", info.focal_length_mm),
+        ("f_number", info.f_number),
+        ("film_diagonal_mm", info.film_diagonal_mm),
+    ];
+    for (key, value) in numbers {
+        if let Some(v) = value {
+            let _ = writeln!(out, "{key} = {}", num(v));
+        }
+    }
+    if let Some(notes) = &info.notes {
+        let _ = writeln!(out, "notes = {}", quoted(notes));
+    }
+    let _ = writeln!(out, "surfaces = [");
+    let last = prescription.rows.len() - 1;
+    for (i, row) in prescription.rows.iter().enumerate() {
+        let mut fields = Vec::new();
+        let bare_stop = row.stop && row.curvature() == 0.0 && !row.asphere.is_aspheric(0.0);
+        if !bare_stop {
+            fields.push(match row.curvature() {
+                0.0 => "radius = \"inf\"".to_string(),
+                _ => format!("radius = {}", num(row.radius)),
+            });
+        }
+        if row.stop {
+            fields.push("stop = true".into());
+        }
+        let thickness = if i == last {
+            info.film_distance_mm
+        } else {
+            Some(row.thickness)
+        };
+        if let Some(t) = thickness {
+            fields.push(format!("thickness = {}", num(t)));
+        }
+        match row.glass {
+            Some(Glass::Catalogue(id)) => {
+                let glass = id.get();
+                fields.push(format!("glass = {}", quoted(&glass.label())));
+            }
+            Some(Glass::Model { n_d, v_d }) => {
+                fields.push(format!(
+                    "glass = {{ n_d = {}, v_d = {} }}",
+                    num(n_d),
+                    num(v_d)
+                ));
+            }
+            None if row.index != 1.0 => {
+                fields.push(format!("glass = {{ n = {} }}", num(row.index)))
+            }
+            None => {}
+        }
+        fields.push(format!("diameter = {}", num(row.aperture)));
+        if row.asphere.conic != 0.0 {
+            fields.push(format!("conic = {}", num(row.asphere.conic)));
+        }
+        let order = row.asphere.order();
+        if order > 0 {
+            let terms: Vec<String> = row.asphere.coefficients[..order]
+                .iter()
+                .map(|&a| num(a))
+                .collect();
+            fields.push(format!("aspheric = [{}]", terms.join(", ")));
+        }
+        let _ = writeln!(out, "  {{ {} }},", fields.join(", "));
+    }
+    let _ = writeln!(out, "]");
+    out
+}

@@ -1,0 +1,144 @@
+//! Owen-scrambled Sobol points: samples that stay stratified jointly over several dimensions.
+//!
+//! A pixel's camera samples in a spectral render pair a pupil point with a wavelength; a lens's
+//! weight varies over the pupil (vignetting) and the film's colour weights over the wavelength,
+//! and only a pattern stratified in the three dimensions *together* keeps their product's sum
+//! from picking up the product of both variances (independently stratified dimensions, paired
+//! at random, do). Sobol's first dimensions are such a pattern; each pixel gets its own random
+//! variant by nested uniform (Owen) scrambling, done with the hash-based permutation of Burley,
+//! "Practical Hash-based Owen Scrambling" (JCGT 2020).
+
+use super::hash32;
+
+/// Dimensions provided.
+pub const DIMENSIONS: usize = 4;
+
+/// Primitive polynomials (degree s, inner coefficient bits a) and initial direction numbers
+/// m₁…m_s of Sobol dimensions 2–4, from Joe & Kuo's tables; dimension 1 is van der Corput.
+const PARAMETERS: [(u32, u32, [u32; 3]); DIMENSIONS - 1] =
+    [(1, 0, [1, 0, 0]), (2, 1, [1, 3, 0]), (3, 1, [1, 3, 1])];
+
+/// Direction numbers v_k of each dimension (bit k of the index toggles v_k).
+const DIRECTIONS: [[u32; 32]; DIMENSIONS] = directions();
+
+const fn directions() -> [[u32; 32]; DIMENSIONS] {
+    let mut v = [[0u32; 32]; DIMENSIONS];
+    let mut k = 0;
+    while k < 32 {
+        v[0][k] = 1 << (31 - k);
+        k += 1;
+    }
+    let mut d = 1;
+    while d < DIMENSIONS {
+        let (s, a, m) = PARAMETERS[d - 1];
+        let s = s as usize;
+        let mut k = 0;
+        while k < 32 {
+            v[d][k] = if k < s {
+                m[k] << (31 - k)
+            } else {
+                // v_k = v_{k−s} ⊕ (v_{k−s} ≫ s) ⊕ Σ a_i·v_{k−i}.
+                let mut x = v[d][k - s] ^ (v[d][k - s] >> s);
+                let mut i = 1;
+                while i < s {
+                    if (a >> (s - 1 - i)) & 1 == 1 {
+                        x ^= v[d][k - i];
+                    }
+                    i += 1;
+                }
+                x
+            };
+            k += 1;
+        }
+        d += 1;
+    }
+    v
+}
+
+/// The unscrambled Sobol point `index` in dimension `dim`, as a 32-bit fraction.
+#[inline]
+pub fn sobol(index: u32, dim: usize) -> u32 {
+    let directions = &DIRECTIONS[dim];
+    let mut x = 0;
+    let mut bits = index;
+    // One step per set bit of the index (a pixel's sample indices are small).
+    while bits != 0 {
+        x ^= directions[bits.trailing_zeros() as usize];
+        bits &= bits - 1;
+    }
+    x
+}
+
+/// A random permutation of the bits below each bit ("Laine–Karras"), keyed by `seed`: with the
+/// bit order reversed around it, a nested uniform scramble of a 32-bit fraction.
+fn laine_karras(mut x: u32, seed: u32) -> u32 {
+    x = x.wrapping_add(seed);
+    x ^= x.wrapping_mul(0x6c50_b47c);
+    x ^= x.wrapping_mul(0xb82f_1e52);
+    x ^= x.wrapping_mul(0xc7af_e638);
+    x ^= x.wrapping_mul(0x8d22_f6e6);
+    x
+}
+
+/// Owen (nested uniform) scrambling of the 32-bit fraction `x`, keyed by `seed`.
+pub fn nested_uniform_scramble(x: u32, seed: u32) -> u32 {
+    laine_karras(x.reverse_bits(), seed).reverse_bits()
+}
+
+/// Sample `index` of the pattern keyed by `seed` (a pixel's), in dimension `dim` <
+/// [`DIMENSIONS`], in [0, 1).
+pub fn owen_sobol(index: u32, dim: usize, seed: u32) -> f32 {
+    let shuffled = nested_uniform_scramble(index, seed);
+    let x = nested_uniform_scramble(
+        sobol(shuffled, dim),
+        hash32(seed ^ (dim as u32).wrapping_mul(0x9e37_79b9)),
+    );
+    // The top 24 bits: an f32 below 1.
+    (x >> 8) as f32 * (1.0 / (1u32 << 24) as f32)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Known first points of dimensions 2 and 3 (the unscrambled sequence, in index order
+    /// rather than Gray-code order).
+    #[test]
+    fn unscrambled_points_are_sobols() {
+        let f = |i, d| sobol(i, d) as f64 / 2f64.powi(32);
+        let second: Vec<f64> = (0..8).map(|i| f(i, 1)).collect();
+        assert_eq!(second, [0.0, 0.5, 0.75, 0.25, 0.625, 0.125, 0.375, 0.875]);
+        let third: Vec<f64> = (0..8).map(|i| f(i, 2)).collect();
+        assert_eq!(third, [0.0, 0.5, 0.75, 0.25, 0.375, 0.875, 0.625, 0.125]);
+    }
+
+    /// The first 2^m scrambled points of dimensions 1 and 2 put exactly one point in every
+    /// elementary interval of area 2^−m (a (0, m, 2)-net), for any pixel; each dimension and
+    /// every pair are stratified in 2^m equal intervals.
+    #[test]
+    fn scrambled_points_stay_stratified() {
+        for seed in [1u32, 77, 0xdead_beef] {
+            let m = 6u32;
+            let n = 1u32 << m;
+            let points: Vec<[f32; 3]> = (0..n)
+                .map(|i| [0, 1, 2].map(|d| owen_sobol(i, d, seed)))
+                .collect();
+            for bits_x in 0..=m {
+                let (cx, cy) = (1u32 << bits_x, 1u32 << (m - bits_x));
+                let mut cells = vec![0; n as usize];
+                for p in &points {
+                    let i = (p[0] * cx as f32) as u32 + cx * (p[1] * cy as f32) as u32;
+                    cells[i as usize] += 1;
+                }
+                assert!(cells.iter().all(|&c| c == 1), "seed {seed}, {cx}×{cy}");
+            }
+            for d in 0..3 {
+                let mut strata = vec![0; n as usize];
+                for p in &points {
+                    strata[(p[d] * n as f32) as usize] += 1;
+                }
+                assert!(strata.iter().all(|&c| c == 1), "seed {seed}, dimension {d}");
+            }
+        }
+    }
+}
