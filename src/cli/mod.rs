@@ -7,9 +7,7 @@ pub mod lens;
 pub mod lenses;
 pub mod merge;
 pub mod options;
-pub mod plan;
 pub mod render;
-pub mod setup;
 pub mod values;
 
 use std::process::ExitCode;
@@ -106,6 +104,7 @@ mod tests {
             TypeId::of::<crate::lens::focus::FocusMode>(),
             TypeId::of::<crate::lens::pupil::PupilSampling>(),
             TypeId::of::<crate::lens::LensFormat>(),
+            TypeId::of::<render::DispersionArg>(),
         ];
         arg.get_action().takes_values()
             && (!words.iter().any(|w| parser == *w) || arg.get_long() == Some("env"))

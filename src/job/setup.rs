@@ -5,8 +5,8 @@ use std::path::Path;
 use anyhow::bail;
 use glam::{Mat4, Vec3};
 
-use super::render::RenderArgs;
-use super::values::parse_vec3;
+use crate::cli::render::RenderArgs;
+use crate::cli::values::parse_vec3;
 use crate::lens::Prescription;
 use crate::lens::aperture::ApertureSetting;
 use crate::lens::elements::{FocusSetting, Lens, build_geometry};

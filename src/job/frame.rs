@@ -1,0 +1,387 @@
+//! One frame of a render job: the lens set up, its sample passes with progress, checkpoints
+//! and interruption, and what it reports.
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use anyhow::{Context, bail};
+use bevy_ecs::entity::Entity;
+use serde_json::{Value, json};
+
+use super::plan::{Frame, Shard, sidecar};
+use super::{Progress, RunContext, RunLens, choose_exposure, tone};
+use crate::diagnosis::{SceneLighting, black_image};
+use crate::film::Image;
+use crate::film::checkpoint::{
+    CheckpointInfo, FORMAT_VERSION, Invocation, read_checkpoint, write_checkpoint,
+};
+use crate::film::output::{shown, write_image};
+use crate::film::samples::SampleSequence;
+use crate::lens::elements::{
+    Dispersion, FilmPlacement, FocusSetting, LensDerivationStats, LensGeometry,
+};
+use crate::pipeline::{RenderSettings, RenderStats, Renderer};
+use crate::scene::default_scene::DEFAULT_SCENE_PATH;
+
+/// What one frame reported.
+pub(super) struct FrameReport {
+    pub(super) out: PathBuf,
+    pub(super) lens: String,
+    pub(super) focal_length_mm: f64,
+    pub(super) f_number: f64,
+    pub(super) focus: FocusSetting,
+    pub(super) film_distance_mm: f64,
+    pub(super) lens_derivation_seconds: f64,
+    pub(super) render_seconds: f64,
+    pub(super) samples: u32,
+    /// Warnings about the frame's image (why it is black).
+    pub(super) warnings: Vec<String>,
+}
+
+impl FrameReport {
+    pub(super) fn caption(&self) -> String {
+        let focus = match self.focus {
+            FocusSetting::Distance { metres, .. } => format!("focus {metres:.2} m"),
+            FocusSetting::FilmDistance(mm) => format!("film at {mm:.2} mm"),
+        };
+        format!(
+            "{}\nf={:.1}mm f/{:.1}\n{focus}",
+            self.lens, self.focal_length_mm, self.f_number
+        )
+    }
+
+    pub(super) fn to_json(&self) -> Value {
+        json!({
+            "out": self.out.display().to_string(),
+            "lens": self.lens,
+            "focal_length_mm": self.focal_length_mm,
+            "f_number": self.f_number,
+            "focus_distance_m": match self.focus { FocusSetting::Distance { metres, .. } => json!(metres), FocusSetting::FilmDistance(_) => Value::Null },
+            "film_distance_mm": self.film_distance_mm,
+            "lens_derivation_seconds": self.lens_derivation_seconds,
+            "render_seconds": self.render_seconds,
+            "samples": self.samples,
+            "warnings": self.warnings,
+        })
+    }
+}
+
+/// How a frame ended.
+pub(super) enum Outcome {
+    Finished(FrameReport, Image),
+    Interrupted(u8),
+}
+
+/// Renders one frame: sets the lens up, runs its sample passes with progress, checkpoints and
+/// interruption, and returns the film (or the exit code of an interruption, after saving).
+pub(super) fn render_frame(
+    context: &RunContext,
+    renderer: &mut Renderer,
+    lens: &RunLens,
+    frame: &Frame,
+    progress: &mut dyn Progress,
+) -> anyhow::Result<Outcome> {
+    let args = context.args;
+    renderer.set_active_lens(lens.entity);
+    set_if_changed(renderer, lens.entity, frame.focus);
+    set_if_changed(renderer, lens.entity, frame.aperture);
+    let derivation_before = renderer.world.resource::<LensDerivationStats>().total_time;
+    renderer.update()?;
+    renderer
+        .check_active_lens()
+        .with_context(|| format!("{}: cannot render this frame", frame.out.display()))?;
+    let lens_derivation_seconds = (renderer.world.resource::<LensDerivationStats>().total_time
+        - derivation_before)
+        .as_secs_f64();
+    let (focal_length_mm, f_number, film_distance_mm) = {
+        let entity = renderer.world.entity(lens.entity);
+        let geometry = entity
+            .get::<LensGeometry>()
+            .context("lens geometry missing")?;
+        for warning in &geometry.warnings {
+            eprintln!("warning: {warning}");
+        }
+        let film = entity
+            .get::<FilmPlacement>()
+            .context("film placement missing")?
+            .film_distance;
+        (
+            geometry.first_order.focal_length,
+            geometry.first_order.f_number,
+            film,
+        )
+    };
+    eprintln!(
+        "lens {}: f = {focal_length_mm:.2} mm, f/{f_number:.2}, film distance {film_distance_mm:.3} mm",
+        lens.prescription.name
+    );
+
+    let settings = settings_fingerprint(context, renderer, lens, frame);
+    // Shards of one frame share its --out, so each keeps its own checkpoint beside it.
+    let checkpoint_path = args.checkpoint.clone().unwrap_or_else(|| match args.shard {
+        Some(shard) => sidecar(
+            &frame.out,
+            &format!("shard-{}-of-{}.checkpoint", shard.index, shard.count),
+        ),
+        None => sidecar(&frame.out, "checkpoint"),
+    });
+    let planned = match args.shard {
+        Some(shard) => shard.samples(args.spp),
+        None => SampleSequence::all(args.spp),
+    };
+    let (start_image, samples) = match &args.resume {
+        Some(path) => resume_from(path, &settings, args.spp, args.shard)?,
+        None => (None, planned),
+    };
+    renderer.begin_film(start_image.as_ref())?;
+    let checkpoint_info = |remaining: SampleSequence, samples: u32| CheckpointInfo {
+        version: FORMAT_VERSION,
+        samples,
+        remaining: remaining.to_vec(),
+        planned: args.spp,
+        shard: args.shard.map(|s| (s.index, s.count)),
+        settings: settings.clone(),
+        invocation: Invocation::current(),
+    };
+    let (width, height) = {
+        let s = renderer.world.resource::<RenderSettings>();
+        (s.width, s.height)
+    };
+    let stats_before = renderer.world.resource::<RenderStats>().clone();
+    progress.begin(samples.len() as u32, width * height);
+    let render_start = Instant::now();
+    let mut last_checkpoint = Instant::now();
+    for (done, sample) in samples.iter().enumerate() {
+        renderer.render_pass(sample)?;
+        progress.advance(done as u32 + 1);
+        let remaining = samples.after(done as u32 + 1);
+        if let Some(code) = (context.stop)() {
+            progress.finish();
+            let image = renderer.image();
+            write_checkpoint(
+                &checkpoint_path,
+                &image,
+                &checkpoint_info(remaining, image.samples),
+            )?;
+            if args.shard.is_none() {
+                let exposure = choose_exposure(args, &image);
+                write_image(
+                    &frame.out,
+                    &image,
+                    context.formats.out,
+                    tone(args, exposure),
+                )?;
+                eprintln!(
+                    "interrupted: wrote the image so far ({} spp) to {}",
+                    image.samples,
+                    shown(&frame.out)
+                );
+            }
+            eprintln!(
+                "interrupted: saved {}; continue with --resume {}",
+                checkpoint_path.display(),
+                checkpoint_path.display()
+            );
+            return Ok(Outcome::Interrupted(code));
+        }
+        if let Some(every) = args.checkpoint_every
+            && !remaining.is_empty()
+            && last_checkpoint.elapsed().as_secs_f64() >= every
+        {
+            let image = renderer.image();
+            write_checkpoint(
+                &checkpoint_path,
+                &image,
+                &checkpoint_info(remaining, image.samples),
+            )?;
+            last_checkpoint = Instant::now();
+        }
+    }
+    progress.finish();
+    let image = renderer.image();
+    let frame_stats = renderer
+        .world
+        .resource::<RenderStats>()
+        .since(&stats_before);
+    let lighting = SceneLighting::of(renderer);
+    let warnings: Vec<String> = black_image(&image, &frame_stats, &lighting, args.max_depth)
+        .into_iter()
+        .collect();
+    for warning in &warnings {
+        eprintln!("warning: {}: {warning}", shown(&frame.out));
+    }
+    if let Some(shard) = args.shard {
+        let partial = args.partial.clone().unwrap_or_else(|| {
+            sidecar(
+                &frame.out,
+                &format!("shard-{}-of-{}", shard.index, shard.count),
+            )
+        });
+        write_checkpoint(
+            &partial,
+            &image,
+            &checkpoint_info(SampleSequence::default(), image.samples),
+        )?;
+        eprintln!(
+            "wrote {} (shard {}/{}, {} of {} spp)",
+            partial.display(),
+            shard.index,
+            shard.count,
+            image.samples,
+            args.spp
+        );
+    }
+    let report = FrameReport {
+        out: frame.out.clone(),
+        lens: lens.prescription.name.clone(),
+        focal_length_mm,
+        f_number,
+        focus: frame.focus,
+        film_distance_mm,
+        lens_derivation_seconds,
+        render_seconds: render_start.elapsed().as_secs_f64(),
+        samples: image.samples,
+        warnings,
+    };
+    Ok(Outcome::Finished(report, image))
+}
+
+/// Writes a lens setting only when it differs, so change detection re-derives nothing needlessly.
+pub(crate) fn set_if_changed<
+    T: bevy_ecs::component::Component<Mutability = bevy_ecs::component::Mutable> + PartialEq + Copy,
+>(
+    renderer: &mut Renderer,
+    lens: Entity,
+    value: T,
+) {
+    if let Some(mut current) = renderer.world.get_mut::<T>(lens)
+        && *current != value
+    {
+        *current = value;
+    }
+}
+
+/// Everything that must match for a checkpoint to be continued or shards to be merged.
+fn settings_fingerprint(
+    context: &RunContext,
+    renderer: &Renderer,
+    lens: &RunLens,
+    frame: &Frame,
+) -> Value {
+    let args = context.args;
+    let settings = renderer.world.resource::<RenderSettings>();
+    let rows: Vec<[f64; 4]> = lens
+        .prescription
+        .rows
+        .iter()
+        .map(|r| [r.radius, r.thickness, r.index, r.aperture])
+        .collect();
+    let mut fingerprint = json!({
+        "scene": args.scene.as_ref().map_or(DEFAULT_SCENE_PATH.to_string(), |p| p.display().to_string()),
+        "lens": lens.prescription.name,
+        "lens_rows": rows,
+        "focus": format!("{:?}", frame.focus),
+        "aperture": format!("{:?}", frame.aperture),
+        "film_diagonal_mm": context.film_diagonal,
+        "pupil_sampling": args.lens_options.pupil_sampling,
+        "width": settings.width,
+        "height": settings.height,
+        "spp": args.spp,
+        "seed": settings.seed.to_string(),
+        "max_depth": settings.max_depth,
+        "camera": context.world_from_camera.to_cols_array().map(f64::from),
+        "environment": args.env,
+    });
+    // What the four columns above do not say, recorded only when present, so a spherical lens
+    // without glass data keeps the fingerprint it always had.
+    let surfaces = &lens.prescription.rows;
+    if surfaces
+        .iter()
+        .any(|r| r.asphere != crate::lens::Asphere::NONE || r.stop != (r.radius == 0.0))
+    {
+        fingerprint["lens_shapes"] = surfaces
+            .iter()
+            .map(|r| json!({ "stop": r.stop, "conic": r.asphere.conic, "aspheric": r.asphere.coefficients }))
+            .collect();
+    }
+    if surfaces.iter().any(|r| r.glass.is_some()) {
+        fingerprint["lens_glasses"] = surfaces
+            .iter()
+            .map(|r| r.glass.map(|g| g.label()))
+            .collect();
+        fingerprint["dispersion"] = json!(args.dispersion.0 == Dispersion::On);
+    }
+    fingerprint
+}
+
+/// The film and the samples still to render from a checkpoint, after checking it belongs to
+/// this render.
+fn resume_from(
+    path: &Path,
+    settings: &Value,
+    spp: u32,
+    shard: Option<Shard>,
+) -> anyhow::Result<(Option<Image>, SampleSequence)> {
+    let (image, info) = read_checkpoint(path)?;
+    let shard = shard.map(|s| (s.index, s.count));
+    match (info.shard, shard) {
+        (Some(_), None) if info.remaining.is_empty() => bail!(
+            "{}: is a finished shard partial, not a checkpoint; combine partials with `realcam merge`",
+            path.display()
+        ),
+        (Some((index, count)), None) => bail!(
+            "{}: is the checkpoint of shard {index}/{count}; resume it with --shard {index}/{count}",
+            path.display()
+        ),
+        (None, Some((index, count))) => bail!(
+            "{}: is the checkpoint of a whole frame, not of shard {index}/{count}; resume it without --shard",
+            path.display()
+        ),
+        (Some(theirs), Some(ours)) if theirs != ours => bail!(
+            "{}: is the checkpoint of shard {}/{}, not of shard {}/{}",
+            path.display(),
+            theirs.0,
+            theirs.1,
+            ours.0,
+            ours.1
+        ),
+        _ => {}
+    }
+    if &info.settings != settings {
+        let differing: Vec<String> = match (&info.settings, settings) {
+            (Value::Object(a), Value::Object(b)) => b
+                .keys()
+                .filter(|k| a.get(*k) != b.get(*k))
+                .cloned()
+                .collect(),
+            _ => vec!["all".into()],
+        };
+        bail!(
+            "{}: the checkpoint was rendered with different settings ({}); resume with the same scene, lens and options",
+            path.display(),
+            differing.join(", ")
+        );
+    }
+    if info.planned != spp {
+        bail!(
+            "{}: the checkpoint targets {} spp, not {}",
+            path.display(),
+            info.planned,
+            spp
+        );
+    }
+    if info.remaining.is_empty() {
+        eprintln!(
+            "note: {} is already complete ({} spp)",
+            path.display(),
+            info.samples
+        );
+    }
+    let Some(remaining) = SampleSequence::from_list(&info.remaining) else {
+        bail!(
+            "{}: damaged checkpoint: its remaining samples are not a sequence realcam renders",
+            path.display()
+        );
+    };
+    Ok((Some(image), remaining))
+}

@@ -1,0 +1,378 @@
+//! A render job: the scene set up once (camera, environment, lenses, film), then its frames
+//! (lens × focus × stop) rendered with checkpoints, written, and reported. The command line
+//! (`realcam render`) and the live server (`realcam serve`) both drive it.
+
+pub mod frame;
+pub mod outputs;
+pub mod plan;
+pub mod setup;
+pub mod stats;
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use anyhow::Context;
+use bevy_ecs::entity::Entity;
+use glam::Mat4;
+
+use crate::cli::render::RenderArgs;
+use crate::diagnosis::black_picture;
+use crate::film::Image;
+use crate::film::contact_sheet::{Thumbnail, contact_sheet};
+use crate::film::footprint::RunSize;
+use crate::film::format::{DEFAULT_JPEG_QUALITY, Tone, encode_rgb8};
+use crate::film::output::{auto_exposure, shown, to_srgb8, write_image, write_output};
+use crate::lens::Prescription;
+use crate::lens::aperture::ApertureSetting;
+use crate::lens::bundled::{DEFAULT_LENS, load_lens};
+use crate::lens::elements::FocusSetting;
+use crate::pipeline::{RenderSettings, Renderer, SceneInputs, SceneSource, SceneWarnings};
+use crate::scene::CameraHints;
+use crate::scene::default_scene::{DEFAULT_SCENE_GLB, DEFAULT_SCENE_PATH};
+use frame::{Outcome, render_frame};
+use outputs::{Formats, refuse_overwriting_scene_files};
+use plan::{FrameRequest, frame_count, plan_frames};
+use setup::{Placement, autofocus, choose_environment, frame_scene, place_camera};
+use stats::stats_json;
+
+/// How a front end shows a frame's progress (the command line: a progress bar).
+pub trait Progress {
+    /// A frame starts: `passes` sample passes over `pixels` pixels each.
+    fn begin(&mut self, passes: u32, pixels: u32);
+    /// `done` passes of the frame are rendered.
+    fn advance(&mut self, done: u32);
+    fn finish(&mut self);
+}
+
+/// No progress display.
+pub struct Silent;
+
+impl Progress for Silent {
+    fn begin(&mut self, _: u32, _: u32) {}
+    fn advance(&mut self, _: u32) {}
+    fn finish(&mut self) {}
+}
+
+/// A job whose scene is loaded, BVH built, camera placed and lenses spawned with their
+/// starting focus and stop: ready to render its frames, or to be driven live.
+pub struct Job<'a> {
+    pub args: &'a RenderArgs,
+    pub formats: Formats,
+    pub renderer: Renderer,
+    pub lenses: Vec<RunLens>,
+    pub world_from_camera: Mat4,
+    pub film_diagonal: f64,
+    pub width: u32,
+    pub height: u32,
+    /// When the job started, for its wall time.
+    pub start: Instant,
+}
+
+/// A lens of the run: its prescription, entity and the defaults its frames start from.
+pub struct RunLens {
+    pub prescription: Prescription,
+    pub entity: Entity,
+    pub focus: FocusSetting,
+    pub aperture: ApertureSetting,
+}
+
+impl<'a> Job<'a> {
+    /// Loads the scene and builds its BVH, chooses the environment, places the camera, loads
+    /// the lenses and settles each one's starting focus and stop, and sizes the film. `formats`
+    /// come from [`outputs::validate`], run first.
+    pub fn prepare(args: &'a RenderArgs, formats: Formats) -> anyhow::Result<Job<'a>> {
+        let start = Instant::now();
+        let mut renderer = Renderer::new();
+        let source = match &args.scene {
+            Some(path) => SceneSource {
+                path: path.clone(),
+                embedded: None,
+            },
+            None => SceneSource {
+                path: PathBuf::from(DEFAULT_SCENE_PATH),
+                embedded: Some(DEFAULT_SCENE_GLB),
+            },
+        };
+        let source_path = source.path.clone();
+        renderer.set_scene(source);
+        renderer.update()?;
+        for warning in &renderer.world.resource::<SceneWarnings>().0 {
+            eprintln!("warning: {warning}");
+        }
+        refuse_overwriting_scene_files(args, &renderer.world.resource::<SceneInputs>().0)?;
+        let environment = choose_environment(args, &mut renderer)?;
+        renderer.set_environment(environment);
+
+        let placement = place_camera(args, &mut renderer)?;
+        let specs: Vec<String> = if args.lens.is_empty() {
+            vec![
+                placement
+                    .hints
+                    .lens
+                    .clone()
+                    .unwrap_or_else(|| DEFAULT_LENS.to_string()),
+            ]
+        } else {
+            args.lens.clone()
+        };
+        let prescriptions = specs
+            .iter()
+            .map(|spec| load_lens(spec, args.lens_options.lens_format))
+            .collect::<Result<Vec<_>, _>>()?;
+        for warning in prescriptions.iter().flat_map(|p| &p.warnings) {
+            eprintln!("warning: {warning}");
+        }
+        // The film: as asked, else the format the (first) lens was designed for (a phone lens's is
+        // a few mm), else the scene camera's.
+        let film_diagonal = args
+            .lens_options
+            .film_diagonal
+            .or(prescriptions[0].info.film_diagonal_mm)
+            .or(placement.hints.film_diagonal_mm)
+            .unwrap_or(35.0);
+        let (world_from_camera, framed_focus) = if placement.frame_bounds {
+            let aperture = args.lens_options.aperture(ApertureSetting::Full);
+            frame_scene(&mut renderer, &prescriptions[0], aperture, film_diagonal)
+                .with_context(|| source_path.display().to_string())?
+        } else {
+            (placement.world_from_camera, placement.default_focus_m)
+        };
+        let lenses: Vec<RunLens> = prescriptions
+            .into_iter()
+            .map(|prescription| {
+                let (focus, aperture) = lens_defaults(
+                    args,
+                    &placement,
+                    &prescription,
+                    framed_focus,
+                    &mut renderer,
+                    world_from_camera,
+                );
+                let entity = renderer.add_lens(&prescription, focus, aperture);
+                renderer.world.entity_mut(entity).insert(args.dispersion.0);
+                RunLens {
+                    prescription,
+                    entity,
+                    focus,
+                    aperture,
+                }
+            })
+            .collect();
+
+        let width = args.width.or(placement.hints.width).unwrap_or(512);
+        let height = args.height.or(placement.hints.height).unwrap_or(512);
+        // Before the film's tiles are allocated: refuse what this machine cannot hold.
+        RunSize {
+            width,
+            height,
+            frames: frame_count(lenses.len(), args.focus_sweep, args.aperture_sweep)?,
+            contact_sheet: args.contact_sheet.is_some(),
+        }
+        .check()?;
+        renderer.set_camera(world_from_camera);
+        renderer.set_sample_plan(args.spp);
+        renderer.set_film(film_diagonal, args.lens_options.pupil_sampling);
+        renderer.set_settings(RenderSettings {
+            width,
+            height,
+            seed: args.seed,
+            max_depth: args.max_depth,
+            tile_size: 32,
+        });
+        Ok(Job {
+            args,
+            formats,
+            renderer,
+            lenses,
+            world_from_camera,
+            film_diagonal,
+            width,
+            height,
+            start,
+        })
+    }
+
+    /// Renders every frame of the run and writes its outputs; returns the exit code of a stop
+    /// `stop` asked for (after saving the checkpoint), or `None` when the run finished.
+    pub fn run(
+        self,
+        stop: &dyn Fn() -> Option<u8>,
+        progress: &mut dyn Progress,
+    ) -> anyhow::Result<Option<u8>> {
+        let Job {
+            args,
+            formats,
+            mut renderer,
+            lenses,
+            world_from_camera,
+            film_diagonal,
+            width,
+            height,
+            start,
+        } = self;
+        let names: Vec<String> = lenses.iter().map(|l| l.prescription.name.clone()).collect();
+        let focus: Vec<FocusSetting> = lenses.iter().map(|l| l.focus).collect();
+        let aperture: Vec<ApertureSetting> = lenses.iter().map(|l| l.aperture).collect();
+        let frames = plan_frames(&FrameRequest {
+            lens_names: &names,
+            focus: &focus,
+            aperture: &aperture,
+            focus_sweep: args.focus_sweep,
+            focus_mode: args.lens_options.focus_mode,
+            aperture_sweep: args.aperture_sweep,
+            out: &args.out,
+            exr: args.exr.as_deref(),
+        });
+        let context = RunContext {
+            args,
+            formats,
+            world_from_camera,
+            film_diagonal,
+            stop,
+        };
+        let mut reports = Vec::new();
+        let mut thumbnails = Vec::new();
+        let mut exposures: Vec<Option<f32>> = vec![None; lenses.len()];
+        for frame in &frames {
+            let lens = &lenses[frame.lens];
+            match render_frame(&context, &mut renderer, lens, frame, progress)? {
+                Outcome::Interrupted(code) => return Ok(Some(code)),
+                Outcome::Finished(mut report, image) => {
+                    if args.shard.is_none() {
+                        // One exposure per lens sequence, so a focus pull does not flicker.
+                        let exposure = *exposures[frame.lens]
+                            .get_or_insert_with(|| choose_exposure(args, &image));
+                        if let Some(ev) = args.exposure
+                            && !formats.out.is_float()
+                            && let Some(warning) = black_picture(&image, ev)
+                        {
+                            eprintln!("warning: {}: {warning}", shown(&frame.out));
+                            report.warnings.push(warning);
+                        }
+                        write_image(&frame.out, &image, formats.out, tone(args, exposure))?;
+                        eprintln!(
+                            "wrote {} ({}×{}, {} spp, {})",
+                            shown(&frame.out),
+                            width,
+                            height,
+                            image.samples,
+                            formats.out.name()
+                        );
+                        if let (Some(exr), Some(format)) = (&frame.exr, formats.exr) {
+                            write_image(exr, &image, format, tone(args, 1.0))?;
+                            eprintln!("wrote {} ({})", shown(exr), format.name());
+                        }
+                        if args.contact_sheet.is_some() {
+                            let pixels = image::RgbImage::from_raw(
+                                width,
+                                height,
+                                to_srgb8(&image.mean(), exposure),
+                            )
+                            .context("image size mismatch")?;
+                            thumbnails.push(Thumbnail {
+                                image: pixels,
+                                caption: report.caption(),
+                            });
+                        }
+                    }
+                    reports.push(report);
+                }
+            }
+        }
+        if let (Some(path), Some(format)) = (&args.contact_sheet, formats.contact_sheet) {
+            let sheet = contact_sheet(&thumbnails);
+            write_output(path, |w| {
+                encode_rgb8(w, &sheet, format, tone(args, 1.0).quality)
+            })?;
+            eprintln!("wrote {} ({} renders)", shown(path), thumbnails.len());
+        }
+        if let Some(path) = &args.stats {
+            let stats = stats_json(&mut renderer, &reports, start.elapsed().as_secs_f64());
+            write_output(path, |w| {
+                serde_json::to_writer_pretty(&mut *w, &stats)?;
+                w.push(b'\n');
+                Ok(())
+            })?;
+            eprintln!("wrote {}", shown(path));
+        }
+        if frames.len() > 1 {
+            eprintln!(
+                "{} frames in {:.1} s",
+                frames.len(),
+                start.elapsed().as_secs_f64()
+            );
+        }
+        Ok(None)
+    }
+}
+
+/// Run-wide settings every frame needs.
+struct RunContext<'a> {
+    args: &'a RenderArgs,
+    formats: Formats,
+    world_from_camera: Mat4,
+    film_diagonal: f64,
+    /// The exit code to stop with, once the front end was asked to stop (Ctrl-C).
+    stop: &'a dyn Fn() -> Option<u8>,
+}
+
+/// Focus and aperture a lens starts from when the flags don't set them. A scene's film
+/// distance and stop hints were chosen for its own lens: with another lens they mean nothing,
+/// so that lens autofocuses and opens fully instead.
+pub fn lens_defaults(
+    args: &RenderArgs,
+    placement: &Placement,
+    prescription: &Prescription,
+    framed_focus: Option<f64>,
+    renderer: &mut Renderer,
+    world_from_camera: Mat4,
+) -> (FocusSetting, ApertureSetting) {
+    let hints_fit = placement.hints.lens.as_deref().is_none_or(|hinted| {
+        load_lens(hinted, None).is_ok_and(|h| {
+            h.rows.len() == prescription.rows.len()
+                && h.rows
+                    .iter()
+                    .zip(&prescription.rows)
+                    .all(|(a, b)| a.same_optics(b))
+        })
+    });
+    let hints = if hints_fit {
+        placement.hints.clone()
+    } else {
+        CameraHints {
+            film_distance_mm: None,
+            aperture_mm: None,
+            ..placement.hints.clone()
+        }
+    };
+    let aperture = args.lens_options.aperture(
+        hints
+            .aperture_mm
+            .map_or(ApertureSetting::Full, ApertureSetting::Diameter),
+    );
+    let fallback = match (
+        hints.film_distance_mm,
+        hints.focus_distance_m.or(framed_focus),
+    ) {
+        (Some(mm), _) => FocusSetting::FilmDistance(mm),
+        (None, Some(metres)) => FocusSetting::Distance {
+            metres,
+            mode: Default::default(),
+        },
+        (None, None) => autofocus(renderer, world_from_camera),
+    };
+    (args.lens_options.focus(fallback), aperture)
+}
+
+pub fn choose_exposure(args: &RenderArgs, image: &Image) -> f32 {
+    args.exposure
+        .map_or_else(|| auto_exposure(&image.mean()), |ev| 2f32.powf(ev))
+}
+
+/// How the 8-bit outputs are made at `exposure` (linear scale).
+pub fn tone(args: &RenderArgs, exposure: f32) -> Tone {
+    Tone {
+        exposure,
+        quality: args.quality.unwrap_or(DEFAULT_JPEG_QUALITY),
+    }
+}
