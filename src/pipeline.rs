@@ -12,6 +12,8 @@
 //! each tile's [`TileBatch`]. See ARCHITECTURE.md for what each stage reads and writes.
 
 use std::path::PathBuf;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
 use bevy_ecs::change_detection::DetectChanges;
@@ -156,6 +158,21 @@ pub struct SamplePlan {
     pub samples_per_pixel: u32,
 }
 
+/// A flag another thread raises to abandon the pass under way (a live session whose settings
+/// changed): the pass stages skip their remaining tiles and the film keeps none of the pass.
+#[derive(Resource, Clone, Debug, Default)]
+pub struct PassCancel(pub Arc<AtomicBool>);
+
+impl PassCancel {
+    pub fn requested(&self) -> bool {
+        self.0.load(Ordering::Relaxed)
+    }
+}
+
+fn cancelled(cancel: &Option<Res<PassCancel>>) -> bool {
+    cancel.as_ref().is_some_and(|c| c.requested())
+}
+
 /// A stage that could not do its work; the driver turns it into an error.
 #[derive(Resource, Clone, Debug)]
 pub struct PipelineFault(pub String);
@@ -233,8 +250,9 @@ pub fn render_schedule() -> Schedule {
     schedule
 }
 
-fn pass_pending(pass: Res<PassState>) -> bool {
-    pass.pending
+/// A pass is requested and not abandoned: a cancelled pass never reaches Weight or WriteFilm.
+fn pass_pending(pass: Res<PassState>, cancel: Option<Res<PassCancel>>) -> bool {
+    pass.pending && !cancelled(&cancel)
 }
 
 /// LoadScene: reads the glTF named by a new [`SceneSource`] and spawns its objects.
@@ -392,6 +410,7 @@ pub fn generate_rays(
 /// Trace: closest hits of every tile's camera rays.
 pub fn trace_rays(
     accel: Option<Res<SceneAccel>>,
+    cancel: Option<Res<PassCancel>>,
     mut tiles: Query<&mut TileBatch>,
     mut stats: ResMut<RenderStats>,
 ) {
@@ -401,6 +420,9 @@ pub fn trace_rays(
     let traced: u64 = work
         .par_iter_mut()
         .map(|batch| {
+            if cancelled(&cancel) {
+                return 0;
+            }
             let batch = &mut **batch;
             accel.intersect_batch(&batch.camera.rays, &mut batch.hits);
             batch.camera.rays.alive_count() as u64
@@ -418,6 +440,7 @@ pub fn shade(
     lights: Option<Res<LightSet>>,
     environment: Option<Res<SceneEnvironment>>,
     settings: Res<RenderSettings>,
+    cancel: Option<Res<PassCancel>>,
     mut tiles: Query<&mut TileBatch>,
     mut stats: ResMut<RenderStats>,
 ) {
@@ -439,8 +462,11 @@ pub fn shade(
     let shading: ShadeStats = work
         .par_iter_mut()
         .map(|batch| {
-            let batch = &mut **batch;
             let mut tile_stats = ShadeStats::default();
+            if cancelled(&cancel) {
+                return tile_stats;
+            }
+            let batch = &mut **batch;
             shader.shade_batch(
                 &batch.camera.rays,
                 &batch.hits,
@@ -723,6 +749,16 @@ impl Renderer {
             sample,
         });
         self.update()
+    }
+
+    /// [`Renderer::render_pass`] that a raised [`PassCancel`] flag may abandon: true when the
+    /// pass reached the film, false when it was cancelled (the film holds none of it).
+    pub fn render_pass_unless_cancelled(&mut self, sample: u32) -> anyhow::Result<bool> {
+        self.render_pass(sample)?;
+        let mut pass = self.world.resource_mut::<PassState>();
+        let finished = !pass.pending;
+        pass.pending = false;
+        Ok(finished)
     }
 
     /// The film's current contents.

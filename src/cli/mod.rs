@@ -8,6 +8,7 @@ pub mod lenses;
 pub mod merge;
 pub mod options;
 pub mod render;
+pub mod serve;
 pub mod values;
 
 use std::process::ExitCode;
@@ -40,8 +41,27 @@ pub enum Command {
     /// Look up optical glass: catalogue formulas, n at the F, d, C lines, V_d, the nearest
     /// catalogue glasses to an n_d and V_d.
     Glass(glass::GlassArgs),
+    /// Serve a live lens lab on a web page: change lens, focus, stop and film on a progressive
+    /// render (scene and BVH loaded once), with a JSON API.
+    Serve(Box<serve::ServeArgs>),
     /// Measure lens-tracing speed on this CPU: scalar per-ray vs SoA batches, one thread.
     Bench(bench::BenchArgs),
+}
+
+impl Cli {
+    /// Parses `argv` (program name first) as the command line does; a refusal as the first line
+    /// of clap's message, without its `error: ` prefix.
+    pub fn try_parse_from_args(
+        argv: impl IntoIterator<Item = String>,
+    ) -> Result<Option<Command>, String> {
+        Cli::try_parse_from(argv)
+            .map(|cli| cli.command)
+            .map_err(|e| {
+                let text = e.render().to_string();
+                let first = text.lines().next().unwrap_or("invalid setting");
+                first.strip_prefix("error: ").unwrap_or(first).to_string()
+            })
+    }
 }
 
 /// Runs the command line; errors are printed as `error: …` with a non-zero exit.
@@ -68,6 +88,7 @@ pub fn main() -> ExitCode {
         Some(Command::Merge(args)) => merge::run(&args),
         Some(Command::Glass(args)) => glass::run(&args),
         Some(Command::Bench(args)) => bench::run(&args),
+        Some(Command::Serve(args)) => serve::run(&args),
     };
     match result {
         Ok(code) => code,
@@ -105,6 +126,7 @@ mod tests {
             TypeId::of::<crate::lens::pupil::PupilSampling>(),
             TypeId::of::<crate::lens::LensFormat>(),
             TypeId::of::<render::DispersionArg>(),
+            TypeId::of::<std::net::IpAddr>(),
         ];
         arg.get_action().takes_values()
             && (!words.iter().any(|w| parser == *w) || arg.get_long() == Some("env"))

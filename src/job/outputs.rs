@@ -22,9 +22,8 @@ pub struct Formats {
     pub contact_sheet: Option<ImageFormat>,
 }
 
-/// Checks the flags and the output paths before anything is loaded or rendered; returns the
-/// formats the outputs' names ask for.
-pub fn validate(args: &RenderArgs) -> anyhow::Result<Formats> {
+/// Checks the numbers the flags give (counts, sizes, exposure, lens settings).
+pub fn check_values(args: &RenderArgs) -> anyhow::Result<()> {
     args.lens_options.validate()?;
     if args.spp == 0 {
         bail!("--spp must be at least 1");
@@ -67,6 +66,13 @@ pub fn validate(args: &RenderArgs) -> anyhow::Result<Formats> {
     {
         bail!("--checkpoint-every must be a positive number of seconds");
     }
+    Ok(())
+}
+
+/// Checks the flags and the output paths before anything is loaded or rendered; returns the
+/// formats the outputs' names ask for.
+pub fn validate(args: &RenderArgs) -> anyhow::Result<Formats> {
+    check_values(args)?;
     let frames = frame_count(args.lens.len(), args.focus_sweep, args.aperture_sweep)?;
     let outputs = outputs(args);
     for (i, (_, a)) in outputs.iter().enumerate() {

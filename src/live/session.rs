@@ -1,0 +1,401 @@
+//! The render thread's side of a live session: one renderer with its scene and BVH, whose lens
+//! entity and settings change in place. A change writes only the components it touches, so
+//! bevy's change detection re-derives only what depends on them (a new focus: the film placement
+//! and exit pupil; a new lens: its entity set), and accumulation starts over.
+
+use std::path::PathBuf;
+
+use bevy_ecs::entity::Entity;
+use serde_json::{Value, json};
+
+use super::lenses::LensLibrary;
+use super::settings::LiveSettings;
+use crate::cli::render::RenderArgs;
+use crate::film::Image;
+use crate::film::footprint::RunSize;
+use crate::film::format::{ImageFormat, Tone};
+use crate::film::output::{auto_exposure, write_image};
+use crate::job::frame::set_if_changed;
+use crate::job::outputs::Formats;
+use crate::job::{Job, tone};
+use crate::lens::Prescription;
+use crate::lens::aperture::ApertureSetting;
+use crate::lens::elements::{FilmPlacement, FocusSetting, LensGeometry};
+use crate::pipeline::{PassCancel, RenderSettings, Renderer};
+
+/// Largest side of the first, coarse pass after a change (pixels): it shows the change at once.
+pub const PREVIEW_SIDE: u32 = 128;
+
+/// A live session's renderer and settings.
+pub struct Session {
+    renderer: Renderer,
+    settings: LiveSettings,
+    args: RenderArgs,
+    library: LensLibrary,
+    lens: Entity,
+    lens_name: String,
+    prescription: Prescription,
+    /// What `realcam render --lens` takes for this lens (a lens folder's file by its path).
+    lens_argument: String,
+    formats: Formats,
+    /// Where Save writes the picture and the linear film.
+    out: PathBuf,
+    exr: PathBuf,
+    /// Full-resolution passes on the film since the last change.
+    pub spp_done: u32,
+}
+
+/// The `--exr` a session saves beside `--out` when none is given: `<out stem>.exr`.
+pub fn default_exr(out: &std::path::Path) -> PathBuf {
+    out.with_extension("exr")
+}
+
+impl Session {
+    /// Takes over a prepared job (scene loaded, BVH built, lens spawned) for live use. `settings`
+    /// are the job's arguments; `library` the lenses a client may ask for.
+    pub fn new(
+        job: Job,
+        mut settings: LiveSettings,
+        mut library: LensLibrary,
+        cancel: PassCancel,
+    ) -> anyhow::Result<Session> {
+        let out = job.args.out.clone();
+        let exr = job.args.exr.clone().unwrap_or_else(|| default_exr(&out));
+        let Job {
+            mut renderer,
+            mut lenses,
+            formats,
+            film_diagonal,
+            width,
+            height,
+            ..
+        } = job;
+        let first = lenses.remove(0);
+        for other in lenses {
+            renderer.world.despawn(other.entity);
+        }
+        renderer.set_active_lens(first.entity);
+        renderer.world.insert_resource(cancel);
+        // The starting values as the job resolved them (the scene's hints, autofocus), so the
+        // state shows numbers and the command line reproduces them.
+        let lens_name = job
+            .args
+            .lens
+            .first()
+            .cloned()
+            .unwrap_or_else(|| first.prescription.name.clone());
+        let lens_argument = match library.load(&lens_name) {
+            Ok((_, argument)) => argument,
+            Err(_) => {
+                // A lens the scene itself names (its camera's hint): trusted like `--lens`.
+                library.trust(&lens_name);
+                lens_name.clone()
+            }
+        };
+        settings.set("lens", lens_name.clone());
+        match first.focus {
+            FocusSetting::Distance { metres, .. } => {
+                settings.unset("film_distance");
+                settings.set("focus_distance", format!("{metres}"));
+            }
+            FocusSetting::FilmDistance(mm) => {
+                settings.unset("focus_distance");
+                settings.set("film_distance", format!("{mm}"));
+            }
+        }
+        match first.aperture {
+            ApertureSetting::Full => {}
+            ApertureSetting::Diameter(mm) => settings.set("aperture", format!("{mm}")),
+            ApertureSetting::FNumber(n) => settings.set("f_number", format!("{n}")),
+        }
+        settings.set("film_diagonal", format!("{film_diagonal}"));
+        settings.set("width", width.to_string());
+        settings.set("height", height.to_string());
+        let args = settings.parse().map_err(anyhow::Error::msg)?;
+        let mut session = Session {
+            renderer,
+            settings,
+            args,
+            library,
+            lens: first.entity,
+            lens_name,
+            prescription: first.prescription,
+            lens_argument,
+            formats,
+            out,
+            exr,
+            spp_done: 0,
+        };
+        let (settings, args) = (session.settings.clone(), session.args.clone());
+        session
+            .switch(&settings, &args)
+            .map_err(anyhow::Error::msg)?;
+        Ok(session)
+    }
+
+    pub fn settings(&self) -> &LiveSettings {
+        &self.settings
+    }
+
+    pub fn args(&self) -> &RenderArgs {
+        &self.args
+    }
+
+    pub fn library(&self) -> &LensLibrary {
+        &self.library
+    }
+
+    pub fn prescription(&self) -> &Prescription {
+        &self.prescription
+    }
+
+    pub fn renderer(&self) -> &Renderer {
+        &self.renderer
+    }
+
+    pub fn lens(&self) -> Entity {
+        self.lens
+    }
+
+    /// The render's target samples per pixel.
+    pub fn spp_target(&self) -> u32 {
+        self.args.spp
+    }
+
+    /// Switches to `next`; on a refusal (a bad value, a lens that cannot focus there) keeps the
+    /// current settings and says why.
+    pub fn apply(&mut self, next: LiveSettings) -> Result<(), String> {
+        let args = next.parse()?;
+        crate::job::outputs::check_values(&args).map_err(|e| e.to_string())?;
+        let (width, height) = (args.width.unwrap_or(512), args.height.unwrap_or(512));
+        RunSize {
+            width,
+            height,
+            frames: 1,
+            contact_sheet: false,
+        }
+        .check()
+        .map_err(|e| e.to_string())?;
+        let (settings, current) = (self.settings.clone(), self.args.clone());
+        match self.switch(&next, &args) {
+            Ok(()) => {
+                self.settings = next;
+                self.args = args;
+                Ok(())
+            }
+            Err(refusal) => {
+                // Back to what worked; it derived before, so it derives again.
+                if let Err(e) = self.switch(&settings, &current) {
+                    return Err(format!("{refusal}; and restoring the settings failed: {e}"));
+                }
+                Err(refusal)
+            }
+        }
+    }
+
+    /// Writes the lens components and resources `args` asks for, each only when it differs.
+    fn switch(&mut self, settings: &LiveSettings, args: &RenderArgs) -> Result<(), String> {
+        let name = settings.get("lens").unwrap_or(&self.lens_name).to_string();
+        let current_focus = *self
+            .renderer
+            .world
+            .get::<FocusSetting>(self.lens)
+            .ok_or("the lens has no focus")?;
+        let focus = args.lens_options.focus(current_focus);
+        let aperture = args.lens_options.aperture(ApertureSetting::Full);
+        if name != self.lens_name {
+            let (prescription, argument) = self.library.load(&name)?;
+            let entity = self.renderer.add_lens(&prescription, focus, aperture);
+            self.renderer
+                .world
+                .entity_mut(entity)
+                .insert(args.dispersion.0);
+            self.renderer.set_active_lens(entity);
+            self.renderer.world.despawn(self.lens);
+            self.lens = entity;
+            self.lens_name = name;
+            self.prescription = prescription;
+            self.lens_argument = argument;
+        } else {
+            set_if_changed(&mut self.renderer, self.lens, focus);
+            set_if_changed(&mut self.renderer, self.lens, aperture);
+            set_if_changed(&mut self.renderer, self.lens, args.dispersion.0);
+        }
+        let film_diagonal = args
+            .lens_options
+            .film_diagonal
+            .or(self.prescription.info.film_diagonal_mm)
+            .unwrap_or(35.0);
+        self.renderer
+            .set_film(film_diagonal, args.lens_options.pupil_sampling);
+        self.renderer.set_sample_plan(args.spp);
+        self.renderer.update().map_err(|e| e.to_string())?;
+        self.renderer
+            .check_active_lens()
+            .map_err(|e| format!("{}: {e}", self.lens_name))
+    }
+
+    fn render_settings(&self, scale: u32) -> RenderSettings {
+        let (width, height) = self.size();
+        RenderSettings {
+            width: width.div_ceil(scale),
+            height: height.div_ceil(scale),
+            seed: self.args.seed,
+            max_depth: self.args.max_depth,
+            tile_size: 32,
+        }
+    }
+
+    /// The image's size in pixels.
+    pub fn size(&self) -> (u32, u32) {
+        (
+            self.args.width.unwrap_or(512),
+            self.args.height.unwrap_or(512),
+        )
+    }
+
+    /// How much coarser than the image the first pass after a change is.
+    fn preview_scale(&self) -> u32 {
+        let (width, height) = self.size();
+        width.max(height).div_ceil(PREVIEW_SIDE)
+    }
+
+    /// The first pass after a change: one sample per pixel of a film [`PREVIEW_SIDE`] pixels
+    /// across, enlarged to the image's size; `None` when the image is no larger than that, or
+    /// the pass was cancelled.
+    pub fn render_preview(&mut self) -> anyhow::Result<Option<Image>> {
+        let scale = self.preview_scale();
+        if scale <= 1 {
+            return Ok(None);
+        }
+        let coarse = self.render_settings(scale);
+        self.renderer.set_settings(coarse);
+        self.renderer.begin_film(None)?;
+        if !self.renderer.render_pass_unless_cancelled(0)? {
+            return Ok(None);
+        }
+        let small = self.renderer.image();
+        let (width, height) = self.size();
+        let mut image = Image::new(width, height);
+        image.samples = 1;
+        let means = small.mean();
+        for y in 0..height {
+            for x in 0..width {
+                let source = (y / scale).min(small.height - 1) * small.width
+                    + (x / scale).min(small.width - 1);
+                image.sums[(y * width + x) as usize] = means[source as usize];
+            }
+        }
+        Ok(Some(image))
+    }
+
+    /// Clears the full-resolution film for a new accumulation.
+    pub fn begin_accumulation(&mut self) -> anyhow::Result<()> {
+        let full = self.render_settings(1);
+        self.renderer.set_settings(full);
+        self.renderer.begin_film(None)?;
+        self.spp_done = 0;
+        Ok(())
+    }
+
+    /// Renders the next full-resolution pass; false when it was cancelled.
+    pub fn render_next_pass(&mut self) -> anyhow::Result<bool> {
+        let finished = self.renderer.render_pass_unless_cancelled(self.spp_done)?;
+        if finished {
+            self.spp_done += 1;
+        }
+        Ok(finished)
+    }
+
+    pub fn image(&mut self) -> Image {
+        self.renderer.image()
+    }
+
+    /// The 8-bit picture's exposure (linear scale) for `image`.
+    pub fn exposure(&self, image: &Image) -> f32 {
+        self.args
+            .exposure
+            .map_or_else(|| auto_exposure(&image.mean()), |ev| 2f32.powf(ev))
+    }
+
+    /// The settings by name, defaults filled in with the values they stand for.
+    pub fn settings_json(&self) -> serde_json::Map<String, Value> {
+        let mut json = self.settings.to_json();
+        let args = &self.args;
+        let options = &args.lens_options;
+        let effective = [
+            ("spp", json!(args.spp)),
+            ("seed", json!(args.seed)),
+            ("max_depth", json!(args.max_depth)),
+            (
+                "dispersion",
+                json!(match args.dispersion.0 {
+                    crate::lens::elements::Dispersion::On => "on",
+                    crate::lens::elements::Dispersion::Off => "off",
+                }),
+            ),
+            (
+                "focus_mode",
+                json!(match options.focus_mode {
+                    crate::lens::focus::FocusMode::Paraxial => "paraxial",
+                    crate::lens::focus::FocusMode::Best => "best",
+                }),
+            ),
+            ("pupil_sampling", json!(options.pupil_sampling)),
+        ];
+        for (name, value) in effective {
+            if json.get(name).is_none_or(Value::is_null) {
+                json.insert(name.to_string(), value);
+            }
+        }
+        json
+    }
+
+    /// The equivalent `realcam render` command line.
+    pub fn command_line(&self) -> String {
+        let mut settings = self.settings.clone();
+        settings.set("lens", self.lens_argument.clone());
+        settings.command_line(&[])
+    }
+
+    /// Lens data for the state: focal length, f-number, film distance as derived.
+    pub fn lens_info(&self) -> Value {
+        let entity = self.renderer.world.entity(self.lens);
+        match (entity.get::<LensGeometry>(), entity.get::<FilmPlacement>()) {
+            (Some(geometry), Some(film)) => json!({
+                "name": self.prescription.name,
+                "focal_length_mm": geometry.first_order.focal_length,
+                "f_number": geometry.first_order.f_number,
+                "film_distance_mm": film.film_distance,
+                "stop_diameter_mm": geometry.system.stop_diameter(),
+            }),
+            _ => Value::Null,
+        }
+    }
+
+    /// Writes the film so far to the session's `--out` and `--exr`; what was written, with the
+    /// equivalent command line.
+    pub fn save(&mut self) -> Result<Value, String> {
+        if self.spp_done == 0 {
+            return Err("nothing rendered at full resolution yet; save again in a moment".into());
+        }
+        let image = self.renderer.image();
+        let exposure = self.exposure(&image);
+        write_image(
+            &self.out,
+            &image,
+            self.formats.out,
+            tone(&self.args, exposure),
+        )
+        .map_err(|e| format!("{e:#}"))?;
+        let linear = self.formats.exr.unwrap_or(ImageFormat::Exr);
+        write_image(&self.exr, &image, linear, Tone::exposure(1.0))
+            .map_err(|e| format!("{e:#}"))?;
+        Ok(json!({
+            "out": self.out.display().to_string(),
+            "exr": self.exr.display().to_string(),
+            "spp": image.samples,
+            "command": self.command_line(),
+        }))
+    }
+}

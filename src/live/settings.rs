@@ -1,0 +1,277 @@
+//! A live session's settings, kept as `realcam render` arguments: a change from the API is
+//! parsed by the very option parser of the command line (the same ranges, the same messages),
+//! and the settings always have an equivalent `realcam render` command line.
+
+use std::collections::BTreeMap;
+
+use serde_json::{Map, Value, json};
+
+use crate::cli::render::RenderArgs;
+use crate::cli::{Cli, Command};
+
+/// Options a live session changes without reloading the scene or rebuilding its BVH, by their
+/// names in the API (`realcam render`'s long options without dashes, `-` as `_`).
+pub const LIVE_OPTIONS: [&str; 15] = [
+    "lens",
+    "focus_distance",
+    "film_distance",
+    "focus_mode",
+    "f_number",
+    "aperture",
+    "film_diagonal",
+    "pupil_sampling",
+    "dispersion",
+    "width",
+    "height",
+    "spp",
+    "seed",
+    "max_depth",
+    "exposure",
+];
+
+/// Settings that take whole numbers (the rest of the numeric ones take any number).
+const WHOLE: [&str; 5] = ["width", "height", "spp", "seed", "max_depth"];
+/// Settings that take words.
+const WORDS: [&str; 4] = ["lens", "focus_mode", "pupil_sampling", "dispersion"];
+/// Pairs of settings of which one replaces the other.
+const EITHER: [(&str, &str); 2] = [
+    ("focus_distance", "film_distance"),
+    ("f_number", "aperture"),
+];
+/// What [`LiveSettings::state`] adds beside the settings: a client may send a state back.
+pub const READ_ONLY: [&str; 8] = [
+    "spp_done",
+    "spp_target",
+    "generation",
+    "lens_info",
+    "out",
+    "exr",
+    "command",
+    "error",
+];
+
+/// The settings of a live session.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LiveSettings {
+    /// `realcam render` arguments the session keeps as they were given (scene, camera, …).
+    fixed: Vec<String>,
+    /// The live options' values as command-line text; absent when not given.
+    values: BTreeMap<&'static str, String>,
+}
+
+impl LiveSettings {
+    /// `fixed`: the rest of the `realcam render` command line.
+    pub fn new(fixed: Vec<String>) -> LiveSettings {
+        LiveSettings {
+            fixed,
+            values: BTreeMap::new(),
+        }
+    }
+
+    /// Settings from `realcam render` arguments (already accepted by its parser): the live
+    /// options are taken out of them (the last of a repeated one wins, the first `--lens`), the rest kept as given.
+    pub fn from_arguments(argv: &[String]) -> LiveSettings {
+        let mut settings = LiveSettings::new(Vec::new());
+        let mut words = argv.iter();
+        while let Some(word) = words.next() {
+            let (name, inline) = match word.strip_prefix("--") {
+                Some(option) => match option.split_once('=') {
+                    Some((name, value)) => (name.replace('-', "_"), Some(value.to_string())),
+                    None => (option.replace('-', "_"), None),
+                },
+                None => (String::new(), None),
+            };
+            if LIVE_OPTIONS.contains(&name.as_str()) {
+                // The first --lens is the one shown; the others are offered on the page.
+                if let Some(value) = inline.or_else(|| words.next().cloned())
+                    && (name != "lens" || settings.get("lens").is_none())
+                {
+                    settings.set(&name, value);
+                }
+            } else {
+                settings.fixed.push(word.clone());
+            }
+        }
+        settings
+    }
+
+    /// Sets a live option from text (as on the command line).
+    pub fn set(&mut self, name: &str, value: impl Into<String>) {
+        if let Some(name) = LIVE_OPTIONS.iter().find(|o| **o == name) {
+            self.values.insert(name, value.into());
+        }
+    }
+
+    pub fn unset(&mut self, name: &str) {
+        self.values.remove(name);
+    }
+
+    pub fn get(&self, name: &str) -> Option<&str> {
+        self.values.get(name).map(String::as_str)
+    }
+
+    /// The `realcam render` arguments (without the command name).
+    pub fn arguments(&self) -> Vec<String> {
+        let mut argv = self.fixed.clone();
+        for (name, value) in &self.values {
+            argv.push(format!("--{}", name.replace('_', "-")));
+            argv.push(value.clone());
+        }
+        argv
+    }
+
+    /// The arguments parsed as `realcam render` parses them.
+    pub fn parse(&self) -> Result<RenderArgs, String> {
+        let argv = ["realcam".to_string(), "render".to_string()]
+            .into_iter()
+            .chain(self.arguments());
+        match Cli::try_parse_from_args(argv) {
+            Ok(Some(Command::Render(args))) => {
+                args.lens_options.validate().map_err(|e| e.to_string())?;
+                Ok(*args)
+            }
+            Ok(_) => Err("not a render command".into()),
+            Err(message) => Err(message),
+        }
+    }
+
+    /// These settings with the changes of a JSON object (`null` removes a setting; one of
+    /// `focus_distance`/`film_distance` or `f_number`/`aperture` replaces the other).
+    pub fn changed(&self, changes: &Value) -> Result<LiveSettings, String> {
+        let Value::Object(changes) = changes else {
+            return Err("the settings must be a JSON object, e.g. {\"f_number\": 4}".into());
+        };
+        let mut next = self.clone();
+        for (name, value) in changes {
+            if READ_ONLY.contains(&name.as_str()) {
+                continue;
+            }
+            if !LIVE_OPTIONS.contains(&name.as_str()) {
+                return Err(format!(
+                    "unknown setting '{name}'; the settings are {}",
+                    LIVE_OPTIONS.join(", ")
+                ));
+            }
+            let text = match value {
+                Value::Null => {
+                    next.unset(name);
+                    continue;
+                }
+                Value::String(s) if WORDS.contains(&name.as_str()) => s.clone(),
+                Value::Number(n) if !WORDS.contains(&name.as_str()) => n.to_string(),
+                // `inf` is a focus distance; JSON has no infinity.
+                Value::String(s) if s == "inf" && name == "focus_distance" => s.clone(),
+                _ => {
+                    return Err(format!(
+                        "{name}: expected {}, got {value}",
+                        if WORDS.contains(&name.as_str()) {
+                            "a string"
+                        } else {
+                            "a number"
+                        }
+                    ));
+                }
+            };
+            if text.len() > 1024 {
+                return Err(format!("{name}: value too long"));
+            }
+            next.set(name, text);
+            for (a, b) in EITHER {
+                if name == a {
+                    next.unset(b);
+                } else if name == b {
+                    next.unset(a);
+                }
+            }
+        }
+        for (a, b) in EITHER {
+            if changes.contains_key(a)
+                && changes.contains_key(b)
+                && !changes[a].is_null()
+                && !changes[b].is_null()
+            {
+                return Err(format!("give {a} or {b}, not both"));
+            }
+        }
+        Ok(next)
+    }
+
+    /// The settings as JSON: every live option by name, `null` when not given.
+    pub fn to_json(&self) -> Map<String, Value> {
+        LIVE_OPTIONS
+            .iter()
+            .map(|name| {
+                let value = match self.values.get(name) {
+                    None => Value::Null,
+                    Some(text) if WORDS.contains(name) => json!(text),
+                    Some(text) if WHOLE.contains(name) => text
+                        .parse::<u64>()
+                        .map_or_else(|_| json!(text), |v| json!(v)),
+                    Some(text) => text
+                        .parse::<f64>()
+                        .ok()
+                        .filter(|v| v.is_finite())
+                        .map_or_else(|| json!(text), |v| json!(v)),
+                };
+                (name.to_string(), value)
+            })
+            .collect()
+    }
+
+    /// `realcam render …` with these settings, quoted for a POSIX shell.
+    pub fn command_line(&self, extra: &[String]) -> String {
+        std::iter::once("realcam render".to_string())
+            .chain(self.arguments().iter().chain(extra).map(|a| shell_quote(a)))
+            .collect::<Vec<_>>()
+            .join(" ")
+    }
+}
+
+/// `a` as one word of a POSIX shell command.
+fn shell_quote(a: &str) -> String {
+    let plain = !a.is_empty()
+        && a.chars()
+            .all(|c| c.is_ascii_alphanumeric() || "-_./,:=+@%".contains(c));
+    if plain {
+        a.to_string()
+    } else {
+        format!("'{}'", a.replace('\'', "'\\''"))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn changes_parse_as_the_command_line_does() {
+        let mut settings = LiveSettings::new(vec![]);
+        settings.set("lens", "dgauss.50mm");
+        settings.set("focus_distance", "3");
+        let next = settings
+            .changed(&json!({"film_distance": 40.5, "f_number": 4}))
+            .unwrap();
+        assert_eq!(next.get("focus_distance"), None);
+        let args = next.parse().unwrap();
+        assert_eq!(args.lens_options.film_distance, Some(40.5));
+        assert_eq!(args.lens_options.f_number, Some(4.0));
+        assert_eq!(args.lens, vec!["dgauss.50mm".to_string()]);
+        for bad in [
+            json!({"spp": -1}),
+            json!({"spp": "many"}),
+            json!({"f_number": 0}),
+            json!({"no_such": 1}),
+            json!({"lens": 3}),
+            json!([1, 2]),
+            json!({"f_number": 2, "aperture": 3}),
+        ] {
+            let outcome = settings.changed(&bad).and_then(|s| s.parse());
+            assert!(outcome.is_err(), "{bad} was accepted");
+        }
+        assert_eq!(
+            next.command_line(&[]),
+            "realcam render --f-number 4 --film-distance 40.5 --lens dgauss.50mm"
+        );
+        assert_eq!(shell_quote("it's"), "'it'\\''s'");
+    }
+}

@@ -1,0 +1,138 @@
+// realcam live lens lab: the page over the JSON API (see README, "realcam serve").
+"use strict";
+
+const $ = (id) => document.getElementById(id);
+let state = null;
+let shownGeneration = -1;
+let lensGeneration = null;
+
+async function api(path, body) {
+  const options = body === undefined ? {} : {
+    method: "POST",
+    headers: { "Content-Type": "application/json" },
+    body: JSON.stringify(body),
+  };
+  const response = await fetch(path, options);
+  const data = await response.json();
+  if (!response.ok) throw new Error(data.error || response.statusText);
+  return data;
+}
+
+function message(text) { $("message").textContent = text || ""; }
+
+function show(newState) {
+  state = newState;
+  for (const name of ["focus_distance", "f_number", "aperture", "film_diagonal"]) {
+    const input = $(name);
+    if (document.activeElement !== input) input.value = state[name] ?? "";
+  }
+  for (const name of ["focus_mode", "dispersion"]) {
+    if (state[name]) $(name).value = state[name];
+  }
+  if (document.activeElement !== $("spp_target_input")) $("spp_target_input").value = state.spp;
+  if ($("lens").value !== state.lens) $("lens").value = state.lens;
+  $("spp").textContent = state.spp_done;
+  $("spp-target").textContent = state.spp_target;
+  $("command").textContent = state.command;
+  if (state.error) message(state.error);
+  const key = JSON.stringify([state.lens, state.focus_distance, state.film_distance, state.f_number,
+    state.aperture, state.film_diagonal, state.focus_mode]);
+  if (key !== lensGeneration) { lensGeneration = key; refreshLens(); }
+}
+
+async function refreshLens() {
+  try {
+    const [svg, info] = await Promise.all([
+      fetch("/api/lens.svg").then((r) => r.text()),
+      api("/api/lens.json"),
+    ]);
+    $("diagram").innerHTML = svg;
+    const number = (v, digits = 2) => (typeof v === "number" ? v.toFixed(digits) : "—");
+    const rows = [
+      ["lens", info.name],
+      ["focal length", number(info.focal_length_mm) + " mm"],
+      ["f-number", "f/" + number(info.f_number)],
+      ["stop diameter", number(info.stop_diameter_mm) + " mm"],
+      ["back focal length", number(info.back_focal_length_mm) + " mm"],
+      ["film distance", number(info.film_distance_mm, 3) + " mm"],
+      ["focus distance", info.focus_distance_m == null ? "—" : number(info.focus_distance_m, 3) + " m"],
+      ["closest focus", number(info.closest_focus_m, 3) + " m"],
+      ["field of view", number(info.field_of_view_deg, 1) + "°"],
+      ["entrance pupil", info.entrance_pupil ? number(info.entrance_pupil.diameter_mm ?? info.entrance_pupil.diameter) + " mm" : "—"],
+      ["total track", number(info.total_track_mm) + " mm"],
+    ];
+    $("first-order").innerHTML = rows
+      .map(([k, v]) => `<tr><td>${k}</td><td>${String(v).replace(/</g, "&lt;")}</td></tr>`).join("");
+  } catch (e) { message(e.message); }
+}
+
+async function change(settings) {
+  message("");
+  try { show(await api("/api/settings", settings)); } catch (e) { message(e.message); }
+}
+
+function refreshImage(generation) {
+  if (generation <= shownGeneration) return;
+  shownGeneration = generation;
+  const next = new Image();
+  next.onload = () => { $("image").src = next.src; };
+  next.src = "/api/image.png?g=" + generation;
+}
+
+async function refreshStats() {
+  try {
+    const [stats, newState] = await Promise.all([api("/api/stats"), api("/api/state")]);
+    $("rate").textContent = (stats.samples_per_second / 1e6).toFixed(2);
+    show(newState);
+  } catch (e) { /* the next event tries again */ }
+}
+
+async function start() {
+  const lenses = await api("/api/lenses");
+  for (const lens of lenses.lenses) {
+    const option = document.createElement("option");
+    option.value = lens.name;
+    option.textContent = lens.origin === "bundled" ? lens.name : `${lens.name} (${lens.origin})`;
+    $("lens").append(option);
+  }
+  show(await api("/api/state"));
+  refreshImage(state.generation);
+
+  $("lens").addEventListener("change", (e) => change({ lens: e.target.value }));
+  for (const name of ["focus_distance", "f_number", "aperture", "film_diagonal"]) {
+    $(name).addEventListener("change", (e) => {
+      const v = e.target.value.trim();
+      change({ [name]: v === "" ? null : Number(v) });
+    });
+  }
+  for (const name of ["focus_mode", "dispersion"]) {
+    $(name).addEventListener("change", (e) => change({ [name]: e.target.value }));
+  }
+  $("spp_target_input").addEventListener("change", (e) => change({ spp: Number(e.target.value) }));
+  $("image").addEventListener("click", async (e) => {
+    const box = e.target.getBoundingClientRect();
+    const [w, h] = [state.width, state.height];
+    // The picture is letterboxed inside the element (object-fit: contain).
+    const scale = Math.min(box.width / w, box.height / h);
+    const x = (e.clientX - box.left - (box.width - w * scale) / 2) / scale;
+    const y = (e.clientY - box.top - (box.height - h * scale) / 2) / scale;
+    message("");
+    try { show(await api("/api/focus", { x, y })); } catch (err) { message(err.message); }
+  });
+  $("save").addEventListener("click", async () => {
+    try {
+      const saved = await api("/api/save", {});
+      message("");
+      $("command").textContent = `wrote ${saved.out} and ${saved.exr} (${saved.spp} spp)\n${saved.command}`;
+    } catch (e) { message(e.message); }
+  });
+
+  const events = new EventSource("/api/events");
+  events.addEventListener("image", (e) => {
+    const data = JSON.parse(e.data);
+    refreshImage(data.generation);
+    refreshStats();
+  });
+}
+
+start().catch((e) => message(e.message));

@@ -1,0 +1,493 @@
+//! `realcam serve`'s JSON API over loopback: every endpoint, live changes that reload nothing,
+//! bad requests that leave the render running, the lens path rules, click to focus, Save and
+//! Ctrl-C.
+
+mod live_server;
+
+use std::process::Command;
+use std::time::Duration;
+
+use live_server::{SMALL, Served};
+use serde_json::{Value, json};
+
+fn png_size(bytes: &[u8]) -> (u32, u32) {
+    let image = image::load_from_memory_with_format(bytes, image::ImageFormat::Png).expect("a PNG");
+    (image.width(), image.height())
+}
+
+/// What `realcam lens … --json` prints for the lens and settings of `state`.
+fn lens_cli_json(state: &Value) -> Value {
+    let mut command = Command::new(env!("CARGO_BIN_EXE_realcam"));
+    command.args(["lens", state["lens"].as_str().unwrap(), "--json"]);
+    for name in [
+        "focus_distance",
+        "film_distance",
+        "f_number",
+        "aperture",
+        "film_diagonal",
+        "focus_mode",
+        "pupil_sampling",
+    ] {
+        match &state[name] {
+            Value::Null => {}
+            Value::String(s) => {
+                command.args([format!("--{}", name.replace('_', "-")), s.clone()]);
+            }
+            v => {
+                command.args([format!("--{}", name.replace('_', "-")), v.to_string()]);
+            }
+        }
+    }
+    let out = command.output().unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    serde_json::from_slice(&out.stdout).unwrap()
+}
+
+#[test]
+fn every_endpoint_answers_over_loopback() {
+    let served = Served::start(SMALL);
+    let page = served.get("/");
+    assert_eq!(page.status, 200);
+    let html = String::from_utf8(page.body).unwrap();
+    assert!(html.contains("<img id=\"image\"") && html.contains("/app.js"));
+    for (path, kind) in [("/app.js", "javascript"), ("/style.css", "css")] {
+        let reply = served.get(path);
+        assert_eq!(reply.status, 200, "{path}");
+        assert!(reply.header("content-type").unwrap().contains(kind));
+    }
+
+    let state = served.wait_until_done();
+    for name in [
+        "lens",
+        "focus_distance",
+        "film_distance",
+        "f_number",
+        "aperture",
+        "film_diagonal",
+        "width",
+        "height",
+        "spp",
+        "seed",
+        "max_depth",
+    ] {
+        assert!(state.get(name).is_some(), "state lacks {name}: {state}");
+    }
+    assert_eq!(state["spp_target"], 4);
+    assert_eq!(state["spp_done"], 4);
+    assert_eq!(
+        (state["width"].as_u64(), state["height"].as_u64()),
+        (Some(64), Some(64))
+    );
+
+    let stats = served.get("/api/stats").json();
+    assert_eq!(stats["bvh_builds"], 1);
+    assert_eq!(stats["scene_loads"], 1);
+    assert_eq!(stats["spp_done"], 4);
+    assert!(
+        stats["samples_per_second"].as_f64().unwrap() > 0.0,
+        "{stats}"
+    );
+
+    let image = served.get("/api/image.png");
+    assert_eq!(image.status, 200);
+    assert_eq!(image.header("content-type"), Some("image/png"));
+    assert_eq!(png_size(&image.body), (64, 64));
+
+    let svg = served.get("/api/lens.svg");
+    assert_eq!(svg.header("content-type"), Some("image/svg+xml"));
+    let svg = String::from_utf8(svg.body).unwrap();
+    assert!(svg.contains("<svg") && svg.contains("</svg>"));
+
+    // Exactly what the command line prints for the same lens and settings.
+    let lens = served.get("/api/lens.json").json();
+    assert_eq!(lens, lens_cli_json(&state));
+
+    let lenses = served.get("/api/lenses").json();
+    let list = lenses["lenses"].as_array().unwrap();
+    assert!(list.len() >= realcam::lens::bundled::BUNDLED.len());
+    assert!(
+        list.iter()
+            .any(|l| l["name"] == "wide.22mm" && l["origin"] == "bundled")
+    );
+    assert_eq!(lenses["current"], state["lens"]);
+
+    // The push channel announces each new image.
+    let mut stream = std::net::TcpStream::connect(&served.address).unwrap();
+    stream
+        .set_read_timeout(Some(Duration::from_secs(30)))
+        .unwrap();
+    use std::io::{Read, Write};
+    write!(stream, "GET /api/events HTTP/1.1\r\nHost: x\r\n\r\n").unwrap();
+    assert_eq!(
+        served.post("/api/settings", &json!({"seed": 7})).status,
+        200
+    );
+    let mut seen = String::new();
+    let mut buffer = [0u8; 4096];
+    while !seen.contains("event: image") {
+        let n = stream
+            .read(&mut buffer)
+            .expect("an event before the timeout");
+        assert!(n > 0, "the event stream closed: {seen}");
+        seen.push_str(&String::from_utf8_lossy(&buffer[..n]));
+    }
+    assert!(seen.starts_with("HTTP/1.1 200") && seen.contains("text/event-stream"));
+    assert!(seen.contains("\"generation\""), "{seen}");
+}
+
+#[test]
+fn changes_are_live_and_reload_nothing() {
+    let served = Served::start(SMALL);
+    served.wait_until_done();
+    let before = served.get("/api/image.png").body;
+
+    let state = served.post("/api/settings", &json!({"f_number": 4})).json();
+    assert_eq!(state["f_number"], 4.0);
+    assert_eq!(state["aperture"], Value::Null, "f_number replaces aperture");
+    // The real f-number (EFL / entrance-pupil diameter) is what was asked for.
+    let real = state["lens_info"]["f_number"].as_f64().unwrap();
+    assert!((real - 4.0).abs() < 1e-3 * 4.0, "f/{real}");
+
+    let state = served
+        .post(
+            "/api/settings",
+            &json!({"lens": "wide.22mm", "focus_distance": 2.0}),
+        )
+        .json();
+    assert_eq!(state["lens"], "wide.22mm");
+    assert_eq!(state["film_distance"], Value::Null);
+    let far = served
+        .post("/api/settings", &json!({"focus_distance": 50.0}))
+        .json();
+    let (near_mm, far_mm) = (
+        state["lens_info"]["film_distance_mm"].as_f64().unwrap(),
+        far["lens_info"]["film_distance_mm"].as_f64().unwrap(),
+    );
+    // A nearer object images farther behind the lens.
+    assert!(near_mm > far_mm, "{near_mm} ≤ {far_mm}");
+    let done = served.wait_until_done();
+    assert_eq!(done["lens"], "wide.22mm");
+    let after = served.get("/api/image.png").body;
+    assert_ne!(before, after, "the image did not change");
+
+    let stats = served.get("/api/stats").json();
+    assert_eq!(stats["bvh_builds"], 1, "{stats}");
+    assert_eq!(stats["scene_loads"], 1, "{stats}");
+    assert_eq!(stats["settings_changes"], 3, "{stats}");
+}
+
+#[test]
+fn bad_requests_get_an_error_and_the_render_goes_on() {
+    let served = Served::start(SMALL);
+    let start = served.wait_until_done();
+    for (body, why) in [
+        (&b"{not json"[..], "not valid JSON"),
+        (b"[1, 2]", "JSON object"),
+        (b"", "JSON object"),
+        (br#"{"no_such_setting": 1}"#, "unknown setting"),
+        (br#"{"f_number": "fast"}"#, "expected a number"),
+        (br#"{"f_number": -2}"#, "f-number"),
+        (br#"{"spp": 0}"#, "spp"),
+        (br#"{"spp": 1.5}"#, "whole number"),
+        (br#"{"width": 100000}"#, "width"),
+        (br#"{"focus_distance": 0.0001}"#, ""),
+        (br#"{"f_number": 4, "aperture": 3}"#, "not both"),
+        (br#"{"lens": "no-such-lens"}"#, "no-such-lens"),
+        (br#"{"focus_mode": "sharpest"}"#, "sharpest"),
+    ] {
+        let reply = served.request("POST", "/api/settings", &[], body);
+        let text = String::from_utf8_lossy(body);
+        assert_eq!(
+            reply.status,
+            400,
+            "{text}: {}",
+            String::from_utf8_lossy(&reply.body)
+        );
+        let error = reply.json()["error"].as_str().unwrap().to_string();
+        assert!(error.contains(why), "{text}: {error}");
+    }
+    // The settings are as they were.
+    let state = served.state();
+    for name in [
+        "lens",
+        "f_number",
+        "aperture",
+        "focus_distance",
+        "film_distance",
+        "spp",
+    ] {
+        assert_eq!(state[name], start[name], "{name}");
+    }
+
+    let too_big = vec![b' '; 70_000];
+    assert_eq!(
+        served
+            .request("POST", "/api/settings", &[], &too_big)
+            .status,
+        413
+    );
+    let mut huge_header = b"GET /api/state HTTP/1.1\r\nX-Junk: ".to_vec();
+    huge_header.extend(std::iter::repeat_n(b'a', 20_000));
+    huge_header.extend(b"\r\n\r\n");
+    assert_eq!(served.raw(&huge_header).status, 431);
+    assert_eq!(served.raw(b"garbage\r\n\r\n").status, 400);
+    assert_eq!(
+        served
+            .raw(b"GET / HTTP/1.1\r\nContent-Length: x\r\n\r\n")
+            .status,
+        400
+    );
+    assert_eq!(
+        served
+            .raw(b"POST /api/settings HTTP/1.1\r\nTransfer-Encoding: chunked\r\n\r\n0\r\n\r\n")
+            .status,
+        501
+    );
+    assert_eq!(served.get("/api/nothing").status, 404);
+    assert_eq!(served.get("/../../etc/passwd").status, 404);
+    assert_eq!(served.request("DELETE", "/api/state", &[], b"").status, 405);
+    assert_eq!(served.get("/api/settings").status, 405);
+    assert_eq!(served.post("/api/image.png", &json!({})).status, 405);
+    // Another site's page may not drive the server through the user's browser.
+    let cross = served.request(
+        "POST",
+        "/api/settings",
+        &[("Origin", "http://evil.example")],
+        br#"{"f_number": 8}"#,
+    );
+    assert_eq!(cross.status, 403);
+    // A client that sends nothing and hangs up, and one that stops mid-body.
+    drop(std::net::TcpStream::connect(&served.address).unwrap());
+    let short = served.raw(b"POST /api/settings HTTP/1.1\r\nContent-Length: 100\r\n\r\n{");
+    assert_eq!(short.status, 400);
+
+    // Still rendering: a good change goes through and the render finishes again.
+    assert_eq!(
+        served
+            .post("/api/settings", &json!({"f_number": 5.6}))
+            .status,
+        200
+    );
+    let state = served.wait_until_done();
+    assert_eq!(state["f_number"], 5.6);
+    let stats = served.get("/api/stats").json();
+    assert_eq!(
+        (stats["bvh_builds"].as_u64(), stats["scene_loads"].as_u64()),
+        (Some(1), Some(1))
+    );
+}
+
+#[test]
+fn lens_names_follow_the_path_rules() {
+    let root = tempfile::tempdir().unwrap();
+    let lenses = root.path().join("lenses");
+    std::fs::create_dir_all(lenses.join("primes")).unwrap();
+    let dgauss = realcam::lens::bundled::find_bundled("dgauss.50mm")
+        .unwrap()
+        .text;
+    let wide = realcam::lens::bundled::find_bundled("wide.22mm")
+        .unwrap()
+        .text;
+    std::fs::write(lenses.join("mine.dat"), dgauss).unwrap();
+    std::fs::write(lenses.join("primes/wide.dat"), wide).unwrap();
+    // Outside the folder: a lens file, and a FIFO that would hang whoever opened it.
+    std::fs::write(root.path().join("outside.dat"), dgauss).unwrap();
+    let fifo = root.path().join("fifo.dat");
+    let fifo_c = std::ffi::CString::new(fifo.to_str().unwrap()).unwrap();
+    assert_eq!(unsafe { libc::mkfifo(fifo_c.as_ptr(), 0o600) }, 0);
+    std::os::unix::fs::symlink(root.path().join("outside.dat"), lenses.join("escape.dat")).unwrap();
+    std::os::unix::fs::symlink(&fifo, lenses.join("fifo-link.dat")).unwrap();
+    std::os::unix::fs::symlink("mine.dat", lenses.join("alias.dat")).unwrap();
+    let command_line = root.path().join("given.dat");
+    std::fs::write(&command_line, wide).unwrap();
+
+    let dir = tempfile::tempdir_in(root.path()).unwrap();
+    let mut args = SMALL.to_vec();
+    let (lens_dir, given) = (
+        lenses.to_str().unwrap().to_string(),
+        command_line.to_str().unwrap().to_string(),
+    );
+    args.extend(["--lens-dir", &lens_dir, "--lens", &given]);
+    let served = Served::start_in(dir, &args);
+
+    let listed: Vec<Value> = served.get("/api/lenses").json()["lenses"]
+        .as_array()
+        .unwrap()
+        .clone();
+    let names: Vec<&str> = listed.iter().map(|l| l["name"].as_str().unwrap()).collect();
+    for expected in [
+        "mine.dat",
+        "primes/wide.dat",
+        "alias.dat",
+        given.as_str(),
+        "dgauss.50mm",
+    ] {
+        assert!(names.contains(&expected), "{expected} not in {names:?}");
+    }
+    for hidden in ["escape.dat", "fifo-link.dat"] {
+        assert!(!names.contains(&hidden), "{hidden} listed: {names:?}");
+    }
+
+    for good in [
+        "mine.dat",
+        "primes/wide.dat",
+        "alias.dat",
+        given.as_str(),
+        "telephoto.250mm",
+    ] {
+        let reply = served.post("/api/settings", &json!({ "lens": good }));
+        assert_eq!(
+            reply.status,
+            200,
+            "{good}: {}",
+            String::from_utf8_lossy(&reply.body)
+        );
+        assert_eq!(reply.json()["lens"], good);
+    }
+    let outside = root.path().join("outside.dat");
+    let refusals = [
+        (outside.to_str().unwrap(), "absolute"),
+        (fifo.to_str().unwrap(), "absolute"),
+        ("../outside.dat", ".."),
+        ("../fifo.dat", ".."),
+        ("primes/../mine.dat", ".."),
+        ("./mine.dat", ".."),
+        ("escape.dat", "link"),
+        ("fifo-link.dat", "link"),
+        ("nothing.dat", "no such lens"),
+        ("given.dat", "no such lens"),
+    ];
+    for (name, why) in refusals {
+        let started = std::time::Instant::now();
+        let reply = served.post("/api/settings", &json!({ "lens": name }));
+        assert_eq!(reply.status, 400, "{name} was accepted");
+        let error = reply.json()["error"].as_str().unwrap().to_string();
+        assert!(error.contains(why), "{name}: {error}");
+        assert!(started.elapsed() < Duration::from_secs(10), "{name} hung");
+    }
+    assert_eq!(served.state()["lens"], "telephoto.250mm");
+}
+
+#[test]
+fn click_to_focus_traces_the_real_lens_to_the_scene() {
+    let served = Served::start(SMALL);
+    // The distance along the axis to what the image centre shows, by a plain ray from the
+    // camera (the library's autofocus): the on-axis ray through the lens runs along the axis.
+    let argv = ["realcam", "render"]
+        .iter()
+        .chain(SMALL)
+        .map(|s| s.to_string());
+    let Some(realcam::cli::Command::Render(args)) =
+        realcam::cli::Cli::try_parse_from_args(argv).unwrap()
+    else {
+        panic!("a render command")
+    };
+    let formats = realcam::job::outputs::validate(&args).unwrap();
+    let mut job = realcam::job::Job::prepare(&args, formats).unwrap();
+    let wfc = job.world_from_camera;
+    let realcam::lens::elements::FocusSetting::Distance { metres: axial, .. } =
+        realcam::job::setup::autofocus(&mut job.renderer, wfc)
+    else {
+        panic!("autofocus gives a distance")
+    };
+
+    let state = served.post("/api/focus", &json!({"x": 32, "y": 32})).json();
+    let focused = state["focus_distance"].as_f64().unwrap();
+    assert!(
+        (focused - axial).abs() < 0.01 * axial,
+        "{focused} m vs {axial} m"
+    );
+    assert_eq!(state["film_distance"], Value::Null);
+
+    let corner = served.post("/api/focus", &json!({"x": 2, "y": 60})).json();
+    assert_ne!(corner["focus_distance"], state["focus_distance"]);
+    for bad in [
+        json!({"x": -5, "y": 3}),
+        json!({"x": 1e9, "y": 3}),
+        json!({"x": "a"}),
+        json!({}),
+    ] {
+        let reply = served.post("/api/focus", &bad);
+        assert_eq!(reply.status, 400, "{bad}");
+        assert!(reply.json()["error"].is_string());
+    }
+}
+
+#[test]
+fn save_writes_what_the_command_line_it_shows_renders() {
+    let served = Served::start(SMALL);
+    served.post(
+        "/api/settings",
+        &json!({"lens": "wide.22mm", "f_number": 8}),
+    );
+    served.wait_until_done();
+    // Paths in the request are not the server's to take.
+    let evil = served.path().join("elsewhere.png");
+    let saved = served
+        .post("/api/save", &json!({"out": evil.to_str().unwrap()}))
+        .json();
+    assert!(!evil.exists());
+    assert_eq!(saved["out"], "render.png");
+    assert_eq!(saved["exr"], "render.exr");
+    assert_eq!(saved["spp"], 4);
+    let png = std::fs::read(served.path().join("render.png")).unwrap();
+    let exr = std::fs::read(served.path().join("render.exr")).unwrap();
+
+    let command = saved["command"].as_str().unwrap();
+    let words: Vec<&str> = command.split(' ').collect();
+    assert_eq!(&words[..2], ["realcam", "render"], "{command}");
+    assert!(command.contains("--lens wide.22mm") && command.contains("--f-number 8"));
+    let elsewhere = tempfile::tempdir().unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_realcam"))
+        .args(&words[1..])
+        .current_dir(elsewhere.path())
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert_eq!(
+        std::fs::read(elsewhere.path().join("render.png")).unwrap(),
+        png
+    );
+    assert_eq!(
+        std::fs::read(elsewhere.path().join("render.exr")).unwrap(),
+        exr
+    );
+}
+
+#[test]
+fn ctrl_c_stops_the_server_cleanly() {
+    let served = Served::start(SMALL);
+    served.post("/api/settings", &json!({"spp": 100000}));
+    served.wait_for("rendering", |s| s["spp_done"].as_u64() > Some(0));
+    let (status, stderr) = served.interrupt();
+    assert!(status.success(), "{status}: {stderr}");
+    assert!(stderr.contains("stopped"), "{stderr}");
+}
+
+#[test]
+fn serve_refuses_batch_options_and_bad_addresses() {
+    for (args, why) in [
+        (&["--focus-sweep", "1:2:3"][..], "--focus-sweep"),
+        (&["--out", "-"], "--out -"),
+        (&["--lens-dir", "/no/such/folder"], "--lens-dir"),
+        (&["--listen", "not-an-address"], "--listen"),
+    ] {
+        let out = Command::new(env!("CARGO_BIN_EXE_realcam"))
+            .arg("serve")
+            .args(args)
+            .args(["--port", "0"])
+            .output()
+            .unwrap();
+        assert!(!out.status.success(), "{args:?}");
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(stderr.contains(why), "{args:?}: {stderr}");
+    }
+}
