@@ -372,6 +372,7 @@ pub fn generate_rays(
     settings: Res<RenderSettings>,
     pass: Res<PassState>,
     plan: Option<Res<SamplePlan>>,
+    cancel: Option<Res<PassCancel>>,
     mut tiles: Query<(&FilmTile, &mut TileBatch)>,
     mut stats: ResMut<RenderStats>,
 ) {
@@ -398,6 +399,9 @@ pub fn generate_rays(
     let passed: u64 = work
         .par_iter_mut()
         .map(|(tile, batch)| {
+            if cancelled(&cancel) {
+                return 0;
+            }
             camera.generate(tile.pixels(), pass.sample, settings.seed, &mut batch.camera);
             batch.camera.rays.alive_count() as u64
         })

@@ -53,6 +53,9 @@ pub struct Published {
     pub lens: Option<(Arc<Prescription>, LensOptions)>,
 }
 
+/// The lens report (JSON, SVG) of one settings generation.
+type LensReportCache = (u64, Arc<Value>, Arc<String>);
+
 struct Shared {
     published: Mutex<Published>,
     /// Signalled when `published.generation` grows (or the session stops).
@@ -60,7 +63,7 @@ struct Shared {
     cancel: Arc<AtomicBool>,
     stopped: AtomicBool,
     png: Mutex<Option<(u64, Arc<Vec<u8>>)>>,
-    lens_report: Mutex<Option<(u64, Arc<Value>, Arc<String>)>>,
+    lens_report: Mutex<Option<LensReportCache>>,
 }
 
 /// A running live session: cheap to share between connection threads.

@@ -54,14 +54,21 @@ impl Server {
             .expect("a bound listener has an address")
     }
 
-    /// Serves until `stop()` says so (checked every 50 ms).
+    /// Serves until `stop()` says so (checked at least every 100 ms).
     pub fn serve(&self, stop: impl Fn() -> bool) {
+        use std::os::fd::AsRawFd;
         while !stop() && !self.lab.is_stopped() {
+            // Wait for a connection or the next look at `stop`, whichever comes first.
+            let mut ready = libc::pollfd {
+                fd: self.listener.as_raw_fd(),
+                events: libc::POLLIN,
+                revents: 0,
+            };
+            unsafe { libc::poll(&mut ready, 1, 100) };
             match self.listener.accept() {
                 Ok((stream, _)) => self.spawn(stream),
-                Err(e) if e.kind() == std::io::ErrorKind::WouldBlock => {
-                    std::thread::sleep(Duration::from_millis(50));
-                }
+                Err(e) if e.kind() == std::io::ErrorKind::WouldBlock => {}
+                // Out of file descriptors, say: let connections finish before trying again.
                 Err(_) => std::thread::sleep(Duration::from_millis(50)),
             }
         }

@@ -24,7 +24,9 @@ function show(newState) {
   state = newState;
   for (const name of ["focus_distance", "f_number", "aperture", "film_diagonal"]) {
     const input = $(name);
-    if (document.activeElement !== input) input.value = state[name] ?? "";
+    const value = state[name];
+    // Four significant digits are enough to read; the state keeps every digit.
+    if (document.activeElement !== input) input.value = typeof value === "number" ? Number(value.toPrecision(4)) : value ?? "";
   }
   for (const name of ["focus_mode", "dispersion"]) {
     if (state[name]) $(name).value = state[name];
