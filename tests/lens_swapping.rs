@@ -132,3 +132,36 @@ fn editing_an_element_and_back_gives_the_same_image() {
     assert_eq!(render(&mut renderer), before);
     assert_eq!(builds(&renderer), (1, 1));
 }
+
+/// A pass abandoned through `PassCancel` leaves the film as it was, and the passes after it
+/// give the image an uninterrupted render gives.
+#[test]
+fn a_cancelled_pass_leaves_the_film_untouched() {
+    use std::sync::Arc;
+    use std::sync::atomic::{AtomicBool, Ordering};
+    let mut renderer = duck_renderer();
+    let lens = renderer.add_lens(
+        &load_lens("dgauss.50mm", None).unwrap(),
+        focus(4.0),
+        ApertureSetting::Full,
+    );
+    renderer.set_active_lens(lens);
+    renderer.set_sample_plan(3);
+    let reference = render(&mut renderer);
+
+    let flag = Arc::new(AtomicBool::new(false));
+    renderer
+        .world
+        .insert_resource(realcam::pipeline::PassCancel(Arc::clone(&flag)));
+    renderer.begin_film(None).unwrap();
+    assert!(renderer.render_pass_unless_cancelled(0).unwrap());
+    let one = renderer.image();
+    flag.store(true, Ordering::Relaxed);
+    assert!(!renderer.render_pass_unless_cancelled(1).unwrap());
+    assert_eq!(renderer.image(), one, "a cancelled pass reached the film");
+    flag.store(false, Ordering::Relaxed);
+    for sample in 1..3 {
+        assert!(renderer.render_pass_unless_cancelled(sample).unwrap());
+    }
+    assert_eq!(renderer.image(), reference);
+}

@@ -4,7 +4,7 @@
 
 use std::io::{BufRead, BufReader, Read, Write};
 use std::net::TcpStream;
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 use serde_json::{Value, json};
 
@@ -12,7 +12,7 @@ use serde_json::{Value, json};
 pub const MAX_HEADER_BYTES: usize = 16 * 1024;
 /// Largest request body, bytes (settings are a few hundred).
 pub const MAX_BODY_BYTES: usize = 64 * 1024;
-/// How long a client may take to send its request.
+/// How long a client may take to send its whole request.
 pub const READ_TIMEOUT: Duration = Duration::from_secs(10);
 
 /// A parsed request.
@@ -102,10 +102,32 @@ pub fn reason(status: u16) -> &'static str {
     }
 }
 
+/// A stream whose reads fail once `deadline` has passed: a client trickling a byte at a time
+/// cannot hold a connection longer than [`READ_TIMEOUT`] in all.
+struct Deadline<'a> {
+    stream: &'a TcpStream,
+    deadline: Instant,
+}
+
+impl Read for Deadline<'_> {
+    fn read(&mut self, buffer: &mut [u8]) -> std::io::Result<usize> {
+        let left = self.deadline.saturating_duration_since(Instant::now());
+        if left.is_zero() {
+            return Err(std::io::ErrorKind::TimedOut.into());
+        }
+        self.stream.set_read_timeout(Some(left))?;
+        let mut stream = self.stream;
+        stream.read(buffer)
+    }
+}
+
 /// Reads one request from `stream`; a refusal is the response to send instead.
 pub fn read_request(stream: &TcpStream) -> Result<Request, Response> {
-    let _ = stream.set_read_timeout(Some(READ_TIMEOUT));
-    let mut reader = BufReader::new(stream.take((MAX_HEADER_BYTES + MAX_BODY_BYTES) as u64));
+    let deadline = Deadline {
+        stream,
+        deadline: Instant::now() + READ_TIMEOUT,
+    };
+    let mut reader = BufReader::new(deadline.take((MAX_HEADER_BYTES + MAX_BODY_BYTES) as u64));
     let mut head = Vec::new();
     loop {
         let before = head.len();
