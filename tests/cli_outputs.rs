@@ -417,7 +417,10 @@ fn the_output_format_follows_the_name() {
     for (h, e) in hdr.chunks(3).zip(exr.chunks(3)) {
         let largest = e.iter().fold(0f32, |m, &v| m.max(v));
         for c in 0..3 {
-            assert!((h[c] - e[c].max(0.0)).abs() <= largest / 128.0, "{h:?} vs {e:?}");
+            assert!(
+                (h[c] - e[c].max(0.0)).abs() <= largest / 128.0,
+                "{h:?} vs {e:?}"
+            );
         }
     }
     // --exr takes the float formats.
