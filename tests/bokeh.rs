@@ -592,3 +592,29 @@ fn blades_combine_with_lens_runs_and_sweeps() {
         assert!(d.join(format!("sweep-{k:03}.png")).exists());
     }
 }
+
+/// The bundled bokeh scene loads cleanly: its lamps are emitters at several depths behind and
+/// in front of the subject, and its camera focuses on the subject.
+#[test]
+fn the_bundled_bokeh_scene_loads_with_lamps_in_front_and_behind() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/bokeh/bokeh-lights.gltf");
+    let text = std::fs::read_to_string(&path).unwrap();
+    let json: serde_json::Value = serde_json::from_str(&text).unwrap();
+    let lamps: Vec<f64> = json["nodes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|n| n["name"].as_str().unwrap().starts_with("Lamp"))
+        .map(|n| n["translation"][2].as_f64().unwrap())
+        .collect();
+    let camera_z = 3.0;
+    assert!(lamps.iter().any(|z| camera_z - z > 10.0), "far lamps");
+    assert!(lamps.iter().any(|z| camera_z - z < 1.0), "near lamps");
+    let mut renderer = Renderer::new();
+    renderer.load_scene(&path).unwrap();
+    let warnings = &renderer
+        .world
+        .resource::<realcam::pipeline::SceneWarnings>()
+        .0;
+    assert!(warnings.is_empty(), "{warnings:?}");
+}
