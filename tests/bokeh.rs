@@ -121,7 +121,7 @@ fn corner_angles(hull: &[[f64; 2]], centre: [f64; 2], span: f64, min_turn: f64) 
     };
     let wrap = |a: f64| (a + PI).rem_euclid(2.0 * PI) - PI;
     let mut corners: Vec<(f64, f64)> = Vec::new(); // (distance from the centre, angle)
-    for i in 0..n {
+    for (i, &v) in hull.iter().enumerate() {
         // Turning from the edge `span` of perimeter before vertex i to the one after it.
         let (mut back, mut walked) = (i + n - 1, 0.0);
         while walked < span && back > i {
@@ -134,7 +134,6 @@ fn corner_angles(hull: &[[f64; 2]], centre: [f64; 2], span: f64, min_turn: f64) 
             ahead += 1;
         }
         let turn = wrap(heading(ahead) - heading(back + 1));
-        let v = hull[i];
         let angle = (v[1] - centre[1]).atan2(v[0] - centre[0]);
         // Of the vertices near a corner, the corner itself lies farthest from the centre.
         let reach = (v[0] - centre[0]).hypot(v[1] - centre[1]);

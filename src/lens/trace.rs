@@ -115,7 +115,7 @@ pub fn trace_transmitted<T: Float>(
         {
             let to_f64 = |v: T| v.to_f64().unwrap_or(f64::NAN);
             let passed = clip.transmission(to_f64(p[0]), to_f64(p[1]));
-            if !(passed > 0.0) {
+            if passed.is_nan() || passed <= 0.0 {
                 return Err(blocked(BlockReason::Aperture));
             }
             transmission = transmission * T::from(passed).unwrap_or_else(T::zero);

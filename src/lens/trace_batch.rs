@@ -530,7 +530,7 @@ fn simd_surface<const SHAPE: u8>(
 #[inline(always)]
 fn simd_clip(clip: &StopClip, block: &mut SimdBlock, chunks: usize) -> Option<[f32; BLOCK]> {
     for (ray, alive) in block.rays[..chunks].iter().zip(&mut block.alive[..chunks]) {
-        *alive = *alive & inside_blades::<f32x8>(clip, ray.origin[0], ray.origin[1]);
+        *alive &= inside_blades::<f32x8>(clip, ray.origin[0], ray.origin[1]);
     }
     if !clip.has_mask() {
         return None;

@@ -37,7 +37,7 @@ pub fn clip_plain(
     let n = alive.len();
     let (x, y) = (&x[..n], &y[..n]);
     for i in 0..n {
-        alive[i] = alive[i] & inside_blades::<f32>(clip, x[i], y[i]);
+        alive[i] &= inside_blades::<f32>(clip, x[i], y[i]);
     }
     if clip.has_mask() {
         let [tr, tg, tb] = throughput;
