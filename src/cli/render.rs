@@ -37,6 +37,7 @@ use crate::film::{Image, MAX_IMAGE_SIDE, MAX_SPP};
 use crate::lens::Prescription;
 use crate::lens::aperture::ApertureSetting;
 use crate::lens::bundled::{DEFAULT_LENS, load_lens};
+use crate::lens::diaphragm::Diaphragm;
 use crate::lens::elements::{
     Dispersion, FilmPlacement, FocusSetting, LensDerivationStats, LensGeometry,
 };
@@ -219,6 +220,7 @@ enum Outcome {
 
 pub fn run(args: &RenderArgs) -> anyhow::Result<ExitCode> {
     let formats = validate(args)?;
+    let diaphragm = args.lens_options.diaphragm()?;
     if let Some(threads) = args.threads {
         rayon::ThreadPoolBuilder::new()
             .num_threads(threads)
@@ -295,6 +297,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<ExitCode> {
             );
             let entity = renderer.add_lens(&prescription, focus, aperture);
             renderer.world.entity_mut(entity).insert(args.dispersion.0);
+            renderer.set_diaphragm(entity, diaphragm.clone());
             RunLens {
                 prescription,
                 entity,
@@ -344,6 +347,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<ExitCode> {
         world_from_camera,
         film_diagonal,
         interrupt: &interrupt,
+        diaphragm: diaphragm.as_ref(),
     };
     let mut reports = Vec::new();
     let mut thumbnails = Vec::new();
@@ -427,6 +431,7 @@ struct RunContext<'a> {
     world_from_camera: Mat4,
     film_diagonal: f64,
     interrupt: &'a Interrupt,
+    diaphragm: Option<&'a Diaphragm>,
 }
 
 /// Focus and aperture a lens starts from when the flags don't set them. A scene's film
@@ -518,15 +523,14 @@ fn render_frame(
         for warning in &geometry.warnings {
             eprintln!("warning: {warning}");
         }
+        for note in &geometry.notes {
+            eprintln!("note: {note}");
+        }
         let film = entity
             .get::<FilmPlacement>()
             .context("film placement missing")?
             .film_distance;
-        (
-            geometry.first_order.focal_length,
-            geometry.first_order.f_number,
-            film,
-        )
+        (geometry.first_order.focal_length, geometry.f_number(), film)
     };
     eprintln!(
         "lens {}: f = {focal_length_mm:.2} mm, f/{f_number:.2}, film distance {film_distance_mm:.3} mm",
@@ -728,6 +732,9 @@ fn settings_fingerprint(
             .collect();
         fingerprint["dispersion"] = json!(args.dispersion.0 == Dispersion::On);
     }
+    if let Some(diaphragm) = context.diaphragm {
+        fingerprint["diaphragm"] = diaphragm.fingerprint();
+    }
     fingerprint
 }
 
@@ -889,6 +896,7 @@ fn validate(args: &RenderArgs) -> anyhow::Result<Formats> {
         .iter()
         .map(PathBuf::as_path)
         .chain(args.lens.iter().map(Path::new))
+        .chain(args.lens_options.aperture_image.as_deref())
         .chain(
             args.resume
                 .as_deref()
