@@ -125,7 +125,7 @@ mod tests {
             TypeId::of::<crate::lens::focus::FocusMode>(),
             TypeId::of::<crate::lens::pupil::PupilSampling>(),
             TypeId::of::<crate::lens::LensFormat>(),
-            TypeId::of::<render::DispersionArg>(),
+            TypeId::of::<crate::cli::render::DispersionArg>(),
             TypeId::of::<std::net::IpAddr>(),
         ];
         arg.get_action().takes_values()

@@ -101,15 +101,14 @@ pub(super) fn render_frame(
         for warning in &geometry.warnings {
             eprintln!("warning: {warning}");
         }
+        for note in &geometry.notes {
+            eprintln!("note: {note}");
+        }
         let film = entity
             .get::<FilmPlacement>()
             .context("film placement missing")?
             .film_distance;
-        (
-            geometry.first_order.focal_length,
-            geometry.first_order.f_number,
-            film,
-        )
+        (geometry.first_order.focal_length, geometry.f_number(), film)
     };
     eprintln!(
         "lens {}: f = {focal_length_mm:.2} mm, f/{f_number:.2}, film distance {film_distance_mm:.3} mm",
@@ -310,6 +309,9 @@ fn settings_fingerprint(
             .map(|r| r.glass.map(|g| g.label()))
             .collect();
         fingerprint["dispersion"] = json!(args.dispersion.0 == Dispersion::On);
+    }
+    if let Some(diaphragm) = context.diaphragm {
+        fingerprint["diaphragm"] = diaphragm.fingerprint();
     }
     fingerprint
 }

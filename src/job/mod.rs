@@ -25,6 +25,7 @@ use crate::film::output::{auto_exposure, shown, to_srgb8, write_image, write_out
 use crate::lens::Prescription;
 use crate::lens::aperture::ApertureSetting;
 use crate::lens::bundled::{DEFAULT_LENS, load_lens};
+use crate::lens::diaphragm::Diaphragm;
 use crate::lens::elements::FocusSetting;
 use crate::pipeline::{RenderSettings, Renderer, SceneInputs, SceneSource, SceneWarnings};
 use crate::scene::CameraHints;
@@ -66,6 +67,8 @@ pub struct Job<'a> {
     pub height: u32,
     /// When the job started, for its wall time.
     pub start: Instant,
+    /// The diaphragm `--blades`/`--aperture-image` ask for, on every lens of the job.
+    pub diaphragm: Option<Diaphragm>,
 }
 
 /// A lens of the run: its prescription, entity and the defaults its frames start from.
@@ -82,6 +85,7 @@ impl<'a> Job<'a> {
     /// come from [`outputs::validate`], run first.
     pub fn prepare(args: &'a RenderArgs, formats: Formats) -> anyhow::Result<Job<'a>> {
         let start = Instant::now();
+        let diaphragm = args.lens_options.diaphragm()?;
         let mut renderer = Renderer::new();
         let source = match &args.scene {
             Some(path) => SceneSource {
@@ -150,6 +154,7 @@ impl<'a> Job<'a> {
                 );
                 let entity = renderer.add_lens(&prescription, focus, aperture);
                 renderer.world.entity_mut(entity).insert(args.dispersion.0);
+                renderer.set_diaphragm(entity, diaphragm.clone());
                 RunLens {
                     prescription,
                     entity,
@@ -189,6 +194,7 @@ impl<'a> Job<'a> {
             width,
             height,
             start,
+            diaphragm,
         })
     }
 
@@ -209,6 +215,7 @@ impl<'a> Job<'a> {
             width,
             height,
             start,
+            diaphragm,
         } = self;
         let names: Vec<String> = lenses.iter().map(|l| l.prescription.name.clone()).collect();
         let focus: Vec<FocusSetting> = lenses.iter().map(|l| l.focus).collect();
@@ -229,6 +236,7 @@ impl<'a> Job<'a> {
             world_from_camera,
             film_diagonal,
             stop,
+            diaphragm: diaphragm.as_ref(),
         };
         let mut reports = Vec::new();
         let mut thumbnails = Vec::new();
@@ -314,6 +322,7 @@ struct RunContext<'a> {
     film_diagonal: f64,
     /// The exit code to stop with, once the front end was asked to stop (Ctrl-C).
     stop: &'a dyn Fn() -> Option<u8>,
+    diaphragm: Option<&'a Diaphragm>,
 }
 
 /// Focus and aperture a lens starts from when the flags don't set them. A scene's film

@@ -88,6 +88,7 @@ pub fn validate(args: &RenderArgs) -> anyhow::Result<Formats> {
         .iter()
         .map(PathBuf::as_path)
         .chain(args.lens.iter().map(Path::new))
+        .chain(args.lens_options.aperture_image.as_deref())
         .chain(
             args.resume
                 .as_deref()

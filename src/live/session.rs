@@ -205,11 +205,16 @@ impl Session {
         let aperture = args.lens_options.aperture(ApertureSetting::Full);
         if name != self.lens_name {
             let (prescription, argument) = self.library.load(&name)?;
+            let diaphragm = args
+                .lens_options
+                .diaphragm()
+                .map_err(|e| format!("{e:#}"))?;
             let entity = self.renderer.add_lens(&prescription, focus, aperture);
             self.renderer
                 .world
                 .entity_mut(entity)
                 .insert(args.dispersion.0);
+            self.renderer.set_diaphragm(entity, diaphragm);
             self.renderer.set_active_lens(entity);
             self.renderer.world.despawn(self.lens);
             self.lens = entity;
@@ -365,7 +370,7 @@ impl Session {
             (Some(geometry), Some(film)) => json!({
                 "name": self.prescription.name,
                 "focal_length_mm": geometry.first_order.focal_length,
-                "f_number": geometry.first_order.f_number,
+                "f_number": geometry.f_number(),
                 "film_distance_mm": film.film_distance,
                 "stop_diameter_mm": geometry.system.stop_diameter(),
             }),
