@@ -153,22 +153,22 @@ impl Embree {
             assert!(!address.is_null(), "libembree3 lacks {name:?}");
             address
         };
-        // SAFETY: each symbol is transmuted to the signature Embree 3's headers declare.
+        // SAFETY: each symbol is given the signature Embree 3's headers declare.
         let api = unsafe {
             Api {
-                new_device: std::mem::transmute(symbol(c"rtcNewDevice")),
-                release_device: std::mem::transmute(symbol(c"rtcReleaseDevice")),
-                new_scene: std::mem::transmute(symbol(c"rtcNewScene")),
-                set_scene_build_quality: std::mem::transmute(symbol(c"rtcSetSceneBuildQuality")),
-                release_scene: std::mem::transmute(symbol(c"rtcReleaseScene")),
-                new_geometry: std::mem::transmute(symbol(c"rtcNewGeometry")),
-                set_new_geometry_buffer: std::mem::transmute(symbol(c"rtcSetNewGeometryBuffer")),
-                commit_geometry: std::mem::transmute(symbol(c"rtcCommitGeometry")),
-                attach_geometry: std::mem::transmute(symbol(c"rtcAttachGeometry")),
-                release_geometry: std::mem::transmute(symbol(c"rtcReleaseGeometry")),
-                commit_scene: std::mem::transmute(symbol(c"rtcCommitScene")),
-                intersect1: std::mem::transmute(symbol(c"rtcIntersect1")),
-                intersect8: std::mem::transmute(symbol(c"rtcIntersect8")),
+                new_device: function(symbol(c"rtcNewDevice")),
+                release_device: function(symbol(c"rtcReleaseDevice")),
+                new_scene: function(symbol(c"rtcNewScene")),
+                set_scene_build_quality: function(symbol(c"rtcSetSceneBuildQuality")),
+                release_scene: function(symbol(c"rtcReleaseScene")),
+                new_geometry: function(symbol(c"rtcNewGeometry")),
+                set_new_geometry_buffer: function(symbol(c"rtcSetNewGeometryBuffer")),
+                commit_geometry: function(symbol(c"rtcCommitGeometry")),
+                attach_geometry: function(symbol(c"rtcAttachGeometry")),
+                release_geometry: function(symbol(c"rtcReleaseGeometry")),
+                commit_scene: function(symbol(c"rtcCommitScene")),
+                intersect1: function(symbol(c"rtcIntersect1")),
+                intersect8: function(symbol(c"rtcIntersect8")),
             }
         };
         // One thread: the traversal comparison is per core, and the build runs once.
@@ -265,6 +265,16 @@ impl EmbreeScene<'_> {
         }
         found
     }
+}
+
+/// A symbol's address as a function pointer of type `F`.
+///
+/// # Safety
+/// `F` must be the symbol's true signature.
+unsafe fn function<F: Copy>(address: *mut c_void) -> F {
+    assert_eq!(size_of::<F>(), size_of::<*mut c_void>());
+    // SAFETY: same size; the caller vouches for the signature.
+    unsafe { std::mem::transmute_copy(&address) }
 }
 
 /// The valid mask of `rtcIntersect8`, which Embree loads 32-byte aligned.
