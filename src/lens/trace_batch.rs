@@ -20,7 +20,8 @@ mod refract;
 use wide::f32x8;
 
 use self::refract::{
-    CONIC, LaneRay, POLYNOMIAL, SPHERE, SurfaceConstants, normalise_direction, refract_at,
+    CONIC, LaneRay, NEWTON_STEPS, Newton, POLYNOMIAL, SPHERE, SurfaceConstants,
+    normalise_direction, refract_at, refract_from_hit,
 };
 use super::dispersion::DispersionTable;
 use super::system::SurfaceArrays;
@@ -382,6 +383,9 @@ fn plain_surface<const SHAPE: u8, const SPECTRAL: bool>(
     lanes: Lanes,
     etas: &[f32],
 ) -> bool {
+    if SHAPE == POLYNOMIAL {
+        return plain_polynomial_surface::<SPECTRAL>(surface, lanes, etas);
+    }
     let n = lanes.alive.len();
     let (ox, oy, oz) = (&mut lanes.ox[..n], &mut lanes.oy[..n], &mut lanes.oz[..n]);
     let (dx, dy, dz) = (&mut lanes.dx[..n], &mut lanes.dy[..n], &mut lanes.dz[..n]);
@@ -395,6 +399,72 @@ fn plain_surface<const SHAPE: u8, const SPECTRAL: bool>(
         };
         let eta = if SPECTRAL { etas[i] } else { surface.eta };
         let survives = refract_at::<f32, SHAPE>(surface, &mut ray, alive[i], eta);
+        [ox[i], oy[i], oz[i]] = ray.origin;
+        [dx[i], dy[i], dz[i]] = ray.direction;
+        alive[i] = survives;
+        any_alive |= survives;
+    }
+    any_alive
+}
+
+/// [`plain_surface`] for a polynomial asphere: the Newton iterations run as steps over the whole
+/// block (each step a plain loop over the rays, which vectorises; a ray's own iteration loop,
+/// with its data-dependent exit, would not), until no ray is still searching. Bit-identical to
+/// [`refract_at`] ray by ray: each ray sees the same operations in the same order.
+#[inline(always)]
+fn plain_polynomial_surface<const SPECTRAL: bool>(
+    surface: &SurfaceConstants<f32>,
+    lanes: Lanes,
+    etas: &[f32],
+) -> bool {
+    let n = lanes.alive.len();
+    let (ox, oy, oz) = (&mut lanes.ox[..n], &mut lanes.oy[..n], &mut lanes.oz[..n]);
+    let (dx, dy, dz) = (&mut lanes.dx[..n], &mut lanes.dy[..n], &mut lanes.dz[..n]);
+    let alive = &mut lanes.alive[..n];
+    let ray_at = |i: usize| LaneRay {
+        origin: [ox[i], oy[i], oz[i]],
+        direction: [dx[i], dy[i], dz[i]],
+    };
+    // The iteration state as arrays (structure of arrays, so the step loop vectorises).
+    let mut t = [0.0f32; BLOCK];
+    let mut searching = [false; BLOCK];
+    let mut converged = [false; BLOCK];
+    let (t, searching, converged) = (&mut t[..n], &mut searching[..n], &mut converged[..n]);
+    for i in 0..n {
+        let start = Newton::start(surface, &ray_at(i), alive[i]);
+        (t[i], searching[i], converged[i]) = (start.t, start.searching, start.converged);
+    }
+    for _ in 0..NEWTON_STEPS {
+        let mut any_searching = false;
+        for i in 0..n {
+            let mut state = Newton {
+                t: t[i],
+                searching: searching[i],
+                converged: converged[i],
+            };
+            state.step(surface, &ray_at(i));
+            (t[i], searching[i], converged[i]) = (state.t, state.searching, state.converged);
+            any_searching |= state.searching;
+        }
+        if !any_searching {
+            break;
+        }
+    }
+    let mut any_alive = false;
+    for i in 0..n {
+        let mut ray = LaneRay {
+            origin: [ox[i], oy[i], oz[i]],
+            direction: [dx[i], dy[i], dz[i]],
+        };
+        let eta = if SPECTRAL { etas[i] } else { surface.eta };
+        let (t, hit) = Newton {
+            t: t[i],
+            searching: searching[i],
+            converged: converged[i],
+        }
+        .hit();
+        let survives =
+            refract_from_hit::<f32, POLYNOMIAL>(surface, &mut ray, alive[i], eta, t, hit);
         [ox[i], oy[i], oz[i]] = ray.origin;
         [dx[i], dy[i], dz[i]] = ray.direction;
         alive[i] = survives;
