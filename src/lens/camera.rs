@@ -6,11 +6,18 @@
 //!
 //! **Pixels**: (0, 0) is the top-left corner of the image, +x right, +y down. Since the lens
 //! inverts the image, the pixel at the image's top right is the film point at bottom left
-//! (−x, −y); mapping pixels that way gives an upright, unmirrored picture.
+//! (−x, −y); mapping pixels that way gives an upright, unmirrored picture. A shifted frame
+//! (see [`super::movements`]) is the same pixel lattice moved across the film.
+//!
+//! **Pixel keys**: a pixel's random streams are keyed by where it lies on the film — its
+//! corner's position on the lattice of pixels anchored at the optical axis — not by its index
+//! in the image. So a frame shifted by whole pixels is exactly the matching crop of a larger
+//! unshifted film: the same film points, the same samples, the same image.
 
 use glam::Mat4;
 
 use super::dispersion::DispersionTable;
+use super::movements::FilmMovements;
 use super::pupil::{ExitPupil, FilmRays};
 use super::system::LensSystem;
 use super::trace::Travel;
@@ -27,6 +34,8 @@ pub struct FilmGeometry {
     pub height: u32,
     pub width_mm: f32,
     pub height_mm: f32,
+    /// Shift and tilt of the frame.
+    pub movements: FilmMovements,
 }
 
 impl FilmGeometry {
@@ -39,43 +48,115 @@ impl FilmGeometry {
             height,
             width_mm: (height_mm * aspect) as f32,
             height_mm: height_mm as f32,
+            movements: FilmMovements::NONE,
         }
     }
 
-    /// Lens-frame film point (x, y, mm) of the continuous pixel position (`px`, `py`).
-    #[inline(always)]
-    pub fn film_point(&self, px: f32, py: f32) -> [f32; 2] {
-        self.film_map().apply(px, py)
+    /// This film shifted and tilted by `movements`.
+    pub fn moved(self, movements: FilmMovements) -> FilmGeometry {
+        FilmGeometry { movements, ..self }
     }
 
-    /// Pixel position → film point as a scale per axis about the image centre, so a loop over
-    /// many pixels does not divide by the film size each time.
+    /// Lens-frame film point (x, y, mm) of the continuous pixel position (`px`, `py`), on the
+    /// film plane before any tilt.
+    #[inline(always)]
+    pub fn film_point(&self, px: f32, py: f32) -> [f32; 2] {
+        let map = self.film_map();
+        let (x, y) = (px.floor(), py.floor());
+        map.apply(x, y, px - x, py - y)
+    }
+
+    /// Lens-frame film point (x, y, and z relative to the frame centre's plane, mm) of the
+    /// continuous pixel position (`px`, `py`), tilt included.
+    pub fn film_position(&self, px: f32, py: f32) -> [f64; 3] {
+        let [x, y] = self.film_point(px, py).map(f64::from);
+        let [cx, cy] = self.movements.frame_centre();
+        self.movements.film_point(x - cx, y - cy, 0.0)
+    }
+
+    /// Film pitch (mm per pixel) along x and y.
+    fn pitch(&self) -> [f64; 2] {
+        [
+            self.width_mm as f64 / self.width as f64,
+            self.height_mm as f64 / self.height as f64,
+        ]
+    }
+
+    /// Where pixel (0, 0)'s corner lies on the axis-anchored pixel lattice, in pixels
+    /// (+x toward the image's right, +y down): −half the image, moved by the shift.
+    fn lattice_origin(&self) -> [f64; 2] {
+        let [shift_x, shift_y] = self.movements.shift_mm;
+        let pitch = self.pitch();
+        [
+            shift_x / pitch[0] - 0.5 * self.width as f64,
+            -shift_y / pitch[1] - 0.5 * self.height as f64,
+        ]
+    }
+
+    /// Pixel position → film point as a scale per axis from the axis-anchored lattice, so a
+    /// loop over many pixels does not divide by the film size each time.
     #[inline(always)]
     fn film_map(&self) -> FilmMap {
+        let origin = self.lattice_origin();
         FilmMap {
             scale: [
                 -self.width_mm / self.width as f32,
                 self.height_mm / self.height as f32,
             ],
-            centre: [0.5 * self.width as f32, 0.5 * self.height as f32],
+            origin: origin.map(|v| v as f32),
         }
+    }
+
+    /// The key of pixel (`x`, `y`)'s random streams: its corner on the axis-anchored lattice in
+    /// half pixels (odd sizes put corners at half-pixel positions), 16 bits per axis. Distinct
+    /// within a frame: an image side spans at most 2 · 16384 half pixels.
+    #[inline(always)]
+    pub fn pixel_key(&self, x: u32, y: u32) -> u32 {
+        let [ox, oy] = self.lattice_origin().map(|v| (2.0 * v).round() as i64);
+        let kx = (2 * x as i64 + ox) as u32 & 0xffff;
+        let ky = (2 * y as i64 + oy) as u32 & 0xffff;
+        ky << 16 | kx
     }
 }
 
-/// `film = scale · (pixel − centre)`, per axis (x flipped: see the module docs).
+/// `film = scale · ((pixel + origin) + jitter)`, per axis (x flipped: see the module docs):
+/// `pixel + origin` is the pixel's corner on the axis-anchored lattice, exact in f32 for a
+/// whole-pixel origin, so the same lattice pixel gives the same film point in any frame.
 #[derive(Clone, Copy, Debug)]
 struct FilmMap {
     scale: [f32; 2],
-    centre: [f32; 2],
+    origin: [f32; 2],
 }
 
 impl FilmMap {
     #[inline(always)]
-    fn apply(&self, px: f32, py: f32) -> [f32; 2] {
+    fn apply(&self, px: f32, py: f32, jitter_x: f32, jitter_y: f32) -> [f32; 2] {
         [
-            self.scale[0] * (px - self.centre[0]),
-            self.scale[1] * (py - self.centre[1]),
+            self.scale[0] * ((px + self.origin[0]) + jitter_x),
+            self.scale[1] * ((py + self.origin[1]) + jitter_y),
         ]
+    }
+}
+
+/// A tilted film's rotation and frame centre in f32, for the ray generator's loop.
+#[derive(Clone, Copy, Debug)]
+struct FilmTilt {
+    centre: [f32; 2],
+    /// x, y, z of R·(a, b, 0) per film-plane coordinate: [[x_a, x_b], [y_a, y_b], [z_a, z_b]].
+    rotation: [[f32; 2]; 3],
+}
+
+impl FilmTilt {
+    fn of(movements: &FilmMovements) -> Option<FilmTilt> {
+        if !movements.is_tilted() {
+            return None;
+        }
+        let [xa, ya, za] = movements.film_offset(1.0, 0.0).map(|v| v as f32);
+        let [xb, yb, zb] = movements.film_offset(0.0, 1.0).map(|v| v as f32);
+        Some(FilmTilt {
+            centre: movements.frame_centre().map(|v| v as f32),
+            rotation: [[xa, xb], [ya, yb], [za, zb]],
+        })
     }
 }
 
@@ -117,6 +198,8 @@ struct Scratch {
     pixel: Vec<u32>,
     px: Vec<f32>,
     py: Vec<f32>,
+    /// Film points' depth behind the rear-vertex plane on a tilted film.
+    depth: Vec<f32>,
     /// Pattern keys: film, pupil, wavelength.
     keys: [Vec<u32>; 3],
     /// The camera sample: film jitter x, y; pupil u, v; wavelength (and an unused partner).
@@ -149,7 +232,7 @@ impl LensCamera<'_> {
         scratch.px.clear();
         scratch.py.clear();
         for (x, y) in pixels {
-            scratch.pixel.push(y * self.film.width + x);
+            scratch.pixel.push(self.film.pixel_key(x, y));
             scratch.px.push(x as f32);
             scratch.py.push(y as f32);
         }
@@ -286,21 +369,40 @@ impl LensCamera<'_> {
     #[inline(always)]
     fn film_to_pupil(&self, sample: u32, film_z: f32, out: &mut CameraRays) {
         let film = self.film.film_map();
-        let s = &out.scratch;
+        let tilt = FilmTilt::of(&self.film.movements);
+        let s = &mut out.scratch;
         let rays = &mut out.rays;
         let n = s.pixel.len();
-        let [film_u, film_v, pupil_u, pupil_v, ..] = &s.u;
+        let [film_u, film_v, ..] = &s.u;
         let (px, py, film_u, film_v) = (&s.px[..n], &s.py[..n], &film_u[..n], &film_v[..n]);
         let (ox, oy) = (&mut rays.ox[..n], &mut rays.oy[..n]);
         for i in 0..n {
-            [ox[i], oy[i]] = film.apply(px[i] + film_u[i], py[i] + film_v[i]);
+            [ox[i], oy[i]] = film.apply(px[i], py[i], film_u[i], film_v[i]);
         }
         rays.oz.fill(film_z);
+        if let Some(tilt) = tilt {
+            s.depth.resize(n, 0.0);
+            let film_distance = self.pupil.film_distance as f32;
+            let [[xa, xb], [ya, yb], [za, zb]] = tilt.rotation;
+            let [cx, cy] = tilt.centre;
+            let oz = &mut rays.oz[..n];
+            for i in 0..n {
+                let (a, b) = (ox[i] - cx, oy[i] - cy);
+                ox[i] = cx + xa * a + xb * b;
+                oy[i] = cy + ya * a + yb * b;
+                let dz = za * a + zb * b;
+                oz[i] = film_z + dz;
+                s.depth[i] = film_distance + dz;
+            }
+        }
+        let s = &out.scratch;
+        let [_, _, pupil_u, pupil_v, ..] = &s.u;
         rays.pixel.copy_from_slice(&s.pixel);
         rays.sample.fill(sample);
         self.pupil.sampler().sample(FilmRays {
             x: &rays.ox,
             y: &rays.oy,
+            depth: tilt.map(|_| &s.depth[..n]),
             u: pupil_u,
             v: pupil_v,
             dx: &mut rays.dx,
