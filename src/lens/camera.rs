@@ -107,14 +107,28 @@ impl FilmGeometry {
         }
     }
 
-    /// The key of pixel (`x`, `y`)'s random streams: its corner on the axis-anchored lattice in
-    /// half pixels (odd sizes put corners at half-pixel positions), 16 bits per axis. Distinct
-    /// within a frame: an image side spans at most 2 · 16384 half pixels.
+    /// The keys of this film's pixels' random streams (see [`PixelKeys`]).
+    pub fn pixel_keys(&self) -> PixelKeys {
+        PixelKeys {
+            origin: self.lattice_origin().map(|v| (2.0 * v).round() as i64),
+        }
+    }
+}
+
+/// A pixel's key: its corner on the axis-anchored lattice in half pixels (odd sizes put
+/// corners at half-pixel positions), 16 bits per axis. Distinct within a frame: an image side
+/// spans at most 2 · 16384 half pixels.
+#[derive(Clone, Copy, Debug)]
+pub struct PixelKeys {
+    /// Pixel (0, 0)'s corner, half pixels.
+    origin: [i64; 2],
+}
+
+impl PixelKeys {
     #[inline(always)]
-    pub fn pixel_key(&self, x: u32, y: u32) -> u32 {
-        let [ox, oy] = self.lattice_origin().map(|v| (2.0 * v).round() as i64);
-        let kx = (2 * x as i64 + ox) as u32 & 0xffff;
-        let ky = (2 * y as i64 + oy) as u32 & 0xffff;
+    pub fn key(&self, x: u32, y: u32) -> u32 {
+        let kx = (2 * x as i64 + self.origin[0]) as u32 & 0xffff;
+        let ky = (2 * y as i64 + self.origin[1]) as u32 & 0xffff;
         ky << 16 | kx
     }
 }
@@ -231,8 +245,9 @@ impl LensCamera<'_> {
         scratch.pixel.clear();
         scratch.px.clear();
         scratch.py.clear();
+        let keys = self.film.pixel_keys();
         for (x, y) in pixels {
-            scratch.pixel.push(self.film.pixel_key(x, y));
+            scratch.pixel.push(keys.key(x, y));
             scratch.px.push(x as f32);
             scratch.py.push(y as f32);
         }

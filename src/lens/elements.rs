@@ -29,9 +29,9 @@ use bevy_ecs::world::{Ref, World};
 
 use super::aperture::{ApertureSetting, stop_diameter};
 use super::first_order::FirstOrder;
-use super::focus_probe::FocusOnPixel;
-use super::movements::FilmMovements;
 use super::focus::{FocusMode, best_film_distance, paraxial_film_distance};
+use super::focus_probe::{FocusOnPixel, FocusProbe};
+use super::movements::FilmMovements;
 use super::prescription::{LensFormat, Prescription, SurfaceRow};
 use super::pupil::{ExitPupil, PupilSampling};
 use super::system::LensSystem;
@@ -278,7 +278,7 @@ pub fn place_film(
                 commands
                     .entity(entity)
                     .insert(FilmPlacement { film_distance })
-                    .remove::<LensFault>();
+                    .remove::<(LensFault, FocusProbe)>();
             }
             Err(message) => {
                 let message = format!("{}: {message}", lens.source.display());

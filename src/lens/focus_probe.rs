@@ -83,8 +83,7 @@ pub fn focus_on_pixel(
         || film.is_changed();
     for (entity, lens, geometry, target, movements) in &lenses {
         let movements_changed = movements.as_ref().is_some_and(|m| m.is_changed());
-        if !(world_changed || geometry.is_changed() || target.is_changed() || movements_changed)
-        {
+        if !(world_changed || geometry.is_changed() || target.is_changed() || movements_changed) {
             continue;
         }
         let start = Instant::now();
@@ -156,7 +155,8 @@ pub fn solve_focus_on_pixel(
             format!("--focus-on {x},{y}: no light reaches the pixel through this lens (it lies outside the image circle)")
         })?;
         // Lens frame (mm) → camera frame (m, origin at the frame centre's plane on the axis).
-        let to_camera = |p: [f64; 3]| Vec3::new(p[0] as f32, p[1] as f32, (p[2] - film_z) as f32) * 1e-3;
+        let to_camera =
+            |p: [f64; 3]| Vec3::new(p[0] as f32, p[1] as f32, (p[2] - film_z) as f32) * 1e-3;
         let origin = world_from_camera.transform_point3(to_camera(ray.origin));
         let direction = world_from_camera
             .transform_vector3(Vec3::from(ray.direction.map(|v| v as f32)))
@@ -211,7 +211,11 @@ pub fn film_distance_for_point(
     let mut film_distance = paraxial;
     for _ in 0..REFINEMENTS {
         // The camera frame is fixed to the film: the point's lens-frame z moves with it.
-        let object = [lateral[0], lateral[1], system.rear_z() + film_distance - depth];
+        let object = [
+            lateral[0],
+            lateral[1],
+            system.rear_z() + film_distance - depth,
+        ];
         let Some(z) = sharpest_image_z(system, object) else {
             return Err(format!(
                 "no real rays from the point it sees ({:.4} m away) pass the lens",

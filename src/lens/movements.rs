@@ -92,7 +92,11 @@ impl FilmMovements {
         let [tx, ty] = self.tilt_deg.map(f64::to_radians);
         let (sx, cx) = tx.sin_cos();
         let (sy, cy) = ty.sin_cos();
-        [[cy, sx * sy, cx * sy], [0.0, cx, -sx], [-sy, sx * cy, cx * cy]]
+        [
+            [cy, sx * sy, cx * sy],
+            [0.0, cx, -sx],
+            [-sy, sx * cy, cx * cy],
+        ]
     }
 
     /// Lens-frame offset (x, y, z) from the frame centre of the film point at film-plane
@@ -149,12 +153,7 @@ pub fn passing_rear_points(system: &LensSystem, point: [f64; 3]) -> Vec<[f64; 2]
         for ix in 0..GRID {
             let d = [cell(ix) - point[0], cell(iy) - point[1], rear_z - point[2]];
             let len = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
-            batch.push(
-                point.map(|v| v as f32),
-                d.map(|v| (v / len) as f32),
-                0,
-                0,
-            );
+            batch.push(point.map(|v| v as f32), d.map(|v| (v / len) as f32), 0, 0);
         }
     }
     trace_batch(&system.f32s, &mut batch, Travel::FilmToScene);
@@ -222,7 +221,11 @@ pub fn check_coverage(
         "shift {sx},{sy} mm moves the frame's {} corner{} out of the lens's image circle: {} black",
         dark.join(", "),
         if dark.len() == 1 { "" } else { "s" },
-        if dark.len() == 1 { "it will be" } else { "they will be" }
+        if dark.len() == 1 {
+            "it will be"
+        } else {
+            "they will be"
+        }
     )))
 }
 
