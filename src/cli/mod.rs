@@ -106,6 +106,7 @@ mod tests {
             TypeId::of::<crate::lens::focus::FocusMode>(),
             TypeId::of::<crate::lens::pupil::PupilSampling>(),
             TypeId::of::<crate::lens::LensFormat>(),
+            TypeId::of::<crate::cli::render::DispersionArg>(),
         ];
         arg.get_action().takes_values()
             && (!words.iter().any(|w| parser == *w) || arg.get_long() == Some("env"))
