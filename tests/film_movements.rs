@@ -12,6 +12,7 @@ use realcam::film::Image;
 use realcam::lens::LensSystem;
 use realcam::lens::aperture::ApertureSetting;
 use realcam::lens::bundled::load_lens;
+use realcam::lens::camera::FilmGeometry;
 use realcam::lens::elements::{FocusSetting, Lens, LensGeometry, build_geometry};
 use realcam::lens::focus::{FocusMode, best_film_distance, paraxial_film_distance};
 use realcam::lens::focus_probe::{FocusOnPixel, FocusProbe};
@@ -98,13 +99,13 @@ impl Shot<'_> {
     }
 }
 
-/// The pixel pitch is 1/8 mm in both films: 32 px over 4 mm and 64 px over 8 mm (diagonals
-/// 4√2 and 8√2 mm), exact in f32, so whole-pixel shifts land exactly on the larger lattice.
+/// The pixel pitch is 1/8 mm in both films: 32 × 32 px over 4 × 4 mm (diagonal 4√2 mm) and
+/// 64 × 48 px over 8 × 6 mm (diagonal 10 mm), exact in f32.
 const PITCH_MM: f64 = 0.125;
 
-/// A frame shifted by (2, 1) mm = (16, 8) pixels is the large film's region from
-/// x = 16 + 16 = 32 (right half) and y = 16 − 8 = 8 (raised): more of the scene to the right
-/// and above.
+/// A 32 × 32 frame shifted by (2, 1) mm = (16, 8) pixels lies in the unshifted 64 × 48 film
+/// centred on the axis that just contains it, from x = 32 (its right half: more of the scene
+/// to the right) and y = 0 (its top: more above).
 fn small_and_large(sampling: PupilSampling, scene: &Path, spp: u32) -> (Image, Image) {
     let shift = [16.0 * PITCH_MM, 8.0 * PITCH_MM];
     let small = Shot {
@@ -123,8 +124,8 @@ fn small_and_large(sampling: PupilSampling, scene: &Path, spp: u32) -> (Image, I
     let large = Shot {
         scene,
         width: 64,
-        height: 64,
-        diagonal: 8.0 * 2f64.sqrt(),
+        height: 48,
+        diagonal: 10.0,
         sampling,
         movements: FilmMovements::NONE,
         spp,
@@ -133,7 +134,7 @@ fn small_and_large(sampling: PupilSampling, scene: &Path, spp: u32) -> (Image, I
     (small, large)
 }
 
-const CROP: [u32; 2] = [32, 8];
+const CROP: [u32; 2] = [32, 0];
 
 /// With rays aimed over the whole rear element, nothing about a camera sample depends on the
 /// film's size: pixel keys follow the film lattice, so the shifted frame is the crop bit for
@@ -170,8 +171,11 @@ fn shifted_frame_is_exactly_the_crop_of_a_larger_film() {
         spp: 4,
     }
     .render();
-    assert_eq!(unshifted.mean()[0], large_mean[16 * 64 + 16]);
-    assert_ne!(small_mean[0], large_mean[16 * 64 + 16]);
+    let small_film = FilmGeometry::new(32, 32, 4.0 * 2f64.sqrt());
+    let large_film = FilmGeometry::new(64, 48, 10.0);
+    assert_eq!(small_film.width_mm / 32.0, large_film.width_mm / 64.0);
+    assert_eq!(small_film.height_mm / 32.0, large_film.height_mm / 48.0);
+    assert_ne!(unshifted.mean(), small.mean());
 }
 
 #[test]

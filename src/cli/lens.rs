@@ -9,6 +9,7 @@ use clap::Args;
 use serde_json::{Value, json};
 
 use super::options::LensOptions;
+use super::values::number;
 use crate::glass::FRAUNHOFER_D_NM;
 use crate::lens::aperture::ApertureSetting;
 use crate::lens::bundled::load_lens;
@@ -44,7 +45,7 @@ pub struct LensArgs {
     pub diagram: Option<PathBuf>,
     /// Report first-order data (and trace `--trace` rays without their own) at this wavelength,
     /// nm; the film stays where the focus puts it at d.
-    #[arg(long, value_name = "NM", default_value_t = FRAUNHOFER_D_NM, allow_negative_numbers = true)]
+    #[arg(long, value_name = "NM", default_value_t = FRAUNHOFER_D_NM, allow_hyphen_values = true, value_parser = number::<f64>)]
     pub wavelength: f64,
     /// Write the lens to this file: `.toml` (realcam's lens format: everything realcam
     /// represents) or `.dat` (a pbrt table: spherical lenses only).

@@ -9,10 +9,13 @@
 //! (−x, −y); mapping pixels that way gives an upright, unmirrored picture. A shifted frame
 //! (see [`super::movements`]) is the same pixel lattice moved across the film.
 //!
-//! **Pixel keys**: a pixel's random streams are keyed by where it lies on the film — its
-//! corner's position on the lattice of pixels anchored at the optical axis — not by its index
-//! in the image. So a frame shifted by whole pixels is exactly the matching crop of a larger
-//! unshifted film: the same film points, the same samples, the same image.
+//! **Pixel keys**: a pixel's random streams are keyed by its index in the image; a shifted
+//! frame's pixels by their index in its *enclosing film*, the smallest unshifted film centred
+//! on the axis that contains the frame, and their film points are computed as that film's.
+//! So a frame shifted by whole pixels is exactly the matching crop of its enclosing film: the
+//! same film points, the same samples (as far as the pupil sampling does not depend on the
+//! film's size: exactly with `rear-element`, within noise with the bounds, whose radial
+//! segments span the film's reach).
 
 use glam::Mat4;
 
@@ -82,72 +85,83 @@ impl FilmGeometry {
         ]
     }
 
-    /// Where pixel (0, 0)'s corner lies on the axis-anchored pixel lattice, in pixels
-    /// (+x toward the image's right, +y down): −half the image, moved by the shift.
-    fn lattice_origin(&self) -> [f64; 2] {
+    /// The enclosing film of a shifted frame (see the module docs): its size in pixels and
+    /// where the frame's pixel (0, 0) lies in it; the frame itself when not shifted.
+    fn enclosing(&self) -> Enclosing {
         let [shift_x, shift_y] = self.movements.shift_mm;
         let pitch = self.pitch();
-        [
-            shift_x / pitch[0] - 0.5 * self.width as f64,
-            -shift_y / pitch[1] - 0.5 * self.height as f64,
-        ]
+        // The frame centre's offset from the axis in pixels, +x right, +y down.
+        let offset = [shift_x / pitch[0], -shift_y / pitch[1]];
+        let size = [self.width as f64, self.height as f64];
+        let margin = offset.map(|o| o.abs().ceil());
+        Enclosing {
+            size: [0, 1].map(|a| size[a] + 2.0 * margin[a]),
+            origin: [0, 1].map(|a| margin[a] + offset[a]),
+        }
     }
 
-    /// Pixel position → film point as a scale per axis from the axis-anchored lattice, so a
+    /// Pixel position → film point as a scale per axis about the enclosing film's centre, so a
     /// loop over many pixels does not divide by the film size each time.
     #[inline(always)]
     fn film_map(&self) -> FilmMap {
-        let origin = self.lattice_origin();
+        let enclosing = self.enclosing();
         FilmMap {
             scale: [
                 -self.width_mm / self.width as f32,
                 self.height_mm / self.height as f32,
             ],
-            origin: origin.map(|v| v as f32),
+            origin: enclosing.origin.map(|v| v as f32),
+            centre: enclosing.size.map(|v| (0.5 * v) as f32),
         }
     }
 
     /// The keys of this film's pixels' random streams (see [`PixelKeys`]).
     pub fn pixel_keys(&self) -> PixelKeys {
+        let enclosing = self.enclosing();
         PixelKeys {
-            origin: self.lattice_origin().map(|v| (2.0 * v).round() as i64),
+            origin: enclosing.origin.map(|v| v.round() as i64),
+            width: enclosing.size[0] as i64,
         }
     }
 }
 
-/// A pixel's key: its corner on the axis-anchored lattice in half pixels (odd sizes put
-/// corners at half-pixel positions), 16 bits per axis. Distinct within a frame: an image side
-/// spans at most 2 · 16384 half pixels.
+/// A shifted frame's enclosing film, in pixels.
+struct Enclosing {
+    size: [f64; 2],
+    /// The frame's pixel (0, 0) in the enclosing film.
+    origin: [f64; 2],
+}
+
+/// A pixel's key: its index in the enclosing film (wrapping past 2³² pixels).
 #[derive(Clone, Copy, Debug)]
 pub struct PixelKeys {
-    /// Pixel (0, 0)'s corner, half pixels.
     origin: [i64; 2],
+    width: i64,
 }
 
 impl PixelKeys {
     #[inline(always)]
     pub fn key(&self, x: u32, y: u32) -> u32 {
-        let kx = (2 * x as i64 + self.origin[0]) as u32 & 0xffff;
-        let ky = (2 * y as i64 + self.origin[1]) as u32 & 0xffff;
-        ky << 16 | kx
+        ((y as i64 + self.origin[1]) * self.width + (x as i64 + self.origin[0])) as u32
     }
 }
 
-/// `film = scale · ((pixel + origin) + jitter)`, per axis (x flipped: see the module docs):
-/// `pixel + origin` is the pixel's corner on the axis-anchored lattice, exact in f32 for a
-/// whole-pixel origin, so the same lattice pixel gives the same film point in any frame.
+/// `film = scale · (((pixel + origin) + jitter) − centre)`, per axis (x flipped: see the
+/// module docs): the pixel's place in the enclosing film (origin 0 and the image's own centre
+/// when not shifted), so the same enclosing-film pixel gives the same film point.
 #[derive(Clone, Copy, Debug)]
 struct FilmMap {
     scale: [f32; 2],
     origin: [f32; 2],
+    centre: [f32; 2],
 }
 
 impl FilmMap {
     #[inline(always)]
     fn apply(&self, px: f32, py: f32, jitter_x: f32, jitter_y: f32) -> [f32; 2] {
         [
-            self.scale[0] * ((px + self.origin[0]) + jitter_x),
-            self.scale[1] * ((py + self.origin[1]) + jitter_y),
+            self.scale[0] * (((px + self.origin[0]) + jitter_x) - self.centre[0]),
+            self.scale[1] * (((py + self.origin[1]) + jitter_y) - self.centre[1]),
         ]
     }
 }
