@@ -243,7 +243,7 @@ impl FrameReport {
 
 /// How a frame ended.
 enum Outcome {
-    Finished(FrameReport, Image),
+    Finished(Box<FrameReport>, Image),
     Interrupted(u8),
 }
 
@@ -434,7 +434,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<ExitCode> {
                         });
                     }
                 }
-                reports.push(report);
+                reports.push(*report);
             }
         }
     }
@@ -745,7 +745,7 @@ fn render_frame(
         samples: image.samples,
         warnings,
     };
-    Ok(Outcome::Finished(report, image))
+    Ok(Outcome::Finished(Box::new(report), image))
 }
 
 /// Writes a lens setting only when it differs, so change detection re-derives nothing needlessly.

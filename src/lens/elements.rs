@@ -259,11 +259,23 @@ pub fn build_geometry(
     })
 }
 
+type PlacementQuery<'w, 's> = Query<
+    'w,
+    's,
+    (
+        Entity,
+        &'static Lens,
+        Ref<'static, LensGeometry>,
+        Ref<'static, FocusSetting>,
+    ),
+    Without<FocusOnPixel>,
+>;
+
 /// Solves the film distance of every lens whose geometry or focus changed (or that stopped
 /// focusing on a pixel), except those focused on a pixel.
 pub fn place_film(
     mut commands: Commands,
-    lenses: Query<(Entity, &Lens, Ref<LensGeometry>, Ref<FocusSetting>), Without<FocusOnPixel>>,
+    lenses: PlacementQuery,
     mut unpinned: RemovedComponents<FocusOnPixel>,
     mut stats: ResMut<LensDerivationStats>,
 ) {
@@ -317,19 +329,25 @@ pub fn film_distance_for(geometry: &LensGeometry, focus: FocusSetting) -> Result
     }
 }
 
+type PupilQuery<'w, 's> = Query<
+    'w,
+    's,
+    (
+        Entity,
+        &'static Lens,
+        Ref<'static, LensGeometry>,
+        Ref<'static, FilmPlacement>,
+        Option<Ref<'static, Dispersion>>,
+        Option<Ref<'static, FilmMovements>>,
+    ),
+>;
+
 /// Bounds the exit pupil of every lens whose placement, movements or dispersion setting
 /// changed, or of all when the film did: over every rendered wavelength for a spectral lens,
 /// and over every point of a shifted or tilted film.
 pub fn bound_exit_pupil(
     mut commands: Commands,
-    lenses: Query<(
-        Entity,
-        &Lens,
-        Ref<LensGeometry>,
-        Ref<FilmPlacement>,
-        Option<Ref<Dispersion>>,
-        Option<Ref<FilmMovements>>,
-    )>,
+    lenses: PupilQuery,
     mut unmoved: RemovedComponents<FilmMovements>,
     film: Res<FilmFormat>,
     mut stats: ResMut<LensDerivationStats>,

@@ -59,18 +59,24 @@ const ROUNDS: usize = 6;
 /// Real-ray refinements of the film distance per round.
 const REFINEMENTS: usize = 4;
 
+type FocusTargetQuery<'w, 's> = Query<
+    'w,
+    's,
+    (
+        Entity,
+        &'static Lens,
+        Ref<'static, LensGeometry>,
+        Ref<'static, FocusOnPixel>,
+        Option<Ref<'static, FilmMovements>>,
+    ),
+>;
+
 /// Solves the film distance of every lens focused on a pixel whose inputs changed.
 // A system's parameters are its explicit queries and resources (bevy style), not a bundle.
 #[allow(clippy::too_many_arguments)]
 pub fn focus_on_pixel(
     mut commands: Commands,
-    lenses: Query<(
-        Entity,
-        &Lens,
-        Ref<LensGeometry>,
-        Ref<FocusOnPixel>,
-        Option<Ref<FilmMovements>>,
-    )>,
+    lenses: FocusTargetQuery,
     accel: Option<Res<SceneAccel>>,
     pose: Option<Res<CameraPose>>,
     settings: Res<RenderSettings>,
