@@ -120,33 +120,50 @@ fn camera_samples(bencher: Bencher, name: &str) {
         .bench_local(|| pool.install(|| renderer.render(SPP, |_, _| true).expect("renders")));
 }
 
-/// (bench name, bundled lens, spherical twin?, spectral?)
-const KERNELS: [(&str, &str, bool, bool); 6] = [
-    ("phone80-aspheric", "deeplens-phone-80deg", false, false),
+/// (bench name, bundled lens, spherical twin?, spectral?, diaphragm blades)
+type KernelVariant = (&'static str, &'static str, bool, bool, Option<u32>);
+const KERNELS: [KernelVariant; 7] = [
+    (
+        "phone80-aspheric",
+        "deeplens-phone-80deg",
+        false,
+        false,
+        None,
+    ),
     (
         "phone80-spherical-twin",
         "deeplens-phone-80deg",
         true,
         false,
+        None,
     ),
-    ("rf16-aspheric", "canon-rf-16mm-f2.8", false, false),
-    ("rf16-spherical-twin", "canon-rf-16mm-f2.8", true, false),
-    ("dgauss50-spectral", "dgauss.50mm", false, true),
-    ("dgauss50-fixed-index", "dgauss.50mm", false, false),
+    ("rf16-aspheric", "canon-rf-16mm-f2.8", false, false, None),
+    (
+        "rf16-spherical-twin",
+        "canon-rf-16mm-f2.8",
+        true,
+        false,
+        None,
+    ),
+    ("dgauss50-spectral", "dgauss.50mm", false, true, None),
+    ("dgauss50-fixed-index", "dgauss.50mm", false, false, None),
+    ("dgauss50-six-blades", "dgauss.50mm", false, false, Some(6)),
 ];
 
-const KERNEL_NAMES: [&str; 6] = [
+const KERNEL_NAMES: [&str; 7] = [
     KERNELS[0].0,
     KERNELS[1].0,
     KERNELS[2].0,
     KERNELS[3].0,
     KERNELS[4].0,
     KERNELS[5].0,
+    KERNELS[6].0,
 ];
 
 /// The lens alone: 4096 camera rays (film → scene, as the renderer aims them) through the SoA
 /// kernel, one thread. A twin traces the same rays through the same surfaces made spherical;
-/// a spectral run gives each ray its own wavelength (380–780 nm).
+/// a spectral run gives each ray its own wavelength (380–780 nm); a bladed one clips them at
+/// the stop with a six-bladed diaphragm.
 #[divan::bench(args = KERNEL_NAMES, sample_count = 40)]
 fn lens_kernel(bencher: Bencher, name: &str) {
     use realcam::batch::RayBatch;
@@ -154,7 +171,8 @@ fn lens_kernel(bencher: Bencher, name: &str) {
     use realcam::lens::LensSystem;
     use realcam::lens::trace::Travel;
     use realcam::lens::trace_batch::{Wavelengths, trace_batch, trace_batch_spectral};
-    let &(_, lens, twin, spectral) = KERNELS.iter().find(|k| k.0 == name).expect("a kernel");
+    let &(_, lens, twin, spectral, blades) =
+        KERNELS.iter().find(|k| k.0 == name).expect("a kernel");
     let workload = LensWorkload::new(lens, 4096).expect("lens sets up");
     let system = if twin {
         let mut rows = workload.system.rows.clone();
@@ -165,6 +183,11 @@ fn lens_kernel(bencher: Bencher, name: &str) {
     } else {
         workload.system.clone()
     };
+    let diaphragm = blades.map(|count| realcam::lens::diaphragm::Diaphragm {
+        blades: Some(realcam::lens::diaphragm::Blades::new(count, 0.0, 0.0).expect("blades")),
+        mask: None,
+    });
+    let system = system.with_diaphragm(diaphragm.as_ref());
     let nm: Vec<f32> = (0..workload.batch.len())
         .map(|i| 380.0 + 400.0 * ((i as f32 * 0.618_034) % 1.0))
         .collect();

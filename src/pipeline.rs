@@ -32,9 +32,11 @@ use crate::film::{FilmTile, Image, tiles};
 use crate::lens::Prescription;
 use crate::lens::aperture::ApertureSetting;
 use crate::lens::camera::{CameraRays, FilmGeometry, LensCamera};
+use crate::lens::diaphragm::Diaphragm;
 use crate::lens::elements::{
     ActiveLens, Dispersion, FilmFormat, FilmPlacement, FocusSetting, LensDerivation,
-    LensDerivationStats, LensFault, LensGeometry, activate_lens, add_lens_systems, spawn_lens,
+    LensDerivationStats, LensFault, LensGeometry, activate_lens, add_lens_systems, set_diaphragm,
+    spawn_lens,
 };
 use crate::lens::movements::FilmMovements;
 use crate::lens::pupil::{ExitPupil, PupilSampling};
@@ -576,6 +578,11 @@ impl Renderer {
         aperture: ApertureSetting,
     ) -> Entity {
         spawn_lens(&mut self.world, prescription, focus, aperture)
+    }
+
+    /// Puts `diaphragm` (blades, a mask) on the stop of `lens`; `None`: the stop's circle.
+    pub fn set_diaphragm(&mut self, lens: Entity, diaphragm: Option<Diaphragm>) {
+        set_diaphragm(&mut self.world, lens, diaphragm);
     }
 
     /// Makes `lens` the lens the next render uses.

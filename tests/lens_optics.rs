@@ -230,7 +230,7 @@ fn f_number_sizes_the_entrance_pupil() {
     for name in ["dgauss.50mm.dat", "wide.22mm.dat", "telephoto.250mm.dat"] {
         let (full, fo) = load(name);
         for n in [4.0, 8.0, 16.0] {
-            let (d, warning) = stop_diameter(ApertureSetting::FNumber(n), &full, &fo).unwrap();
+            let (d, warning) = stop_diameter(ApertureSetting::FNumber(n), &full, &fo, 1.0).unwrap();
             if warning.is_some() {
                 continue;
             }
@@ -268,7 +268,7 @@ fn f_number_sizes_the_entrance_pupil() {
         }
     }
     let (full, fo) = load("dgauss.50mm.dat");
-    let (d, warning) = stop_diameter(ApertureSetting::Diameter(40.0), &full, &fo).unwrap();
+    let (d, warning) = stop_diameter(ApertureSetting::Diameter(40.0), &full, &fo, 1.0).unwrap();
     assert_eq!(d, 17.1);
     assert!(warning.unwrap().contains("wider"));
 }

@@ -10,19 +10,24 @@ use serde_json::{Value, json};
 
 use super::options::LensOptions;
 use super::values::number;
+use crate::film::contact_sheet::{Thumbnail, contact_sheet};
+use crate::film::format::{Accepts, DEFAULT_JPEG_QUALITY, ImageFormat, encode_rgb8, output_format};
+use crate::film::output::{check_not_terminal, check_writable, same_file, shown, write_output};
 use crate::glass::FRAUNHOFER_D_NM;
 use crate::lens::aperture::ApertureSetting;
 use crate::lens::bundled::load_lens;
 use crate::lens::chromatic::{LATERAL_FIELD, axial_colour, lateral_colour};
 use crate::lens::diagram::draw_diagram;
 use crate::lens::elements::{
-    FilmFormat, FilmPlacement, FocusSetting, LensFault, LensGeometry, activate_lens, spawn_lens,
+    FilmFormat, FilmPlacement, FocusSetting, LensFault, LensGeometry, activate_lens, set_diaphragm,
+    spawn_lens,
 };
 use crate::lens::export::export_text;
 use crate::lens::field::{field_angle, field_edge};
 use crate::lens::first_order::FirstOrder;
 use crate::lens::focus::{closest_focus_mm, paraxial_focus_distance};
 use crate::lens::pupil::ExitPupil;
+use crate::lens::pupil_view::PupilViews;
 use crate::lens::trace::{Ray, Travel, normalize, trace};
 use crate::lens::{Prescription, SurfaceKind};
 use crate::pipeline::Renderer;
@@ -45,8 +50,18 @@ pub struct LensArgs {
     pub diagram: Option<PathBuf>,
     /// Report first-order data (and trace `--trace` rays without their own) at this wavelength,
     /// nm; the film stays where the focus puts it at d.
-    #[arg(long, value_name = "NM", default_value_t = FRAUNHOFER_D_NM, allow_hyphen_values = true, value_parser = number::<f64>)]
+    #[arg(
+        long,
+        value_name = "NM",
+        default_value_t = FRAUNHOFER_D_NM,
+        allow_hyphen_values = true,
+        value_parser = number::<f64>
+    )]
     pub wavelength: f64,
+    /// Draw the exit pupil as seen from film points from the centre to the corner (with the
+    /// film radius and the fraction of the centre's light under each) to this image.
+    #[arg(long, value_name = "OUT.png")]
+    pub pupil_view: Option<PathBuf>,
     /// Write the lens to this file: `.toml` (realcam's lens format: everything realcam
     /// represents) or `.dat` (a pbrt table: spherical lenses only).
     #[arg(long, value_name = "OUT.toml|OUT.dat")]
@@ -86,6 +101,7 @@ impl LensReport {
             focus,
             options.aperture(ApertureSetting::Full),
         );
+        set_diaphragm(&mut renderer.world, entity, options.diaphragm()?);
         activate_lens(&mut renderer.world, entity);
         let start = std::time::Instant::now();
         renderer.update()?;
@@ -108,6 +124,9 @@ impl LensReport {
             .clone();
         for warning in &geometry.warnings {
             eprintln!("warning: {warning}");
+        }
+        for note in &geometry.notes {
+            eprintln!("note: {note}");
         }
         Ok(LensReport {
             prescription,
@@ -247,6 +266,11 @@ impl LensReport {
             "exit_pupil": fo.exit_pupil,
             "f_number": fo.f_number,
             "stop_diameter_mm": system.stop_diameter(),
+            "diaphragm": system.diaphragm.as_ref().map(|d| json!({
+                "shape": d.describe(),
+                "open_fraction": self.geometry.open_fraction,
+                "area_equivalent_f_number": self.geometry.f_number(),
+            })),
             "total_track_mm": system.rear_z() + self.film_distance,
             "vertex_span_mm": system.rear_z(),
             "film_distance_mm": self.film_distance,
@@ -343,6 +367,14 @@ impl LensReport {
             self.pupil.rays_traced,
             self.pupil_seconds,
         );
+        if let Some(diaphragm) = &system.diaphragm {
+            out += &format!(
+                "diaphragm           {}: {:.1} % of the stop's circle, the light of f/{:.2}\n",
+                diaphragm.describe(),
+                100.0 * self.geometry.open_fraction,
+                self.geometry.f_number()
+            );
+        }
         if system.is_dispersive() {
             let mm = |v: Option<f64>| v.map_or("n/a".to_string(), |v| format!("{v:+.4} mm"));
             out += &format!(
@@ -400,7 +432,31 @@ pub fn run(args: &LensArgs) -> anyhow::Result<ExitCode> {
         })?;
         eprintln!("wrote {}", path.display());
     }
+    let pupil_view_format = match &args.pupil_view {
+        Some(path) => {
+            if same_file(path, std::path::Path::new(&args.file))
+                || args
+                    .lens
+                    .aperture_image
+                    .as_deref()
+                    .is_some_and(|mask| same_file(path, mask))
+            {
+                bail!(
+                    "{}: the output would overwrite an input file; choose another output path",
+                    path.display()
+                );
+            }
+            check_not_terminal("--pupil-view", path)?;
+            let format = output_format("--pupil-view", path, Accepts::EightBit)?;
+            check_writable(path)?;
+            Some(format)
+        }
+        None => None,
+    };
     let report = LensReport::derive(prescription, &args.lens)?.at_wavelength(args.wavelength)?;
+    if let (Some(path), Some(format)) = (&args.pupil_view, pupil_view_format) {
+        write_pupil_view(&report, path, format)?;
+    }
     if let Some(path) = &args.diagram {
         let svg = draw_diagram(
             &report.geometry.system,
@@ -427,6 +483,50 @@ pub fn run(args: &LensArgs) -> anyhow::Result<ExitCode> {
         print!("{}", report.summary());
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// `--pupil-view`: six views from the film centre to the corner, labelled, in one picture.
+fn write_pupil_view(
+    report: &LensReport,
+    path: &std::path::Path,
+    format: ImageFormat,
+) -> anyhow::Result<()> {
+    const VIEWS: usize = 6;
+    const CELLS: usize = 200;
+    let views = PupilViews::compute(
+        &report.geometry.system,
+        &report.pupil,
+        report.film_diagonal / 2.0,
+        VIEWS,
+        CELLS,
+    );
+    let thumbnails: Vec<Thumbnail> = views
+        .views
+        .iter()
+        .map(|view| {
+            eprintln!(
+                "pupil view at film radius {:.2} mm: {:.3} of the centre's light",
+                view.film_radius_mm, view.relative_light
+            );
+            Thumbnail {
+                image: views.picture(view),
+                caption: format!(
+                    "film r {:.1} mm\nlight {:.2}",
+                    view.film_radius_mm, view.relative_light
+                ),
+            }
+        })
+        .collect();
+    let sheet = contact_sheet(&thumbnails);
+    write_output(path, |w| {
+        encode_rgb8(w, &sheet, format, DEFAULT_JPEG_QUALITY)
+    })?;
+    eprintln!(
+        "wrote {} (exit pupil from {VIEWS} film points, {:.1} mm window on the rear-vertex plane, seen from the film)",
+        shown(path),
+        2.0 * views.half_width_mm
+    );
+    Ok(())
 }
 
 #[derive(serde::Deserialize)]

@@ -1,11 +1,15 @@
 //! Lens options shared by `realcam render` and `realcam lens`.
 
+use std::path::PathBuf;
+use std::sync::Arc;
+
 use clap::Args;
 
-use super::values::number;
+use super::values::{number, whole};
 
 use crate::lens::LensFormat;
 use crate::lens::aperture::ApertureSetting;
+use crate::lens::diaphragm::{ApertureMask, Blades, Diaphragm};
 use crate::lens::elements::FocusSetting;
 use crate::lens::focus::FocusMode;
 use crate::lens::pupil::PupilSampling;
@@ -55,6 +59,21 @@ pub struct LensOptions {
     /// (the whole rear element, as the CS348b course did).
     #[arg(long, value_name = "SCHEME", default_value = "bounds")]
     pub pupil_sampling: PupilSampling,
+    /// Diaphragm blades: the stop becomes a regular N-gon (N ≥ 3) inscribed in its circle;
+    /// with --f-number the polygon gets the area of that f-number's circle.
+    #[arg(long, value_name = "N", allow_hyphen_values = true, value_parser = whole::<u32>(3, crate::lens::diaphragm::MAX_BLADES))]
+    pub blades: Option<u32>,
+    /// Angle of a blade vertex from the stop's +x (image right, seen from the film),
+    /// degrees, counter-clockwise [default: 0].
+    #[arg(long, value_name = "DEG", requires = "blades", allow_hyphen_values = true, value_parser = number::<f64>)]
+    pub blade_rotation: Option<f64>,
+    /// Curvature of the blades: 0 = straight … 1 = the stop's circle [default: 0].
+    #[arg(long, value_name = "C", requires = "blades", allow_hyphen_values = true, value_parser = number::<f64>)]
+    pub blade_curvature: Option<f64>,
+    /// Transmission mask at the stop: a grey-level image (0 = opaque, 1 = open) spanning the
+    /// stop's diameter, centred on the axis, top row up, as seen from the film.
+    #[arg(long, value_name = "FILE.png")]
+    pub aperture_image: Option<PathBuf>,
 }
 
 impl LensOptions {
@@ -85,7 +104,43 @@ impl LensOptions {
         }
     }
 
+    /// The diaphragm the flags ask for (`None`: the stop's circle); reads the mask image.
+    pub fn diaphragm(&self) -> anyhow::Result<Option<Diaphragm>> {
+        let blades = self.blades_setting()?;
+        let mask = match &self.aperture_image {
+            Some(path) => {
+                let mask = ApertureMask::load(path).map_err(anyhow::Error::msg)?;
+                if mask.width != mask.height {
+                    eprintln!(
+                        "warning: --aperture-image {}: {}×{} pixels is not square; it is stretched over the stop's diameter",
+                        path.display(),
+                        mask.width,
+                        mask.height
+                    );
+                }
+                Some(Arc::new(mask))
+            }
+            None => None,
+        };
+        let diaphragm = Diaphragm { blades, mask };
+        Ok((!diaphragm.is_circular()).then_some(diaphragm))
+    }
+
+    fn blades_setting(&self) -> anyhow::Result<Option<Blades>> {
+        self.blades
+            .map(|count| {
+                Blades::new(
+                    count,
+                    self.blade_rotation.unwrap_or(0.0),
+                    self.blade_curvature.unwrap_or(0.0),
+                )
+                .map_err(anyhow::Error::msg)
+            })
+            .transpose()
+    }
+
     pub fn validate(&self) -> anyhow::Result<()> {
+        self.blades_setting()?;
         let positive = |name: &str, v: Option<f64>| match v {
             Some(x) if !(x.is_finite() && x > 0.0) => Err(anyhow::anyhow!(
                 "--{name} must be a positive number, got {x}"

@@ -38,6 +38,7 @@ use crate::lens::Prescription;
 use crate::lens::aperture::ApertureSetting;
 use crate::lens::bundled::{DEFAULT_LENS, load_lens};
 use crate::lens::camera::FilmGeometry;
+use crate::lens::diaphragm::Diaphragm;
 use crate::lens::elements::{
     Dispersion, FilmPlacement, FocusSetting, LensDerivationStats, LensGeometry,
 };
@@ -249,6 +250,7 @@ enum Outcome {
 
 pub fn run(args: &RenderArgs) -> anyhow::Result<ExitCode> {
     let formats = validate(args)?;
+    let diaphragm = args.lens_options.diaphragm()?;
     if let Some(threads) = args.threads {
         rayon::ThreadPoolBuilder::new()
             .num_threads(threads)
@@ -332,6 +334,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<ExitCode> {
             if let Some([x, y]) = args.focus_on {
                 lens.insert(FocusOnPixel { x, y });
             }
+            renderer.set_diaphragm(entity, diaphragm.clone());
             RunLens {
                 prescription,
                 entity,
@@ -388,6 +391,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<ExitCode> {
         world_from_camera,
         film_diagonal,
         interrupt: &interrupt,
+        diaphragm: diaphragm.as_ref(),
     };
     let mut reports = Vec::new();
     let mut thumbnails = Vec::new();
@@ -471,6 +475,7 @@ struct RunContext<'a> {
     world_from_camera: Mat4,
     film_diagonal: f64,
     interrupt: &'a Interrupt,
+    diaphragm: Option<&'a Diaphragm>,
 }
 
 /// Focus and aperture a lens starts from when the flags don't set them. A scene's film
@@ -571,6 +576,9 @@ fn render_frame(
         for warning in &geometry.warnings {
             eprintln!("warning: {warning}");
         }
+        for note in &geometry.notes {
+            eprintln!("note: {note}");
+        }
         let film = entity
             .get::<FilmPlacement>()
             .context("film placement missing")?
@@ -599,7 +607,7 @@ fn render_frame(
         }
         (
             geometry.first_order.focal_length,
-            geometry.first_order.f_number,
+            geometry.f_number(),
             film,
             entity.get::<FocusProbe>().copied(),
         )
@@ -821,6 +829,9 @@ fn settings_fingerprint(
     if let Some(pixel) = args.focus_on {
         fingerprint["focus_on"] = json!(pixel);
     }
+    if let Some(diaphragm) = context.diaphragm {
+        fingerprint["diaphragm"] = diaphragm.fingerprint();
+    }
     fingerprint
 }
 
@@ -985,6 +996,7 @@ fn validate(args: &RenderArgs) -> anyhow::Result<Formats> {
         .iter()
         .map(PathBuf::as_path)
         .chain(args.lens.iter().map(Path::new))
+        .chain(args.lens_options.aperture_image.as_deref())
         .chain(
             args.resume
                 .as_deref()

@@ -19,10 +19,13 @@ pub enum ApertureSetting {
 
 /// The stop diameter for `setting`, clamped to what the stop row allows, with a warning when
 /// it had to be clamped. `full` is the lens with its stop at the row's diameter.
+/// `open_fraction` is the area of the diaphragm's opening over its circle's (1 for a round
+/// stop): an f-number sizes the circle so the opening has the area of the f-number's circle.
 pub fn stop_diameter(
     setting: ApertureSetting,
     full: &LensSystem,
     full_first_order: &FirstOrder,
+    open_fraction: f64,
 ) -> Result<(f64, Option<String>), String> {
     let maximum = full.stop_diameter();
     let requested = match setting {
@@ -41,7 +44,12 @@ pub fn stop_diameter(
             }
             // The entrance pupil scales linearly with the stop: EP = stop × (EP/stop at full).
             let pupil_per_stop = full_first_order.entrance_pupil.diameter_mm / maximum;
-            full_first_order.focal_length / n / pupil_per_stop
+            let circle = full_first_order.focal_length / n / pupil_per_stop;
+            if open_fraction == 1.0 {
+                circle
+            } else {
+                circle / open_fraction.sqrt()
+            }
         }
     };
     if requested > maximum {

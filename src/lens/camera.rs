@@ -338,6 +338,15 @@ impl LensCamera<'_> {
                 );
             }
         }
+        if let Some(clip) = self.system.f32s.stop_clip.as_deref()
+            && clip.has_mask()
+        {
+            // The batch kernel left each ray's share of the mask's transmission in its
+            // throughput.
+            for (weight, &t) in out.weight.iter_mut().zip(&out.rays.tr) {
+                *weight *= t;
+            }
+        }
         self.move_to_world(film_z, out);
     }
 

@@ -12,6 +12,9 @@
 //! | [`bound_exit_pupil`] | [`ExitPupil`] bounds | the placement, the [`FilmMovements`] or the [`FilmFormat`] changes |
 //!
 //! A lens that cannot be used (bad edit, impossible focus) gets a [`LensFault`] instead.
+//!
+//! The stop's surface entity may carry a [`Diaphragm`] (blades, a mask): adding, changing or
+//! removing it re-derives the geometry like any edit of a surface.
 
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
@@ -28,6 +31,7 @@ use bevy_ecs::system::{Commands, Query, Res, ResMut};
 use bevy_ecs::world::{Ref, World};
 
 use super::aperture::{ApertureSetting, stop_diameter};
+use super::diaphragm::Diaphragm;
 use super::first_order::FirstOrder;
 use super::focus::{FocusMode, best_film_distance, paraxial_film_distance};
 use super::focus_probe::{FocusOnPixel, FocusProbe};
@@ -113,8 +117,25 @@ impl Default for FilmFormat {
 #[derive(Component, Clone, Debug)]
 pub struct LensGeometry {
     pub system: LensSystem,
+    /// Paraxial data, with the stop's full circle (a diaphragm's opening is inside it).
     pub first_order: FirstOrder,
+    /// The diaphragm's opening over the stop circle's area (1 without one).
+    pub open_fraction: f64,
     pub warnings: Vec<String>,
+    /// What a user should know that is not wrong (how an f-number sized a diaphragm).
+    pub notes: Vec<String>,
+}
+
+impl LensGeometry {
+    /// The f-number of the opening's area-equivalent circle: the first-order f-number, made
+    /// slower by the light the diaphragm holds back.
+    pub fn f_number(&self) -> f64 {
+        if self.open_fraction == 1.0 {
+            self.first_order.f_number
+        } else {
+            self.first_order.f_number / self.open_fraction.sqrt()
+        }
+    }
 }
 
 /// The film position for the current focus.
@@ -184,6 +205,42 @@ pub fn spawn_lens(
     entity.id()
 }
 
+/// Puts `diaphragm` on the stop surface of `lens` (`None` or a circular one: the stop's plain
+/// circle), touching the component only when it changes. Returns false when `lens` has no
+/// surfaces.
+pub fn set_diaphragm(world: &mut World, lens: Entity, diaphragm: Option<Diaphragm>) -> bool {
+    let Some(children) = world.get::<Children>(lens) else {
+        return false;
+    };
+    let surfaces: Vec<(Entity, LensSurface)> = children
+        .iter()
+        .filter_map(|&c| world.get::<LensSurface>(c).map(|s| (c, *s)))
+        .collect();
+    // The stop as [`LensSystem::new`] finds it: the stop row, else the first.
+    let Some(stop) = surfaces
+        .iter()
+        .find(|(_, s)| s.row.stop)
+        .or_else(|| surfaces.iter().find(|(_, s)| s.order == 0))
+        .map(|(e, _)| *e)
+    else {
+        return false;
+    };
+    let diaphragm = diaphragm.filter(|d| !d.is_circular());
+    let current = world.get::<Diaphragm>(stop);
+    if current == diaphragm.as_ref() {
+        return true;
+    }
+    match diaphragm {
+        Some(d) => {
+            world.entity_mut(stop).insert(d);
+        }
+        None => {
+            world.entity_mut(stop).remove::<Diaphragm>();
+        }
+    }
+    true
+}
+
 /// Makes `lens` the only [`ActiveLens`].
 pub fn activate_lens(world: &mut World, lens: Entity) {
     let active: Vec<Entity> = world
@@ -196,28 +253,40 @@ pub fn activate_lens(world: &mut World, lens: Entity) {
     world.entity_mut(lens).insert(ActiveLens);
 }
 
-/// Builds the geometry of every lens whose surfaces or aperture changed.
+/// Builds the geometry of every lens whose surfaces (or the stop's diaphragm) or aperture
+/// changed.
 pub fn derive_geometry(
     mut commands: Commands,
     lenses: Query<(Entity, &Lens, Ref<Children>, Ref<ApertureSetting>)>,
-    surfaces: Query<Ref<LensSurface>>,
+    surfaces: Query<(Ref<LensSurface>, Option<Ref<Diaphragm>>)>,
+    mut removed_diaphragms: RemovedComponents<Diaphragm>,
     mut stats: ResMut<LensDerivationStats>,
 ) {
+    let removed: Vec<Entity> = removed_diaphragms.read().collect();
     for (entity, lens, children, aperture) in &lenses {
-        let surface_changed = children
-            .iter()
-            .any(|c| surfaces.get(*c).is_ok_and(|s| s.is_changed()));
+        let surface_changed = children.iter().any(|c| {
+            removed.contains(c)
+                || surfaces
+                    .get(*c)
+                    .is_ok_and(|(s, d)| s.is_changed() || d.is_some_and(|d| d.is_changed()))
+        });
         if !(children.is_changed() || aperture.is_changed() || surface_changed) {
             continue;
         }
         let start = Instant::now();
-        let mut rows: Vec<LensSurface> = children
+        let mut rows: Vec<(LensSurface, Option<&Diaphragm>)> = children
             .iter()
-            .filter_map(|c| surfaces.get(*c).ok().map(|s| *s))
+            .filter_map(|c| {
+                surfaces
+                    .get(*c)
+                    .ok()
+                    .map(|(s, d)| (*s, d.map(|d| d.into_inner())))
+            })
             .collect();
-        rows.sort_by_key(|s| s.order);
-        let rows: Vec<SurfaceRow> = rows.into_iter().map(|s| s.row).collect();
-        match build_geometry(lens, &rows, *aperture) {
+        rows.sort_by_key(|(s, _)| s.order);
+        let diaphragm = rows.iter().find_map(|(_, d)| *d);
+        let rows: Vec<SurfaceRow> = rows.into_iter().map(|(s, _)| s.row).collect();
+        match build_geometry_with(lens, &rows, *aperture, diaphragm) {
             Ok(geometry) => {
                 commands
                     .entity(entity)
@@ -242,21 +311,48 @@ pub fn build_geometry(
     rows: &[SurfaceRow],
     aperture: ApertureSetting,
 ) -> Result<LensGeometry, String> {
+    build_geometry_with(lens, rows, aperture, None)
+}
+
+/// [`build_geometry`] with a diaphragm at the stop, inscribed in the stop's circle; an
+/// f-number sizes that circle so the opening has the f-number circle's area (and says so in
+/// the notes).
+pub fn build_geometry_with(
+    lens: &Lens,
+    rows: &[SurfaceRow],
+    aperture: ApertureSetting,
+    diaphragm: Option<&Diaphragm>,
+) -> Result<LensGeometry, String> {
     let prescription =
         Prescription::from_rows(&lens.name, &lens.source, lens.format, rows.to_vec())
             .map_err(|e| e.to_string())?;
     let full = LensSystem::new(&prescription.rows, None);
     let full_first_order =
         FirstOrder::compute(&full).map_err(|e| format!("{}: {e}", lens.source.display()))?;
-    let (diameter, warning) = stop_diameter(aperture, &full, &full_first_order)?;
-    let system = LensSystem::new(&prescription.rows, Some(diameter));
+    let diaphragm = diaphragm.filter(|d| !d.is_circular());
+    let open_fraction = diaphragm.map_or(1.0, Diaphragm::open_fraction);
+    let (diameter, warning) = stop_diameter(aperture, &full, &full_first_order, open_fraction)?;
+    let system = LensSystem::new(&prescription.rows, Some(diameter)).with_diaphragm(diaphragm);
     let first_order =
         FirstOrder::compute(&system).map_err(|e| format!("{}: {e}", lens.source.display()))?;
-    Ok(LensGeometry {
+    let mut geometry = LensGeometry {
         system,
         first_order,
+        open_fraction,
         warnings: warning.into_iter().collect(),
-    })
+        notes: Vec::new(),
+    };
+    if let (Some(diaphragm), ApertureSetting::FNumber(n)) = (diaphragm, aperture) {
+        geometry.notes.push(format!(
+            "f/{n} with {}: the opening ({:.1} % of its circle) has the area of the f/{n} circle, so the stop's circle is {:.3} mm across (f/{:.2} were it round); the lens passes the light of f/{:.2}",
+            diaphragm.describe(),
+            100.0 * open_fraction,
+            geometry.system.stop_diameter(),
+            geometry.first_order.f_number,
+            geometry.f_number(),
+        ));
+    }
+    Ok(geometry)
 }
 
 type PlacementQuery<'w, 's> = Query<
@@ -375,8 +471,17 @@ pub fn bound_exit_pupil(
                 .remove::<ExitPupil>();
             continue;
         }
+        // A diaphragm lies inside the stop's circle: bounds for the circle hold for it, however
+        // fine its features (a grid search could miss a mask's small holes).
+        let circular;
+        let system = if geometry.system.diaphragm.is_some() {
+            circular = geometry.system.without_diaphragm();
+            &circular
+        } else {
+            &geometry.system
+        };
         let pupil = ExitPupil::compute_moved(
-            &geometry.system,
+            system,
             placement.film_distance,
             film.diagonal_mm,
             film.pupil_sampling,

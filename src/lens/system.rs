@@ -4,6 +4,7 @@ use std::sync::Arc;
 
 use num_traits::Float;
 
+use super::diaphragm::{Diaphragm, StopClip};
 use super::dispersion::DispersionTable;
 use super::prescription::SurfaceRow;
 use super::shape::{ASPHERIC_TERMS, Profile};
@@ -29,6 +30,8 @@ pub struct SurfaceArrays<T> {
     pub index_front: Vec<T>,
     /// Refractive index on the film side of each surface.
     pub index_back: Vec<T>,
+    /// The diaphragm at the stop, when it is more than the stop's circle.
+    pub stop_clip: Option<Arc<StopClip>>,
 }
 
 impl<T: Float> SurfaceArrays<T> {
@@ -67,7 +70,16 @@ impl<T: Copy> SurfaceArrays<T> {
             polynomial: self.polynomial[range.clone()].to_vec(),
             semi_aperture_sq: self.semi_aperture_sq[range.clone()].to_vec(),
             index_front: self.index_front[range.clone()].to_vec(),
-            index_back: self.index_back[range].to_vec(),
+            index_back: self.index_back[range.clone()].to_vec(),
+            // The stop keeps its diaphragm in any group that holds it, renumbered.
+            stop_clip: self.stop_clip.as_ref().and_then(|clip| {
+                range.contains(&clip.surface).then(|| {
+                    Arc::new(StopClip {
+                        surface: clip.surface - range.start,
+                        ..(**clip).clone()
+                    })
+                })
+            }),
         }
     }
 
@@ -87,6 +99,7 @@ impl<T: Copy> SurfaceArrays<T> {
             semi_aperture_sq: Vec::with_capacity(rows.len()),
             index_front: Vec::with_capacity(rows.len()),
             index_back: Vec::with_capacity(rows.len()),
+            stop_clip: None,
         };
         let mut z = 0.0;
         let mut index_before = 1.0;
@@ -128,6 +141,8 @@ pub struct LensSystem {
     pub wavelength_nm: f64,
     /// Every medium's index over the rendered wavelengths, when any surface has glass data.
     pub dispersion: Option<Arc<DispersionTable>>,
+    /// The diaphragm at the stop (also in both arrays' `stop_clip`), sized to the stop as set.
+    pub diaphragm: Option<Diaphragm>,
 }
 
 impl LensSystem {
@@ -149,7 +164,31 @@ impl LensSystem {
             f32s,
             wavelength_nm: FRAUNHOFER_D_NM,
             dispersion,
+            diaphragm: None,
         }
+    }
+
+    /// The same lens with `diaphragm` at its stop (inscribed in the stop's circle as set);
+    /// `None` or a circular one leaves the stop its circle.
+    pub fn with_diaphragm(mut self, diaphragm: Option<&Diaphragm>) -> LensSystem {
+        let diaphragm = diaphragm.filter(|d| !d.is_circular());
+        let clip = diaphragm.map(|d| {
+            Arc::new(StopClip::new(
+                d,
+                self.stop,
+                self.rows[self.stop].aperture / 2.0,
+            ))
+        });
+        self.f64s.stop_clip = clip.clone();
+        self.f32s.stop_clip = clip;
+        self.diaphragm = diaphragm.cloned();
+        self
+    }
+
+    /// The same lens with the stop's plain circle (for bounds that must hold for any
+    /// diaphragm inside it).
+    pub fn without_diaphragm(&self) -> LensSystem {
+        self.clone().with_diaphragm(None)
     }
 
     /// The same lens with every medium's index at `wavelength_nm` (see
@@ -157,8 +196,14 @@ impl LensSystem {
     pub fn at_wavelength(&self, wavelength_nm: f64) -> LensSystem {
         let index = |r: &SurfaceRow| r.index_at(wavelength_nm);
         LensSystem {
-            f64s: SurfaceArrays::from_rows(&self.rows, |v| v, index),
-            f32s: SurfaceArrays::from_rows(&self.rows, |v| v as f32, index),
+            f64s: SurfaceArrays {
+                stop_clip: self.f64s.stop_clip.clone(),
+                ..SurfaceArrays::from_rows(&self.rows, |v| v, index)
+            },
+            f32s: SurfaceArrays {
+                stop_clip: self.f32s.stop_clip.clone(),
+                ..SurfaceArrays::from_rows(&self.rows, |v| v as f32, index)
+            },
             wavelength_nm,
             ..self.clone()
         }

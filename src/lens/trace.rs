@@ -68,11 +68,26 @@ pub fn trace_with<T: Float>(
 /// (including the one that blocks it, where it has a point there): for drawing ray paths.
 pub fn trace_path<T: Float>(
     surfaces: &SurfaceArrays<T>,
+    ray: Ray<T>,
+    travel: Travel,
+    check_apertures: bool,
+    visit: impl FnMut(usize, [T; 3]),
+) -> Result<Ray<T>, Blocked> {
+    trace_transmitted(surfaces, ray, travel, check_apertures, visit).map(|(ray, _)| ray)
+}
+
+/// As [`trace_path`], also returning the fraction of the ray's light the lens passes: the
+/// grey level of a diaphragm's mask where the ray crosses the stop (1 without one). A ray
+/// meeting a blade, or a mask's opaque part, is blocked at the stop
+/// ([`BlockReason::Aperture`]).
+pub fn trace_transmitted<T: Float>(
+    surfaces: &SurfaceArrays<T>,
     mut ray: Ray<T>,
     travel: Travel,
     check_apertures: bool,
     mut visit: impl FnMut(usize, [T; 3]),
-) -> Result<Ray<T>, Blocked> {
+) -> Result<(Ray<T>, T), Blocked> {
+    let mut transmission = T::one();
     let n = surfaces.len();
     for step in 0..n {
         let i = match travel {
@@ -94,6 +109,17 @@ pub fn trace_path<T: Float>(
         if check_apertures && p[0] * p[0] + p[1] * p[1] > surfaces.semi_aperture_sq[i] {
             return Err(blocked(BlockReason::Aperture));
         }
+        if check_apertures
+            && let Some(clip) = surfaces.stop_clip.as_deref()
+            && clip.surface == i
+        {
+            let to_f64 = |v: T| v.to_f64().unwrap_or(f64::NAN);
+            let passed = clip.transmission(to_f64(p[0]), to_f64(p[1]));
+            if passed.is_nan() || passed <= 0.0 {
+                return Err(blocked(BlockReason::Aperture));
+            }
+            transmission = transmission * T::from(passed).unwrap_or_else(T::zero);
+        }
         let normal = profile
             .normal(vertex_z, p)
             .ok_or(blocked(BlockReason::Miss))?;
@@ -111,7 +137,7 @@ pub fn trace_path<T: Float>(
             direction,
         };
     }
-    Ok(ray)
+    Ok((ray, transmission))
 }
 
 /// Snell refraction of unit `direction` at a surface with unit `normal` (either orientation),

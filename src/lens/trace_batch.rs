@@ -14,14 +14,18 @@
 //! so a portable build still runs the plain loop 8 or 16 lanes wide; the explicit kernel's
 //! `wide` types use AVX only when the whole build targets it (see BENCHMARKS.md).
 
+mod clip;
 mod lanes;
 mod refract;
 
 use wide::f32x8;
 
+use self::clip::{clip_plain, inside_blades};
 use self::refract::{
-    CONIC, LaneRay, POLYNOMIAL, SPHERE, SurfaceConstants, normalise_direction, refract_at,
+    CONIC, LaneRay, NEWTON_STEPS, Newton, POLYNOMIAL, SPHERE, SurfaceConstants,
+    normalise_direction, refract_at, refract_from_hit,
 };
+use super::diaphragm::StopClip;
 use super::dispersion::DispersionTable;
 use super::system::SurfaceArrays;
 use super::trace::Travel;
@@ -43,7 +47,9 @@ pub const BLOCK: usize = 256;
 /// Traces every alive ray of `rays` (lens frame, mm, unit directions) through all surfaces in
 /// the order of `travel`, in place: survivors end on the last surface crossed with their
 /// refracted direction; blocked rays get `alive = false` and keep the state they had when
-/// blocked.
+/// blocked. A diaphragm at the stop ([`SurfaceArrays::stop_clip`]) blocks the rays its blades
+/// stop, and multiplies the throughput (`tr`, `tg`, `tb`) of those crossing a mask by its grey
+/// level there.
 pub fn trace_batch(surfaces: &SurfaceArrays<f32>, rays: &mut RayBatch, travel: Travel) {
     trace_batch_with(surfaces, rays, travel, DEFAULT_KERNEL)
 }
@@ -172,9 +178,17 @@ fn run(
     if travel == Travel::SceneToFilm {
         advance_to_front(surfaces, rays);
     }
+    let n = surfaces.len();
     let plan = Plan {
         surfaces: SurfaceConstants::in_travel_order(surfaces, travel),
         spectral: wavelengths.map(|w| (w, travel)),
+        clip: surfaces.stop_clip.as_deref().map(|clip| {
+            let step = match travel {
+                Travel::SceneToFilm => clip.surface,
+                Travel::FilmToScene => n - 1 - clip.surface,
+            };
+            (step, clip)
+        }),
     };
     match isa.min(Isa::detect()) {
         Isa::Baseline => run_kernel(kernel, &plan, rays),
@@ -188,11 +202,12 @@ fn run(
     }
 }
 
-/// What the kernels run: the surfaces in the order of travel and, for a spectral batch, the
-/// rays' wavelengths.
+/// What the kernels run: the surfaces in the order of travel, for a spectral batch the rays'
+/// wavelengths, and the diaphragm with the step (in travel order) of the stop it sits at.
 struct Plan<'a> {
     surfaces: Vec<SurfaceConstants<f32>>,
     spectral: Option<(Wavelengths<'a>, Travel)>,
+    clip: Option<(usize, &'a StopClip)>,
 }
 
 impl Plan<'_> {
@@ -347,6 +362,16 @@ fn trace_plain(plan: &Plan, rays: &mut RayBatch) {
                     _ => plain_surface::<POLYNOMIAL, false>(surface, lanes, &[]),
                 }
             };
+            if let Some((clip_step, clip)) = plan.clip
+                && clip_step == step
+            {
+                let throughput = [
+                    &mut rays.tr[start..end],
+                    &mut rays.tg[start..end],
+                    &mut rays.tb[start..end],
+                ];
+                clip_plain(clip, ox, oy, alive, throughput);
+            }
             if !any_alive {
                 break;
             }
@@ -382,6 +407,9 @@ fn plain_surface<const SHAPE: u8, const SPECTRAL: bool>(
     lanes: Lanes,
     etas: &[f32],
 ) -> bool {
+    if SHAPE == POLYNOMIAL {
+        return plain_polynomial_surface::<SPECTRAL>(surface, lanes, etas);
+    }
     let n = lanes.alive.len();
     let (ox, oy, oz) = (&mut lanes.ox[..n], &mut lanes.oy[..n], &mut lanes.oz[..n]);
     let (dx, dy, dz) = (&mut lanes.dx[..n], &mut lanes.dy[..n], &mut lanes.dz[..n]);
@@ -395,6 +423,72 @@ fn plain_surface<const SHAPE: u8, const SPECTRAL: bool>(
         };
         let eta = if SPECTRAL { etas[i] } else { surface.eta };
         let survives = refract_at::<f32, SHAPE>(surface, &mut ray, alive[i], eta);
+        [ox[i], oy[i], oz[i]] = ray.origin;
+        [dx[i], dy[i], dz[i]] = ray.direction;
+        alive[i] = survives;
+        any_alive |= survives;
+    }
+    any_alive
+}
+
+/// [`plain_surface`] for a polynomial asphere: the Newton iterations run as steps over the whole
+/// block (each step a plain loop over the rays, which vectorises; a ray's own iteration loop,
+/// with its data-dependent exit, would not), until no ray is still searching. Bit-identical to
+/// [`refract_at`] ray by ray: each ray sees the same operations in the same order.
+#[inline(always)]
+fn plain_polynomial_surface<const SPECTRAL: bool>(
+    surface: &SurfaceConstants<f32>,
+    lanes: Lanes,
+    etas: &[f32],
+) -> bool {
+    let n = lanes.alive.len();
+    let (ox, oy, oz) = (&mut lanes.ox[..n], &mut lanes.oy[..n], &mut lanes.oz[..n]);
+    let (dx, dy, dz) = (&mut lanes.dx[..n], &mut lanes.dy[..n], &mut lanes.dz[..n]);
+    let alive = &mut lanes.alive[..n];
+    let ray_at = |i: usize| LaneRay {
+        origin: [ox[i], oy[i], oz[i]],
+        direction: [dx[i], dy[i], dz[i]],
+    };
+    // The iteration state as arrays (structure of arrays, so the step loop vectorises).
+    let mut t = [0.0f32; BLOCK];
+    let mut searching = [false; BLOCK];
+    let mut converged = [false; BLOCK];
+    let (t, searching, converged) = (&mut t[..n], &mut searching[..n], &mut converged[..n]);
+    for i in 0..n {
+        let start = Newton::start(surface, &ray_at(i), alive[i]);
+        (t[i], searching[i], converged[i]) = (start.t, start.searching, start.converged);
+    }
+    for _ in 0..NEWTON_STEPS {
+        let mut any_searching = false;
+        for i in 0..n {
+            let mut state = Newton {
+                t: t[i],
+                searching: searching[i],
+                converged: converged[i],
+            };
+            state.step(surface, &ray_at(i));
+            (t[i], searching[i], converged[i]) = (state.t, state.searching, state.converged);
+            any_searching |= state.searching;
+        }
+        if !any_searching {
+            break;
+        }
+    }
+    let mut any_alive = false;
+    for i in 0..n {
+        let mut ray = LaneRay {
+            origin: [ox[i], oy[i], oz[i]],
+            direction: [dx[i], dy[i], dz[i]],
+        };
+        let eta = if SPECTRAL { etas[i] } else { surface.eta };
+        let (t, hit) = Newton {
+            t: t[i],
+            searching: searching[i],
+            converged: converged[i],
+        }
+        .hit();
+        let survives =
+            refract_from_hit::<f32, POLYNOMIAL>(surface, &mut ray, alive[i], eta, t, hit);
         [ox[i], oy[i], oz[i]] = ray.origin;
         [dx[i], dy[i], dz[i]] = ray.direction;
         alive[i] = survives;
@@ -439,6 +533,7 @@ fn trace_simd(full_plan: &Plan, rays: &mut RayBatch) {
         let chunks = (end - start).div_ceil(LANES);
         let spectral = full_plan.block_etas(start, end - start, &mut etas);
         load_block(rays, start, end, &mut block);
+        let mut transmission = None;
         for (step, surface) in plan.iter().enumerate() {
             let eta = spectral.then(|| &etas[step * BLOCK..(step + 1) * BLOCK]);
             let any_alive = match surface.shape {
@@ -446,6 +541,11 @@ fn trace_simd(full_plan: &Plan, rays: &mut RayBatch) {
                 CONIC => simd_surface::<CONIC>(surface, &mut block, chunks, eta),
                 _ => simd_surface::<POLYNOMIAL>(surface, &mut block, chunks, eta),
             };
+            if let Some((clip_step, clip)) = full_plan.clip
+                && clip_step == step
+            {
+                transmission = simd_clip(clip, &mut block, chunks);
+            }
             if !any_alive {
                 break;
             }
@@ -454,6 +554,13 @@ fn trace_simd(full_plan: &Plan, rays: &mut RayBatch) {
             normalise_direction(ray, alive);
         }
         store_block(&block, start, end, rays);
+        if let Some(transmission) = transmission {
+            for (i, &t) in (start..end).zip(&transmission) {
+                rays.tr[i] *= t;
+                rays.tg[i] *= t;
+                rays.tb[i] *= t;
+            }
+        }
         start = end;
     }
 }
@@ -485,6 +592,40 @@ fn simd_surface<const SHAPE: u8>(
         any_alive |= *alive;
     }
     any_alive.any()
+}
+
+/// The diaphragm's clip at the stop over the first `chunks` chunks of a block, as
+/// [`clip_plain`]: returns, with a mask, each lane's grey level (1 where it did not survive the
+/// stop, so multiplying by it changes nothing there).
+#[inline(always)]
+fn simd_clip(clip: &StopClip, block: &mut SimdBlock, chunks: usize) -> Option<[f32; BLOCK]> {
+    for (ray, alive) in block.rays[..chunks].iter().zip(&mut block.alive[..chunks]) {
+        *alive &= inside_blades::<f32x8>(clip, ray.origin[0], ray.origin[1]);
+    }
+    if !clip.has_mask() {
+        return None;
+    }
+    let mut transmission = [1.0f32; BLOCK];
+    for (c, (ray, alive)) in block.rays[..chunks]
+        .iter()
+        .zip(&mut block.alive[..chunks])
+        .enumerate()
+    {
+        let (x, y) = (ray.origin[0].to_array(), ray.origin[1].to_array());
+        let mask = alive.to_bitmask();
+        let mut passes = [0.0f32; LANES];
+        for lane in 0..LANES {
+            if mask & (1 << lane) != 0 {
+                let t = clip.mask_transmission_f32(x[lane], y[lane]);
+                if t > 0.0 {
+                    transmission[c * LANES + lane] = t;
+                    passes[lane] = f32::from_bits(u32::MAX);
+                }
+            }
+        }
+        *alive = f32x8::from(passes);
+    }
+    Some(transmission)
 }
 
 /// Lanes `start..end` of the batch into `block` (the last chunk padded with dead lanes).
@@ -769,6 +910,90 @@ mod tests {
                 }
             }
             assert!(disagreements <= 2, "{name}: {disagreements} disagreements");
+        }
+    }
+
+    /// A diaphragm (curved blades, turned, and a graded mask) clips the same rays in every
+    /// kernel, bit for bit, throughput included, and as the f64 reference does: the reference
+    /// blocks the same rays (but for those grazing an edge) and passes the same light.
+    #[test]
+    fn diaphragm_clips_alike_in_every_kernel_and_the_reference() {
+        use crate::lens::diaphragm::{ApertureMask, Blades, Diaphragm};
+        use crate::lens::trace::trace_transmitted;
+        // A 16×16 mask: a radial ramp with an opaque notch, so rays see every grey level.
+        let values: Vec<f32> = (0..256)
+            .map(|i| {
+                let (x, y) = ((i % 16) as f32 - 7.5, (i / 16) as f32 - 7.5);
+                if x > 2.0 && y.abs() < 1.5 {
+                    0.0
+                } else {
+                    (1.0 - (x * x + y * y).sqrt() / 12.0).clamp(0.0, 1.0)
+                }
+            })
+            .collect();
+        let mask = ApertureMask::from_values(std::path::Path::new("ramp"), 16, 16, values).unwrap();
+        let diaphragms = [
+            Diaphragm {
+                blades: Some(Blades::new(5, 0.0, 0.0).unwrap()),
+                mask: None,
+            },
+            Diaphragm {
+                blades: Some(Blades::new(7, 11.0, 0.4).unwrap()),
+                mask: Some(std::sync::Arc::new(mask)),
+            },
+        ];
+        for (name, plain) in test_lenses().into_iter().take(4) {
+            for diaphragm in &diaphragms {
+                let system = plain.clone().with_diaphragm(Some(diaphragm));
+                let film_distance = crate::lens::first_order::FirstOrder::compute(&system)
+                    .map_or(system.rear_z() * 0.6, |fo| fo.back_focal_length);
+                let rays = film_rays(&system, film_distance, 4003);
+                let mut batch = RayBatch::with_capacity(rays.len());
+                for r in &rays {
+                    batch.push(
+                        r.origin.map(|v| v as f32),
+                        r.direction.map(|v| v as f32),
+                        0,
+                        0,
+                    );
+                }
+                let input = batch.clone();
+                let name = format!("{name} {}", diaphragm.describe());
+                for isa in Isa::available() {
+                    for kernel in [Kernel::AutoVectorised, Kernel::Simd] {
+                        let mut other = input.clone();
+                        trace_batch_on(&system.f32s, &mut other, Travel::FilmToScene, kernel, isa);
+                        if kernel == Kernel::AutoVectorised && isa == Isa::Baseline {
+                            batch = other.clone();
+                        }
+                        assert_bit_identical(&batch, &other, &format!("{name} {kernel:?} {isa:?}"));
+                        let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+                        assert_eq!(bits(&batch.tr), bits(&other.tr), "{name}: throughput");
+                    }
+                }
+                let (mut passed, mut clipped, mut disagreements) = (0, 0, 0);
+                for (i, r) in rays.iter().enumerate() {
+                    let unclipped = trace(&plain.f64s, *r, Travel::FilmToScene).is_ok();
+                    match trace_transmitted(&system.f64s, *r, Travel::FilmToScene, true, |_, _| {})
+                    {
+                        Ok((_, t)) if batch.alive[i] => {
+                            passed += 1;
+                            assert!(
+                                (batch.tr[i] as f64 - t).abs() < 0.02,
+                                "{name}: ray {i} passes {} vs reference {t}",
+                                batch.tr[i]
+                            );
+                        }
+                        Err(_) if !batch.alive[i] => clipped += usize::from(unclipped),
+                        _ => disagreements += 1,
+                    }
+                }
+                assert!(disagreements <= rays.len() / 200, "{name}: {disagreements}");
+                assert!(
+                    passed > 100 && clipped > 20,
+                    "{name}: {passed} passed, {clipped} clipped"
+                );
+            }
         }
     }
 

@@ -22,7 +22,7 @@ const T_MIN: f32 = 1e-6;
 
 /// Newton steps before a lane that has not converged counts as a miss: started from the base
 /// conic, real aspheres converge in 3–6 steps in f32.
-const NEWTON_STEPS: usize = 16;
+pub const NEWTON_STEPS: usize = 16;
 
 /// The kernel shapes (const-generic parameters of [`refract_at`]).
 pub const SPHERE: u8 = 0;
@@ -137,16 +137,29 @@ pub fn refract_at<L: Lanes, const SHAPE: u8>(
     alive: L::Mask,
     eta: L,
 ) -> L::Mask {
+    let (t, hit) = match SHAPE {
+        SPHERE => hit_sphere(s, ray),
+        CONIC => hit_conic(s, ray),
+        _ => hit_polynomial(s, ray, alive),
+    };
+    refract_from_hit::<L, SHAPE>(s, ray, alive, eta, t, hit)
+}
+
+/// The second half of [`refract_at`]: moves the `alive` lanes that `hit` the surface at
+/// distance `t` onto it and refracts them.
+#[inline(always)]
+pub fn refract_from_hit<L: Lanes, const SHAPE: u8>(
+    s: &SurfaceConstants<L>,
+    ray: &mut LaneRay<L>,
+    alive: L::Mask,
+    eta: L,
+    t: L,
+    hit: L::Mask,
+) -> L::Mask {
     let zero = L::splat(0.0);
     let one = L::splat(1.0);
     let [px, py, pz] = ray.origin;
     let [vx, vy, vz] = ray.direction;
-
-    let (t, hit) = match SHAPE {
-        SPHERE => hit_sphere(s, ray),
-        CONIC => hit_conic(s, ray),
-        _ => hit_polynomial(s, ray),
-    };
     let hx = px + t * vx;
     let hy = py + t * vy;
     let hz = pz + t * vz;
@@ -262,27 +275,64 @@ fn hit_conic<L: Lanes>(s: &SurfaceConstants<L>, ray: &LaneRay<L>) -> (L, L::Mask
 }
 
 /// Distance to a polynomial asphere by Newton's method from the base conic's root (or the
-/// vertex plane where the conic is missed), and which lanes converged onto it.
+/// vertex plane where the conic is missed), and which of the `alive` lanes converged onto it
+/// (blocked lanes do not search: a group's iterations end with its last searching lane's).
 #[inline(always)]
-fn hit_polynomial<L: Lanes>(s: &SurfaceConstants<L>, ray: &LaneRay<L>) -> (L, L::Mask) {
-    let zero = L::splat(0.0);
-    let [px, py, pz] = ray.origin;
-    let [vx, vy, vz] = ray.direction;
-    let (conic_t, conic_hit) = hit_conic(s, ray);
-    // Where the conic is missed: the vertex plane if it lies ahead, else the ray's origin (the
-    // reference's start, [`crate::lens::shape::Profile::intersect`]).
-    let plane_t = (s.vertex_z - pz) / vz;
-    let plane_t = L::select(plane_t.gt(zero), plane_t, zero);
-    let mut t = L::select(conic_hit, conic_t, plane_t);
-    // Converged once a step is within a few f32 ulps of the lengths it comes from: the
-    // distance, the origin's height over the vertex, the sag.
-    let relative = L::splat(16.0 * f32::EPSILON);
-    let absolute = L::splat(1e-7);
-    let ovz = pz - s.vertex_z;
-    // Every lane whose start is a number searches (vz = 0 gives NaN).
-    let mut searching = plane_t.ge(zero);
-    let mut converged = zero.lt(zero);
+fn hit_polynomial<L: Lanes>(
+    s: &SurfaceConstants<L>,
+    ray: &LaneRay<L>,
+    alive: L::Mask,
+) -> (L, L::Mask) {
+    let mut newton = Newton::start(s, ray, alive);
     for _ in 0..NEWTON_STEPS {
+        newton.step(s, ray);
+        if !L::any(newton.searching) {
+            break;
+        }
+    }
+    newton.hit()
+}
+
+/// Newton's method on f(t) = z(t) − sag(ρ(t)) for a group of lanes, one step at a time (so
+/// that the plain kernel can run each step over a whole block of rays, which vectorises,
+/// instead of each ray's iterations in turn, which does not).
+#[derive(Clone, Copy, Debug)]
+pub struct Newton<L: Lanes> {
+    pub t: L,
+    /// Lanes still iterating.
+    pub searching: L::Mask,
+    /// Lanes that converged onto the surface.
+    pub converged: L::Mask,
+}
+
+impl<L: Lanes> Newton<L> {
+    /// The start: the base conic's root, or where the conic is missed the vertex plane if it
+    /// lies ahead, else the ray's origin (the reference's start,
+    /// [`crate::lens::shape::Profile::intersect`]).
+    #[inline(always)]
+    pub fn start(s: &SurfaceConstants<L>, ray: &LaneRay<L>, alive: L::Mask) -> Self {
+        let zero = L::splat(0.0);
+        let (conic_t, conic_hit) = hit_conic(s, ray);
+        let plane_t = (s.vertex_z - ray.origin[2]) / ray.direction[2];
+        let plane_t = L::select(plane_t.gt(zero), plane_t, zero);
+        Newton {
+            t: L::select(conic_hit, conic_t, plane_t),
+            // Every live lane whose start is a number searches (d_z = 0 gives NaN).
+            searching: alive & plane_t.ge(zero),
+            converged: zero.lt(zero),
+        }
+    }
+
+    /// One step for the searching lanes. A lane stops converged once its step is within a few
+    /// f32 ulps of the lengths it comes from (the distance, the origin's height over the
+    /// vertex, the sag), or failed where the sag is undefined or the step not finite; either
+    /// way its t no longer moves.
+    #[inline(always)]
+    pub fn step(&mut self, s: &SurfaceConstants<L>, ray: &LaneRay<L>) {
+        let [px, py, pz] = ray.origin;
+        let [vx, vy, vz] = ray.direction;
+        let ovz = pz - s.vertex_z;
+        let t = self.t;
         let x = px + t * vx;
         let y = py + t * vy;
         let z = ovz + t * vz;
@@ -292,17 +342,20 @@ fn hit_polynomial<L: Lanes>(s: &SurfaceConstants<L>, ray: &LaneRay<L>) -> (L, L:
         let next = t - step;
         let finite = next.abs().lt(L::splat(f32::INFINITY));
         let valid = defined & finite;
-        // Lanes leave the search converged or failed; either way their t no longer moves.
-        t = L::select(searching & valid, next, t);
+        self.t = L::select(self.searching & valid, next, t);
         let scale = next.abs() + ovz.abs() + sag.abs();
-        let done = step.abs().le(absolute + relative * scale);
-        converged = converged | (searching & valid & done);
-        searching = searching & valid & !done;
-        if !L::any(searching) {
-            break;
-        }
+        let done = step
+            .abs()
+            .le(L::splat(1e-7) + L::splat(16.0 * f32::EPSILON) * scale);
+        self.converged = self.converged | (self.searching & valid & done);
+        self.searching = self.searching & valid & !done;
     }
-    (t, converged & t.gt(L::splat(T_MIN)))
+
+    /// The distance, and which lanes converged onto the surface ahead of their origin.
+    #[inline(always)]
+    pub fn hit(&self) -> (L, L::Mask) {
+        (self.t, self.converged & self.t.gt(L::splat(T_MIN)))
+    }
 }
 
 /// sag(ρ), d sag/dρ and where they are defined (1 − κc²ρ ≥ 0), for every lane.
