@@ -17,7 +17,7 @@ use super::interrupt::Interrupt;
 use super::options::LensOptions;
 use super::plan::{Frame, FrameRequest, Shard, Sweep, frame_count, plan_frames, sidecar};
 use super::setup::{Placement, autofocus, choose_environment, frame_scene, place_camera};
-use super::values::{number, parse_vec3, whole};
+use super::values::{number, parse_pair, parse_pixel, parse_vec3, whole};
 use crate::diagnosis::{SceneLighting, black_image, black_picture};
 use crate::film::checkpoint::{
     CheckpointInfo, FORMAT_VERSION, Invocation, read_checkpoint, write_checkpoint,
@@ -37,10 +37,13 @@ use crate::film::{Image, MAX_IMAGE_SIDE, MAX_SPP};
 use crate::lens::Prescription;
 use crate::lens::aperture::ApertureSetting;
 use crate::lens::bundled::{DEFAULT_LENS, load_lens};
+use crate::lens::camera::FilmGeometry;
 use crate::lens::diaphragm::Diaphragm;
 use crate::lens::elements::{
     Dispersion, FilmPlacement, FocusSetting, LensDerivationStats, LensGeometry,
 };
+use crate::lens::focus_probe::{FocusOnPixel, FocusProbe};
+use crate::lens::movements::{FilmMovements, check_coverage};
 use crate::memory::MAX_THREADS;
 use crate::pipeline::{
     RenderSettings, RenderStats, Renderer, SceneInputs, SceneSource, SceneWarnings, Stage,
@@ -156,6 +159,20 @@ pub struct RenderArgs {
     /// renders every ray at the lens file's indices (n_d), as for a lens without glass data.
     #[arg(long, value_name = "on|off", default_value = "on")]
     pub dispersion: DispersionArg,
+    /// Focus on what pixel X,Y sees ((0,0): the top-left pixel): a probe ray through the real
+    /// lens finds the point, and the film distance that brings its real-ray image into
+    /// sharpest focus is solved; each lens of the run focuses on it.
+    #[arg(long, value_name = "X,Y", value_parser = parse_pixel, allow_hyphen_values = true, conflicts_with_all = ["focus_distance", "film_distance", "focus_sweep"])]
+    pub focus_on: Option<[u32; 2]>,
+    /// Shift the frame across the image circle, mm in the film plane: positive Y shows more of
+    /// the scene above, positive X more to the right (as a shift lens raised or moved right).
+    #[arg(long, value_name = "X,Y", value_parser = parse_pair, allow_hyphen_values = true)]
+    pub shift: Option<[f64; 2]>,
+    /// Tilt the film plane about the frame's horizontal (X) and vertical (Y) axes, degrees
+    /// (under 60): positive X tips the plane of sharp focus down toward the ground ahead,
+    /// positive Y makes the picture's right focus nearer (Scheimpflug).
+    #[arg(long, value_name = "X,Y", value_parser = parse_pair, allow_hyphen_values = true)]
+    pub tilt: Option<[f64; 2]>,
     /// Where a shard's partial goes [default: `<out stem>.shard-I-of-N.exr`].
     #[arg(long, value_name = "FILE.exr", requires = "shard")]
     pub partial: Option<PathBuf>,
@@ -177,6 +194,8 @@ struct FrameReport {
     f_number: f64,
     focus: FocusSetting,
     film_distance_mm: f64,
+    /// What --focus-on found.
+    probe: Option<FocusProbe>,
     lens_derivation_seconds: f64,
     render_seconds: f64,
     samples: u32,
@@ -186,9 +205,15 @@ struct FrameReport {
 
 impl FrameReport {
     fn caption(&self) -> String {
-        let focus = match self.focus {
-            FocusSetting::Distance { metres, .. } => format!("focus {metres:.2} m"),
-            FocusSetting::FilmDistance(mm) => format!("film at {mm:.2} mm"),
+        let focus = match (self.probe, self.focus) {
+            (Some(probe), _) => format!(
+                "focus {:.2} m (pixel {},{})",
+                probe.object_distance_mm / 1e3,
+                probe.pixel[0],
+                probe.pixel[1]
+            ),
+            (None, FocusSetting::Distance { metres, .. }) => format!("focus {metres:.2} m"),
+            (None, FocusSetting::FilmDistance(mm)) => format!("film at {mm:.2} mm"),
         };
         format!(
             "{}\nf={:.1}mm f/{:.1}\n{focus}",
@@ -202,7 +227,12 @@ impl FrameReport {
             "lens": self.lens,
             "focal_length_mm": self.focal_length_mm,
             "f_number": self.f_number,
-            "focus_distance_m": match self.focus { FocusSetting::Distance { metres, .. } => json!(metres), FocusSetting::FilmDistance(_) => Value::Null },
+            "focus_distance_m": match (self.probe, self.focus) {
+                (Some(probe), _) => json!(probe.object_distance_mm / 1e3),
+                (None, FocusSetting::Distance { metres, .. }) => json!(metres),
+                (None, FocusSetting::FilmDistance(_)) => Value::Null,
+            },
+            "focus_on": self.probe.map(|p| p.pixel),
             "film_distance_mm": self.film_distance_mm,
             "lens_derivation_seconds": self.lens_derivation_seconds,
             "render_seconds": self.render_seconds,
@@ -214,7 +244,7 @@ impl FrameReport {
 
 /// How a frame ended.
 enum Outcome {
-    Finished(FrameReport, Image),
+    Finished(Box<FrameReport>, Image),
     Interrupted(u8),
 }
 
@@ -296,7 +326,14 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<ExitCode> {
                 world_from_camera,
             );
             let entity = renderer.add_lens(&prescription, focus, aperture);
-            renderer.world.entity_mut(entity).insert(args.dispersion.0);
+            let mut lens = renderer.world.entity_mut(entity);
+            lens.insert(args.dispersion.0);
+            if let Some(movements) = movements(args) {
+                lens.insert(movements);
+            }
+            if let Some([x, y]) = args.focus_on {
+                lens.insert(FocusOnPixel { x, y });
+            }
             renderer.set_diaphragm(entity, diaphragm.clone());
             RunLens {
                 prescription,
@@ -309,6 +346,13 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<ExitCode> {
 
     let width = args.width.or(placement.hints.width).unwrap_or(512);
     let height = args.height.or(placement.hints.height).unwrap_or(512);
+    if let Some([x, y]) = args.focus_on
+        && (x >= width || y >= height)
+    {
+        bail!(
+            "--focus-on {x},{y}: the pixel lies outside the {width}×{height} image (pixels count from 0,0 at the top left)"
+        );
+    }
     // Before the film's tiles are allocated: refuse what this machine cannot hold.
     RunSize {
         width,
@@ -394,7 +438,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<ExitCode> {
                         });
                     }
                 }
-                reports.push(report);
+                reports.push(*report);
             }
         }
     }
@@ -482,6 +526,15 @@ fn lens_defaults(
     (args.lens_options.focus(fallback), aperture)
 }
 
+/// The film movements the flags ask for; `None` when there are none.
+fn movements(args: &RenderArgs) -> Option<FilmMovements> {
+    let movements = FilmMovements {
+        shift_mm: args.shift.unwrap_or_default(),
+        tilt_deg: args.tilt.unwrap_or_default(),
+    };
+    (!movements.is_none()).then_some(movements)
+}
+
 fn choose_exposure(args: &RenderArgs, image: &Image) -> f32 {
     args.exposure
         .map_or_else(|| auto_exposure(&image.mean()), |ev| 2f32.powf(ev))
@@ -515,7 +568,7 @@ fn render_frame(
     let lens_derivation_seconds = (renderer.world.resource::<LensDerivationStats>().total_time
         - derivation_before)
         .as_secs_f64();
-    let (focal_length_mm, f_number, film_distance_mm) = {
+    let (focal_length_mm, f_number, film_distance_mm, probe) = {
         let entity = renderer.world.entity(lens.entity);
         let geometry = entity
             .get::<LensGeometry>()
@@ -530,8 +583,43 @@ fn render_frame(
             .get::<FilmPlacement>()
             .context("film placement missing")?
             .film_distance;
-        (geometry.first_order.focal_length, geometry.f_number(), film)
+        if let Some(movements) = entity.get::<FilmMovements>() {
+            let (width, height) = {
+                let s = renderer.world.resource::<RenderSettings>();
+                (s.width, s.height)
+            };
+            let format = FilmGeometry::new(width, height, context.film_diagonal);
+            match check_coverage(
+                &geometry.system,
+                film,
+                movements,
+                format.width_mm as f64,
+                format.height_mm as f64,
+            ) {
+                Ok(None) => {}
+                Ok(Some(warning)) => eprintln!("warning: {warning}"),
+                Err(message) => bail!(
+                    "{}: cannot render this frame through {}: {message}",
+                    frame.out.display(),
+                    lens.prescription.name
+                ),
+            }
+        }
+        (
+            geometry.first_order.focal_length,
+            geometry.f_number(),
+            film,
+            entity.get::<FocusProbe>().copied(),
+        )
     };
+    if let Some(probe) = probe {
+        eprintln!(
+            "focus on pixel {},{}: it sees a point {:.4} m away (film plane to the point, along the axis)",
+            probe.pixel[0],
+            probe.pixel[1],
+            probe.object_distance_mm / 1e3
+        );
+    }
     eprintln!(
         "lens {}: f = {focal_length_mm:.2} mm, f/{f_number:.2}, film distance {film_distance_mm:.3} mm",
         lens.prescription.name
@@ -659,12 +747,13 @@ fn render_frame(
         f_number,
         focus: frame.focus,
         film_distance_mm,
+        probe,
         lens_derivation_seconds,
         render_seconds: render_start.elapsed().as_secs_f64(),
         samples: image.samples,
         warnings,
     };
-    Ok(Outcome::Finished(report, image))
+    Ok(Outcome::Finished(Box::new(report), image))
 }
 
 /// Writes a lens setting only when it differs, so change detection re-derives nothing needlessly.
@@ -731,6 +820,14 @@ fn settings_fingerprint(
             .map(|r| r.glass.map(|g| g.label()))
             .collect();
         fingerprint["dispersion"] = json!(args.dispersion.0 == Dispersion::On);
+    }
+    // Recorded only when set, so a render without them keeps the fingerprint it always had.
+    if let Some(movements) = movements(args) {
+        fingerprint["shift_mm"] = json!(movements.shift_mm);
+        fingerprint["tilt_deg"] = json!(movements.tilt_deg);
+    }
+    if let Some(pixel) = args.focus_on {
+        fingerprint["focus_on"] = json!(pixel);
     }
     if let Some(diaphragm) = context.diaphragm {
         fingerprint["diaphragm"] = diaphragm.fingerprint();
@@ -840,6 +937,9 @@ struct Formats {
 /// formats the outputs' names ask for.
 fn validate(args: &RenderArgs) -> anyhow::Result<Formats> {
     args.lens_options.validate()?;
+    if let Some(movements) = movements(args) {
+        movements.validate().map_err(|e| anyhow::anyhow!("--{e}"))?;
+    }
     if args.spp == 0 {
         bail!("--spp must be at least 1");
     }
