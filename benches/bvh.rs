@@ -18,10 +18,19 @@
 //! obvhs's own, the reference, beside the AVX2 one the renderer uses, in the same run so that
 //! their ratio is measured on the same machine state. The other benchmarks use the renderer's
 //! default (the fastest).
+//!
+//! `anchor` puts Embree 3 (a yardstick, opened at run time when `libembree3.so.3` is
+//! installed; see `common/embree.rs`) beside realcam's single-ray and packet traversals: the
+//! same world triangles, the same ray sets (camera rays in tile order, first diffuse bounces),
+//! closest hit, one thread. `build_embree` times Embree's own BVH build (one thread).
 
 mod common;
+#[path = "common/embree.rs"]
+mod embree;
 
 use common::{HELMET, SCENES, TraversalRays, WorldRays, coherent_order, scene_accel, thread_pool};
+use std::collections::HashMap;
+use std::sync::{Mutex, OnceLock};
 use std::time::Duration;
 
 use divan::{Bencher, black_box};
@@ -361,4 +370,203 @@ fn preset_params(name: &str) -> BvhBuildParams {
         },
         _ => medium,
     }
+}
+
+/// The ray sets of the traversal anchor.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum AnchorRays {
+    /// Pinhole camera rays per 32 × 32 tile, row-major within the tile (as the renderer).
+    CameraTiles,
+    /// The first diffuse bounce from every camera-ray hit, in image order.
+    Bounce,
+}
+
+/// Who traces the anchor's rays.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Tracer {
+    /// realcam, one ray at a time (the renderer's single-ray traversal, AVX2 where present).
+    RealcamSingle,
+    /// realcam's batch call (8-ray packets where a packet's rays share an octant).
+    RealcamPackets,
+    /// Embree 3, `rtcIntersect1`.
+    Embree1,
+    /// Embree 3, `rtcIntersect8` on 8 consecutive rays.
+    Embree8,
+}
+
+#[derive(Clone, Copy)]
+struct AnchorCase {
+    scene: &'static str,
+    rays: AnchorRays,
+    tracer: Tracer,
+}
+
+impl std::fmt::Display for AnchorCase {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let rays = match self.rays {
+            AnchorRays::CameraTiles => "camera tiles",
+            AnchorRays::Bounce => "bounce",
+        };
+        let tracer = match self.tracer {
+            Tracer::RealcamSingle => "realcam single",
+            Tracer::RealcamPackets => "realcam packets",
+            Tracer::Embree1 => "embree rtcIntersect1",
+            Tracer::Embree8 => "embree rtcIntersect8",
+        };
+        write!(f, "{}, {rays}, {tracer}", self.scene)
+    }
+}
+
+fn anchor_cases() -> Vec<AnchorCase> {
+    let mut cases = Vec::new();
+    for &scene in SCENES {
+        for rays in [AnchorRays::CameraTiles, AnchorRays::Bounce] {
+            for tracer in [
+                Tracer::RealcamSingle,
+                Tracer::RealcamPackets,
+                Tracer::Embree1,
+                Tracer::Embree8,
+            ] {
+                cases.push(AnchorCase {
+                    scene,
+                    rays,
+                    tracer,
+                });
+            }
+        }
+    }
+    cases
+}
+
+/// The process's Embree device, opened once (`None` without the library).
+fn embree() -> Option<&'static embree::Embree> {
+    static EMBREE: OnceLock<Option<&'static embree::Embree>> = OnceLock::new();
+    *EMBREE.get_or_init(|| embree::Embree::open().map(|e| &*Box::leak(Box::new(e))))
+}
+
+/// Embree's BVH over a scene's world triangles, built once for the run.
+fn embree_scene(name: &str) -> Option<&'static embree::EmbreeScene<'static>> {
+    type Scenes = HashMap<String, &'static embree::EmbreeScene<'static>>;
+    static CACHE: OnceLock<Mutex<Scenes>> = OnceLock::new();
+    let device = embree()?;
+    let loaded = common::loaded_scene(name)?;
+    let mut cache = CACHE.get_or_init(Default::default).lock().unwrap();
+    let scene = cache
+        .entry(name.to_string())
+        .or_insert_with(|| Box::leak(Box::new(device.scene(&triangle_corners(loaded)))));
+    Some(*scene)
+}
+
+fn triangle_corners(scene: &realcam::scene::LoadedScene) -> Vec<[Vec3; 3]> {
+    common::world_triangles(scene)
+        .iter()
+        .map(|t| [t.v0, t.v1, t.v2].map(Vec3::from))
+        .collect()
+}
+
+fn anchor_rays(accel: &SceneAccel, rays: AnchorRays) -> WorldRays {
+    match rays {
+        AnchorRays::CameraTiles => tile_rays(accel, false),
+        AnchorRays::Bounce => self::rays(accel, Kind::Bounce),
+    }
+}
+
+/// Checks once per scene and ray set that Embree and realcam find the same closest hits
+/// (distance within 1e-4 relative; a few rays grazing shared edges may differ), so that the
+/// comparison is between traversals doing the same work.
+fn check_agreement(
+    case: AnchorCase,
+    accel: &SceneAccel,
+    scene: &embree::EmbreeScene,
+    rays: &WorldRays,
+) {
+    static CHECKED: OnceLock<Mutex<Vec<String>>> = OnceLock::new();
+    let key = format!("{}, {:?}", case.scene, case.rays);
+    let mut checked = CHECKED.get_or_init(Default::default).lock().unwrap();
+    if checked.contains(&key) {
+        return;
+    }
+    checked.push(key.clone());
+    let mut embree_rays: Vec<_> = (0..rays.len())
+        .map(|i| embree::RayHit1::new(rays.origin[i], rays.direction[i]))
+        .collect();
+    scene.intersect1(&mut embree_rays, false);
+    let disagree = (0..rays.len())
+        .filter(|&i| {
+            let ours = accel.intersect(rays.origin[i], rays.direction[i], f32::INFINITY);
+            let theirs = &embree_rays[i];
+            match ours {
+                None => theirs.geom_id != embree::INVALID_GEOMETRY_ID,
+                Some(hit) => (hit.t - theirs.tfar).abs() > 1e-4 * hit.t.max(1e-3),
+            }
+        })
+        .count();
+    eprintln!(
+        "note: {key}: Embree and realcam disagree on {disagree} of {} closest hits",
+        rays.len()
+    );
+    assert!(
+        disagree * 1000 <= rays.len(),
+        "{key}: Embree and realcam disagree on {disagree} rays: not the same scene"
+    );
+}
+
+/// The traversal anchor: realcam's traversals beside Embree's on the same rays, one thread.
+#[divan::bench(args = anchor_cases(), sample_count = 10)]
+fn anchor(bencher: Bencher, case: AnchorCase) {
+    let Some(accel) = scene_accel(case.scene) else {
+        return;
+    };
+    let rays = anchor_rays(accel, case.rays);
+    let counter = divan::counter::ItemsCount::new(rays.len());
+    let coherent = case.rays == AnchorRays::CameraTiles;
+    match case.tracer {
+        Tracer::RealcamSingle => {
+            let traversal = Traversal::detect();
+            bencher
+                .counter(counter)
+                .bench_local(|| trace_each(accel, traversal, black_box(&rays), Kind::Primary));
+        }
+        Tracer::RealcamPackets => {
+            let batch = ray_batch(&rays);
+            let mut hits = HitBatch::default();
+            let pool = thread_pool(1);
+            bencher.counter(counter).bench_local(|| {
+                pool.install(|| accel.intersect_batch(black_box(&batch), &mut hits));
+                hits.triangle.len()
+            });
+        }
+        Tracer::Embree1 | Tracer::Embree8 => {
+            let Some(scene) = embree_scene(case.scene) else {
+                return;
+            };
+            check_agreement(case, accel, scene, &rays);
+            if case.tracer == Tracer::Embree1 {
+                let mut embree_rays: Vec<_> = (0..rays.len())
+                    .map(|i| embree::RayHit1::new(rays.origin[i], rays.direction[i]))
+                    .collect();
+                bencher
+                    .counter(counter)
+                    .bench_local(|| scene.intersect1(black_box(&mut embree_rays), coherent));
+            } else {
+                let mut packets = embree::packets8(&rays.origin, &rays.direction);
+                bencher
+                    .counter(counter)
+                    .bench_local(|| scene.intersect8(black_box(&mut packets), coherent));
+            }
+        }
+    }
+}
+
+/// Embree's BVH build over the same world triangles (medium quality, one thread), for
+/// comparison with `build`.
+#[divan::bench(args = SCENES, sample_count = 5)]
+fn build_embree(bencher: Bencher, scene: &str) {
+    let (Some(device), Some(loaded)) = (embree(), common::loaded_scene(scene)) else {
+        return;
+    };
+    let triangles = triangle_corners(loaded);
+    bencher
+        .counter(divan::counter::ItemsCount::new(triangles.len()))
+        .bench_local(|| device.scene(black_box(&triangles)));
 }

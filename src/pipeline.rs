@@ -40,6 +40,7 @@ use crate::lens::elements::{
     LensDerivationStats, LensFault, LensGeometry, activate_lens, add_lens_systems, set_diaphragm,
     spawn_lens,
 };
+use crate::lens::movements::FilmMovements;
 use crate::lens::pupil::{ExitPupil, PupilSampling};
 use crate::scene::{
     Bounds, LoadedScene, MaterialLibrary, MeshInstance, PunctualLight, SceneCamera,
@@ -360,6 +361,7 @@ type ActiveLensQuery<'w, 's> = Query<
         &'static FilmPlacement,
         &'static ExitPupil,
         Option<&'static Dispersion>,
+        Option<&'static FilmMovements>,
     ),
     With<ActiveLens>,
 >;
@@ -372,6 +374,7 @@ pub fn generate_rays(
     lens: ActiveLensQuery,
     pose: Option<Res<CameraPose>>,
     settings: Res<RenderSettings>,
+    film_format: Res<FilmFormat>,
     pass: Res<PassState>,
     plan: Option<Res<SamplePlan>>,
     cancel: Option<Res<PassCancel>>,
@@ -379,7 +382,9 @@ pub fn generate_rays(
     mut stats: ResMut<RenderStats>,
 ) {
     let start = Instant::now();
-    let (Ok((geometry, _placement, pupil, dispersion)), Some(pose)) = (lens.single(), pose) else {
+    let (Ok((geometry, _placement, pupil, dispersion, movements)), Some(pose)) =
+        (lens.single(), pose)
+    else {
         commands.insert_resource(PipelineFault(
             "no active lens with a valid focus, or no camera pose".into(),
         ));
@@ -388,7 +393,8 @@ pub fn generate_rays(
     let camera = LensCamera {
         system: &geometry.system,
         pupil,
-        film: FilmGeometry::new(settings.width, settings.height, pupil.film_radius * 2.0),
+        film: FilmGeometry::new(settings.width, settings.height, film_format.diagonal_mm)
+            .moved(movements.copied().unwrap_or_default()),
         world_from_camera: pose.0,
         samples_per_pixel: plan.map_or(0, |p| p.samples_per_pixel),
         dispersion: geometry

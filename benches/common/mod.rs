@@ -44,11 +44,17 @@ pub const FILM_DIAGONAL_MM: f64 = 35.0;
 pub const HELMET_EYE: [f32; 3] = [0.0, 0.0, 4.5];
 pub const HELMET_TARGET: [f32; 3] = [0.0, 0.0, 0.0];
 
+/// The shared data folder: `$REALCAM_SHARED` if set (a worktree checked out elsewhere),
+/// else `../shared` beside the repository.
+pub fn shared_dir() -> PathBuf {
+    std::env::var_os("REALCAM_SHARED")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared"))
+}
+
 /// The file of shared scene `name`, or `None` (with a note) when it is not there.
 pub fn shared_scene(name: &str) -> Option<PathBuf> {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../shared/scenes")
-        .join(scene_file(name));
+    let path = shared_dir().join("scenes").join(scene_file(name));
     if path.exists() {
         Some(path)
     } else {

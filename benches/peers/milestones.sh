@@ -2,10 +2,11 @@
 # Whole-frame camera samples/s of several realcam binaries on the peer scene, interleaved
 # rounds so machine load hits all alike; prints the median of each.
 #   benches/peers/milestones.sh ROUNDS BINARY...
-# (the peer scene target/peers/scene.glb is written by benches/peers/compare.py)
+# (the peer scene target/peers/${SCENE:-helmet}.glb is written by benches/peers/compare.py;
+# SCENE=spheres for the 1M-triangle one)
 set -euo pipefail
 rounds=$1; shift
-scene=target/peers/scene.glb
+scene=target/peers/${SCENE:-helmet}.glb
 out=$(mktemp -d)
 for round in $(seq "$rounds"); do
   for binary in "$@"; do

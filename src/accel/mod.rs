@@ -290,49 +290,42 @@ impl SceneAccel {
     /// packet walks nearly the nodes each of its rays would. A packet whose rays disagree in
     /// direction octant, or with a single alive ray, goes one ray at a time.
     pub fn intersect_batch(&self, rays: &RayBatch, hits: &mut HitBatch) {
-        let n = rays.len();
-        let mut found: Vec<Option<Hit>> = vec![None; n];
+        const CHUNK: usize = 64;
+        hits.resize(rays.len());
+        let HitBatch { t, triangle, u, v } = hits;
         // Packets never straddle tasks (the chunk length is a multiple of the packet size),
-        // so the packets, and the hits, do not depend on how rayon splits the batch.
-        found
-            .par_chunks_mut(64)
+        // so the packets, and the hits, do not depend on how rayon splits the batch. Each task
+        // writes its rays' hits in place: no per-call list of hits to allocate and copy.
+        t.par_chunks_mut(CHUNK)
+            .zip(triangle.par_chunks_mut(CHUNK))
+            .zip(u.par_chunks_mut(CHUNK))
+            .zip(v.par_chunks_mut(CHUNK))
             .enumerate()
-            .for_each_init(Vec::new, |stack, (chunk, found)| {
-                for (p, packet) in found.chunks_mut(8).enumerate() {
-                    self.intersect_packet(rays, chunk * 64 + p * 8, packet, stack);
+            .for_each_init(Vec::new, |stack, (chunk, (((t, triangle), u), v))| {
+                for p in (0..t.len()).step_by(PACKET_RAYS) {
+                    let end = (p + PACKET_RAYS).min(t.len());
+                    let out = HitSlices {
+                        t: &mut t[p..end],
+                        triangle: &mut triangle[p..end],
+                        u: &mut u[p..end],
+                        v: &mut v[p..end],
+                    };
+                    self.intersect_packet(rays, chunk * CHUNK + p, out, stack);
                 }
             });
-        hits.resize(n);
-        for (i, hit) in found.into_iter().enumerate() {
-            if let Some(hit) = hit {
-                hits.t[i] = hit.t;
-                hits.triangle[i] = hit.triangle;
-                hits.u[i] = hit.u;
-                hits.v[i] = hit.v;
-            }
-        }
     }
 
-    /// Closest hits of rays `first..first + found.len()` (at most eight) of the batch.
+    /// Closest hits of rays `first..first + out.len()` (at most eight) of the batch, written
+    /// to `out` (which holds misses on entry).
     #[cfg_attr(not(target_arch = "x86_64"), allow(unused_variables))]
     fn intersect_packet(
         &self,
         rays: &RayBatch,
         first: usize,
-        found: &mut [Option<Hit>],
+        out: HitSlices,
         stack: &mut Vec<packet_stack::Entry>,
     ) {
-        let single = |i: usize| {
-            rays.alive[i]
-                .then(|| {
-                    self.intersect(
-                        Vec3::from(rays.origin(i)),
-                        Vec3::from(rays.direction(i)),
-                        f32::INFINITY,
-                    )
-                })
-                .flatten()
-        };
+        let n = out.t.len();
         #[cfg(target_arch = "x86_64")]
         if self.fastest >= Traversal::Avx2
             && let Some(bvh) = self.bvh.as_ref()
@@ -340,7 +333,7 @@ impl SceneAccel {
             let mut packet = packet::PacketRays::default();
             let mut active = 0u32;
             let mut octants = 0u8;
-            for (lane, ray) in (first..first + found.len()).enumerate() {
+            for (lane, ray) in (first..first + n).enumerate() {
                 if !rays.alive[ray] {
                     continue;
                 }
@@ -377,19 +370,33 @@ impl SceneAccel {
                         stack,
                     )
                 };
-                for (lane, out) in found.iter_mut().enumerate() {
-                    *out = (hits.triangle[lane] != u32::MAX).then(|| Hit {
-                        t: hits.t[lane] / self.bvh_scale,
-                        triangle: hits.triangle[lane],
-                        u: hits.u[lane],
-                        v: hits.v[lane],
-                    });
+                for lane in 0..n {
+                    if hits.triangle[lane] != u32::MAX {
+                        out.t[lane] = hits.t[lane] / self.bvh_scale;
+                        out.triangle[lane] = hits.triangle[lane];
+                        out.u[lane] = hits.u[lane];
+                        out.v[lane] = hits.v[lane];
+                    }
                 }
                 return;
             }
         }
-        for (i, out) in found.iter_mut().enumerate() {
-            *out = single(first + i);
+        for lane in 0..n {
+            let i = first + lane;
+            if !rays.alive[i] {
+                continue;
+            }
+            let hit = self.intersect(
+                Vec3::from(rays.origin(i)),
+                Vec3::from(rays.direction(i)),
+                f32::INFINITY,
+            );
+            if let Some(hit) = hit {
+                out.t[lane] = hit.t;
+                out.triangle[lane] = hit.triangle;
+                out.u[lane] = hit.u;
+                out.v[lane] = hit.v;
+            }
         }
     }
 
@@ -450,4 +457,16 @@ impl SceneAccel {
             self.primitives[index].intersect(ray.origin, ray.direction, ray.tmin, ray.tmax)?;
         (!self.is_alpha_hole(index as u32, hit.u, hit.v)).then_some(hit)
     }
+}
+
+/// Rays per packet of [`SceneAccel::intersect_batch`] (the AVX2 packet width, also where
+/// packets are not used, so that a batch splits alike on every CPU).
+const PACKET_RAYS: usize = 8;
+
+/// The hits of one packet's rays: slices of a [`HitBatch`]'s arrays.
+struct HitSlices<'a> {
+    t: &'a mut [f32],
+    triangle: &'a mut [u32],
+    u: &'a mut [f32],
+    v: &'a mut [f32],
 }

@@ -13,7 +13,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 
 use super::interrupt::Interrupt;
 use super::options::LensOptions;
-use super::values::{number, parse_vec3, whole};
+use super::values::{number, parse_pair, parse_pixel, parse_vec3, whole};
 use crate::film::{MAX_IMAGE_SIDE, MAX_SPP};
 use crate::job::plan::{Shard, Sweep};
 use crate::job::{Job, Progress, outputs::validate};
@@ -128,6 +128,20 @@ pub struct RenderArgs {
     /// renders every ray at the lens file's indices (n_d), as for a lens without glass data.
     #[arg(long, value_name = "on|off", default_value = "on")]
     pub dispersion: DispersionArg,
+    /// Focus on what pixel X,Y sees ((0,0): the top-left pixel): a probe ray through the real
+    /// lens finds the point, and the film distance that brings its real-ray image into
+    /// sharpest focus is solved; each lens of the run focuses on it.
+    #[arg(long, value_name = "X,Y", value_parser = parse_pixel, allow_hyphen_values = true, conflicts_with_all = ["focus_distance", "film_distance", "focus_sweep"])]
+    pub focus_on: Option<[u32; 2]>,
+    /// Shift the frame across the image circle, mm in the film plane: positive Y shows more of
+    /// the scene above, positive X more to the right (as a shift lens raised or moved right).
+    #[arg(long, value_name = "X,Y", value_parser = parse_pair, allow_hyphen_values = true)]
+    pub shift: Option<[f64; 2]>,
+    /// Tilt the film plane about the frame's horizontal (X) and vertical (Y) axes, degrees
+    /// (under 60): positive X tips the plane of sharp focus down toward the ground ahead,
+    /// positive Y makes the picture's right focus nearer (Scheimpflug).
+    #[arg(long, value_name = "X,Y", value_parser = parse_pair, allow_hyphen_values = true)]
+    pub tilt: Option<[f64; 2]>,
     /// Where a shard's partial goes [default: `<out stem>.shard-I-of-N.exr`].
     #[arg(long, value_name = "FILE.exr", requires = "shard")]
     pub partial: Option<PathBuf>,

@@ -22,6 +22,34 @@ pub fn parse_vec3(s: &str) -> Result<Vec3, String> {
     }
 }
 
+/// `X,Y`: two finite numbers, any sign (a shift in mm, a tilt in degrees).
+pub fn parse_pair(s: &str) -> Result<[f64; 2], String> {
+    let parts: Vec<f64> = s
+        .split(',')
+        .map(|p| p.trim().parse::<f64>())
+        .collect::<Result<_, _>>()
+        .map_err(|_| format!("'{s}' is not X,Y"))?;
+    match parts[..] {
+        [x, y] if x.is_finite() && y.is_finite() => Ok([x, y]),
+        _ => Err(format!("'{s}' is not two finite numbers X,Y")),
+    }
+}
+
+/// `X,Y`: a pixel, two whole numbers ≥ 0 ((0,0) is the image's top-left pixel).
+pub fn parse_pixel(s: &str) -> Result<[u32; 2], String> {
+    let bad =
+        || format!("'{s}' is not a pixel X,Y: two whole numbers from 0, (0,0) at the top left");
+    let parts: Vec<u32> = s
+        .split(',')
+        .map(|p| p.trim().parse::<u32>())
+        .collect::<Result<_, _>>()
+        .map_err(|_| bad())?;
+    match parts[..] {
+        [x, y] => Ok([x, y]),
+        _ => Err(bad()),
+    }
+}
+
 /// A number (`inf` and `nan` included: the command's checks say where they make no sense).
 pub fn number<T: std::str::FromStr>(s: &str) -> Result<T, String> {
     s.trim()

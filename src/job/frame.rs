@@ -17,9 +17,12 @@ use crate::film::checkpoint::{
 };
 use crate::film::output::{shown, write_image};
 use crate::film::samples::SampleSequence;
+use crate::lens::camera::FilmGeometry;
 use crate::lens::elements::{
     Dispersion, FilmPlacement, FocusSetting, LensDerivationStats, LensGeometry,
 };
+use crate::lens::focus_probe::FocusProbe;
+use crate::lens::movements::{FilmMovements, check_coverage};
 use crate::pipeline::{RenderSettings, RenderStats, Renderer};
 use crate::scene::default_scene::DEFAULT_SCENE_PATH;
 
@@ -31,6 +34,8 @@ pub(super) struct FrameReport {
     pub(super) f_number: f64,
     pub(super) focus: FocusSetting,
     pub(super) film_distance_mm: f64,
+    /// What --focus-on found.
+    pub(super) probe: Option<FocusProbe>,
     pub(super) lens_derivation_seconds: f64,
     pub(super) render_seconds: f64,
     pub(super) samples: u32,
@@ -40,9 +45,15 @@ pub(super) struct FrameReport {
 
 impl FrameReport {
     pub(super) fn caption(&self) -> String {
-        let focus = match self.focus {
-            FocusSetting::Distance { metres, .. } => format!("focus {metres:.2} m"),
-            FocusSetting::FilmDistance(mm) => format!("film at {mm:.2} mm"),
+        let focus = match (self.probe, self.focus) {
+            (Some(probe), _) => format!(
+                "focus {:.2} m (pixel {},{})",
+                probe.object_distance_mm / 1e3,
+                probe.pixel[0],
+                probe.pixel[1]
+            ),
+            (None, FocusSetting::Distance { metres, .. }) => format!("focus {metres:.2} m"),
+            (None, FocusSetting::FilmDistance(mm)) => format!("film at {mm:.2} mm"),
         };
         format!(
             "{}\nf={:.1}mm f/{:.1}\n{focus}",
@@ -56,7 +67,12 @@ impl FrameReport {
             "lens": self.lens,
             "focal_length_mm": self.focal_length_mm,
             "f_number": self.f_number,
-            "focus_distance_m": match self.focus { FocusSetting::Distance { metres, .. } => json!(metres), FocusSetting::FilmDistance(_) => Value::Null },
+            "focus_distance_m": match (self.probe, self.focus) {
+                (Some(probe), _) => json!(probe.object_distance_mm / 1e3),
+                (None, FocusSetting::Distance { metres, .. }) => json!(metres),
+                (None, FocusSetting::FilmDistance(_)) => Value::Null,
+            },
+            "focus_on": self.probe.map(|p| p.pixel),
             "film_distance_mm": self.film_distance_mm,
             "lens_derivation_seconds": self.lens_derivation_seconds,
             "render_seconds": self.render_seconds,
@@ -68,7 +84,7 @@ impl FrameReport {
 
 /// How a frame ended.
 pub(super) enum Outcome {
-    Finished(FrameReport, Image),
+    Finished(Box<FrameReport>, Image),
     Interrupted(u8),
 }
 
@@ -93,7 +109,7 @@ pub(super) fn render_frame(
     let lens_derivation_seconds = (renderer.world.resource::<LensDerivationStats>().total_time
         - derivation_before)
         .as_secs_f64();
-    let (focal_length_mm, f_number, film_distance_mm) = {
+    let (focal_length_mm, f_number, film_distance_mm, probe) = {
         let entity = renderer.world.entity(lens.entity);
         let geometry = entity
             .get::<LensGeometry>()
@@ -108,12 +124,47 @@ pub(super) fn render_frame(
             .get::<FilmPlacement>()
             .context("film placement missing")?
             .film_distance;
-        (geometry.first_order.focal_length, geometry.f_number(), film)
+        if let Some(movements) = entity.get::<FilmMovements>() {
+            let (width, height) = {
+                let s = renderer.world.resource::<RenderSettings>();
+                (s.width, s.height)
+            };
+            let format = FilmGeometry::new(width, height, context.film_diagonal);
+            match check_coverage(
+                &geometry.system,
+                film,
+                movements,
+                format.width_mm as f64,
+                format.height_mm as f64,
+            ) {
+                Ok(None) => {}
+                Ok(Some(warning)) => eprintln!("warning: {warning}"),
+                Err(message) => bail!(
+                    "{}: cannot render this frame through {}: {message}",
+                    frame.out.display(),
+                    lens.prescription.name
+                ),
+            }
+        }
+        (
+            geometry.first_order.focal_length,
+            geometry.f_number(),
+            film,
+            entity.get::<FocusProbe>().copied(),
+        )
     };
     eprintln!(
         "lens {}: f = {focal_length_mm:.2} mm, f/{f_number:.2}, film distance {film_distance_mm:.3} mm",
         lens.prescription.name
     );
+    if let Some(probe) = probe {
+        eprintln!(
+            "focus on pixel {},{}: it sees a point {:.4} m away (film plane to the point, along the axis)",
+            probe.pixel[0],
+            probe.pixel[1],
+            probe.object_distance_mm / 1e3
+        );
+    }
 
     let settings = settings_fingerprint(context, renderer, lens, frame);
     // Shards of one frame share its --out, so each keeps its own checkpoint beside it.
@@ -237,12 +288,13 @@ pub(super) fn render_frame(
         f_number,
         focus: frame.focus,
         film_distance_mm,
+        probe,
         lens_derivation_seconds,
         render_seconds: render_start.elapsed().as_secs_f64(),
         samples: image.samples,
         warnings,
     };
-    Ok(Outcome::Finished(report, image))
+    Ok(Outcome::Finished(Box::new(report), image))
 }
 
 /// Writes a lens setting only when it differs, so change detection re-derives nothing needlessly.
@@ -312,6 +364,14 @@ fn settings_fingerprint(
     }
     if let Some(diaphragm) = context.diaphragm {
         fingerprint["diaphragm"] = diaphragm.fingerprint();
+    }
+    // Recorded only when set, so a render without them keeps the fingerprint it always had.
+    if let Some(movements) = super::movements(args) {
+        fingerprint["shift_mm"] = json!(movements.shift_mm);
+        fingerprint["tilt_deg"] = json!(movements.tilt_deg);
+    }
+    if let Some(pixel) = args.focus_on {
+        fingerprint["focus_on"] = json!(pixel);
     }
     fingerprint
 }

@@ -11,7 +11,7 @@ pub mod stats;
 use std::path::PathBuf;
 use std::time::Instant;
 
-use anyhow::Context;
+use anyhow::{Context, bail};
 use bevy_ecs::entity::Entity;
 use glam::Mat4;
 
@@ -27,6 +27,8 @@ use crate::lens::aperture::ApertureSetting;
 use crate::lens::bundled::{DEFAULT_LENS, load_lens};
 use crate::lens::diaphragm::Diaphragm;
 use crate::lens::elements::FocusSetting;
+use crate::lens::focus_probe::FocusOnPixel;
+use crate::lens::movements::FilmMovements;
 use crate::pipeline::{RenderSettings, Renderer, SceneInputs, SceneSource, SceneWarnings};
 use crate::scene::CameraHints;
 use crate::scene::default_scene::{DEFAULT_SCENE_GLB, DEFAULT_SCENE_PATH};
@@ -153,7 +155,14 @@ impl<'a> Job<'a> {
                     world_from_camera,
                 );
                 let entity = renderer.add_lens(&prescription, focus, aperture);
-                renderer.world.entity_mut(entity).insert(args.dispersion.0);
+                let mut lens = renderer.world.entity_mut(entity);
+                lens.insert(args.dispersion.0);
+                if let Some(movements) = movements(args) {
+                    lens.insert(movements);
+                }
+                if let Some([x, y]) = args.focus_on {
+                    lens.insert(FocusOnPixel { x, y });
+                }
                 renderer.set_diaphragm(entity, diaphragm.clone());
                 RunLens {
                     prescription,
@@ -166,6 +175,13 @@ impl<'a> Job<'a> {
 
         let width = args.width.or(placement.hints.width).unwrap_or(512);
         let height = args.height.or(placement.hints.height).unwrap_or(512);
+        if let Some([x, y]) = args.focus_on
+            && (x >= width || y >= height)
+        {
+            bail!(
+                "--focus-on {x},{y}: the pixel lies outside the {width}×{height} image (pixels count from 0,0 at the top left)"
+            );
+        }
         // Before the film's tiles are allocated: refuse what this machine cannot hold.
         RunSize {
             width,
@@ -283,7 +299,7 @@ impl<'a> Job<'a> {
                             });
                         }
                     }
-                    reports.push(report);
+                    reports.push(*report);
                 }
             }
         }
@@ -384,4 +400,13 @@ pub fn tone(args: &RenderArgs, exposure: f32) -> Tone {
         exposure,
         quality: args.quality.unwrap_or(DEFAULT_JPEG_QUALITY),
     }
+}
+
+/// The film movements the flags ask for; `None` when there are none.
+pub(crate) fn movements(args: &RenderArgs) -> Option<FilmMovements> {
+    let movements = FilmMovements {
+        shift_mm: args.shift.unwrap_or_default(),
+        tilt_deg: args.tilt.unwrap_or_default(),
+    };
+    (!movements.is_none()).then_some(movements)
 }

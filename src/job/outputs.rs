@@ -25,6 +25,9 @@ pub struct Formats {
 /// Checks the numbers the flags give (counts, sizes, exposure, lens settings).
 pub fn check_values(args: &RenderArgs) -> anyhow::Result<()> {
     args.lens_options.validate()?;
+    if let Some(movements) = super::movements(args) {
+        movements.validate().map_err(|e| anyhow::anyhow!("--{e}"))?;
+    }
     if args.spp == 0 {
         bail!("--spp must be at least 1");
     }

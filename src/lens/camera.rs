@@ -6,11 +6,21 @@
 //!
 //! **Pixels**: (0, 0) is the top-left corner of the image, +x right, +y down. Since the lens
 //! inverts the image, the pixel at the image's top right is the film point at bottom left
-//! (−x, −y); mapping pixels that way gives an upright, unmirrored picture.
+//! (−x, −y); mapping pixels that way gives an upright, unmirrored picture. A shifted frame
+//! (see [`super::movements`]) is the same pixel lattice moved across the film.
+//!
+//! **Pixel keys**: a pixel's random streams are keyed by its index in the image; a shifted
+//! frame's pixels by their index in its *enclosing film*, the smallest unshifted film centred
+//! on the axis that contains the frame, and their film points are computed as that film's.
+//! So a frame shifted by whole pixels is exactly the matching crop of its enclosing film: the
+//! same film points, the same samples (as far as the pupil sampling does not depend on the
+//! film's size: exactly with `rear-element`, within noise with the bounds, whose radial
+//! segments span the film's reach).
 
 use glam::Mat4;
 
 use super::dispersion::DispersionTable;
+use super::movements::FilmMovements;
 use super::pupil::{ExitPupil, FilmRays};
 use super::system::LensSystem;
 use super::trace::Travel;
@@ -27,6 +37,8 @@ pub struct FilmGeometry {
     pub height: u32,
     pub width_mm: f32,
     pub height_mm: f32,
+    /// Shift and tilt of the frame.
+    pub movements: FilmMovements,
 }
 
 impl FilmGeometry {
@@ -39,43 +51,140 @@ impl FilmGeometry {
             height,
             width_mm: (height_mm * aspect) as f32,
             height_mm: height_mm as f32,
+            movements: FilmMovements::NONE,
         }
     }
 
-    /// Lens-frame film point (x, y, mm) of the continuous pixel position (`px`, `py`).
-    #[inline(always)]
-    pub fn film_point(&self, px: f32, py: f32) -> [f32; 2] {
-        self.film_map().apply(px, py)
+    /// This film shifted and tilted by `movements`.
+    pub fn moved(self, movements: FilmMovements) -> FilmGeometry {
+        FilmGeometry { movements, ..self }
     }
 
-    /// Pixel position → film point as a scale per axis about the image centre, so a loop over
-    /// many pixels does not divide by the film size each time.
+    /// Lens-frame film point (x, y, mm) of the continuous pixel position (`px`, `py`), on the
+    /// film plane before any tilt.
+    #[inline(always)]
+    pub fn film_point(&self, px: f32, py: f32) -> [f32; 2] {
+        let map = self.film_map();
+        let (x, y) = (px.floor(), py.floor());
+        map.apply(x, y, px - x, py - y)
+    }
+
+    /// Lens-frame film point (x, y, and z relative to the frame centre's plane, mm) of the
+    /// continuous pixel position (`px`, `py`), tilt included.
+    pub fn film_position(&self, px: f32, py: f32) -> [f64; 3] {
+        let [x, y] = self.film_point(px, py).map(f64::from);
+        let [cx, cy] = self.movements.frame_centre();
+        self.movements.film_point(x - cx, y - cy, 0.0)
+    }
+
+    /// Film pitch (mm per pixel) along x and y.
+    fn pitch(&self) -> [f64; 2] {
+        [
+            self.width_mm as f64 / self.width as f64,
+            self.height_mm as f64 / self.height as f64,
+        ]
+    }
+
+    /// The enclosing film of a shifted frame (see the module docs): its size in pixels and
+    /// where the frame's pixel (0, 0) lies in it; the frame itself when not shifted.
+    fn enclosing(&self) -> Enclosing {
+        let [shift_x, shift_y] = self.movements.shift_mm;
+        let pitch = self.pitch();
+        // The frame centre's offset from the axis in pixels, +x right, +y down.
+        let offset = [shift_x / pitch[0], -shift_y / pitch[1]];
+        let size = [self.width as f64, self.height as f64];
+        let margin = offset.map(|o| o.abs().ceil());
+        Enclosing {
+            size: [0, 1].map(|a| size[a] + 2.0 * margin[a]),
+            origin: [0, 1].map(|a| margin[a] + offset[a]),
+        }
+    }
+
+    /// Pixel position → film point as a scale per axis about the enclosing film's centre, so a
+    /// loop over many pixels does not divide by the film size each time.
     #[inline(always)]
     fn film_map(&self) -> FilmMap {
+        let enclosing = self.enclosing();
         FilmMap {
             scale: [
                 -self.width_mm / self.width as f32,
                 self.height_mm / self.height as f32,
             ],
-            centre: [0.5 * self.width as f32, 0.5 * self.height as f32],
+            origin: enclosing.origin.map(|v| v as f32),
+            centre: enclosing.size.map(|v| (0.5 * v) as f32),
+        }
+    }
+
+    /// The keys of this film's pixels' random streams (see [`PixelKeys`]).
+    pub fn pixel_keys(&self) -> PixelKeys {
+        let enclosing = self.enclosing();
+        PixelKeys {
+            origin: enclosing.origin.map(|v| v.round() as i64),
+            width: enclosing.size[0] as i64,
         }
     }
 }
 
-/// `film = scale · (pixel − centre)`, per axis (x flipped: see the module docs).
+/// A shifted frame's enclosing film, in pixels.
+struct Enclosing {
+    size: [f64; 2],
+    /// The frame's pixel (0, 0) in the enclosing film.
+    origin: [f64; 2],
+}
+
+/// A pixel's key: its index in the enclosing film (wrapping past 2³² pixels).
+#[derive(Clone, Copy, Debug)]
+pub struct PixelKeys {
+    origin: [i64; 2],
+    width: i64,
+}
+
+impl PixelKeys {
+    #[inline(always)]
+    pub fn key(&self, x: u32, y: u32) -> u32 {
+        ((y as i64 + self.origin[1]) * self.width + (x as i64 + self.origin[0])) as u32
+    }
+}
+
+/// `film = scale · (((pixel + origin) + jitter) − centre)`, per axis (x flipped: see the
+/// module docs): the pixel's place in the enclosing film (origin 0 and the image's own centre
+/// when not shifted), so the same enclosing-film pixel gives the same film point.
 #[derive(Clone, Copy, Debug)]
 struct FilmMap {
     scale: [f32; 2],
+    origin: [f32; 2],
     centre: [f32; 2],
 }
 
 impl FilmMap {
     #[inline(always)]
-    fn apply(&self, px: f32, py: f32) -> [f32; 2] {
+    fn apply(&self, px: f32, py: f32, jitter_x: f32, jitter_y: f32) -> [f32; 2] {
         [
-            self.scale[0] * (px - self.centre[0]),
-            self.scale[1] * (py - self.centre[1]),
+            self.scale[0] * (((px + self.origin[0]) + jitter_x) - self.centre[0]),
+            self.scale[1] * (((py + self.origin[1]) + jitter_y) - self.centre[1]),
         ]
+    }
+}
+
+/// A tilted film's rotation and frame centre in f32, for the ray generator's loop.
+#[derive(Clone, Copy, Debug)]
+struct FilmTilt {
+    centre: [f32; 2],
+    /// x, y, z of R·(a, b, 0) per film-plane coordinate: [[x_a, x_b], [y_a, y_b], [z_a, z_b]].
+    rotation: [[f32; 2]; 3],
+}
+
+impl FilmTilt {
+    fn of(movements: &FilmMovements) -> Option<FilmTilt> {
+        if !movements.is_tilted() {
+            return None;
+        }
+        let [xa, ya, za] = movements.film_offset(1.0, 0.0).map(|v| v as f32);
+        let [xb, yb, zb] = movements.film_offset(0.0, 1.0).map(|v| v as f32);
+        Some(FilmTilt {
+            centre: movements.frame_centre().map(|v| v as f32),
+            rotation: [[xa, xb], [ya, yb], [za, zb]],
+        })
     }
 }
 
@@ -117,6 +226,8 @@ struct Scratch {
     pixel: Vec<u32>,
     px: Vec<f32>,
     py: Vec<f32>,
+    /// Film points' depth behind the rear-vertex plane on a tilted film.
+    depth: Vec<f32>,
     /// Pattern keys: film, pupil, wavelength.
     keys: [Vec<u32>; 3],
     /// The camera sample: film jitter x, y; pupil u, v; wavelength (and an unused partner).
@@ -148,8 +259,9 @@ impl LensCamera<'_> {
         scratch.pixel.clear();
         scratch.px.clear();
         scratch.py.clear();
+        let keys = self.film.pixel_keys();
         for (x, y) in pixels {
-            scratch.pixel.push(y * self.film.width + x);
+            scratch.pixel.push(keys.key(x, y));
             scratch.px.push(x as f32);
             scratch.py.push(y as f32);
         }
@@ -295,21 +407,40 @@ impl LensCamera<'_> {
     #[inline(always)]
     fn film_to_pupil(&self, sample: u32, film_z: f32, out: &mut CameraRays) {
         let film = self.film.film_map();
-        let s = &out.scratch;
+        let tilt = FilmTilt::of(&self.film.movements);
+        let s = &mut out.scratch;
         let rays = &mut out.rays;
         let n = s.pixel.len();
-        let [film_u, film_v, pupil_u, pupil_v, ..] = &s.u;
+        let [film_u, film_v, ..] = &s.u;
         let (px, py, film_u, film_v) = (&s.px[..n], &s.py[..n], &film_u[..n], &film_v[..n]);
         let (ox, oy) = (&mut rays.ox[..n], &mut rays.oy[..n]);
         for i in 0..n {
-            [ox[i], oy[i]] = film.apply(px[i] + film_u[i], py[i] + film_v[i]);
+            [ox[i], oy[i]] = film.apply(px[i], py[i], film_u[i], film_v[i]);
         }
         rays.oz.fill(film_z);
+        if let Some(tilt) = tilt {
+            s.depth.resize(n, 0.0);
+            let film_distance = self.pupil.film_distance as f32;
+            let [[xa, xb], [ya, yb], [za, zb]] = tilt.rotation;
+            let [cx, cy] = tilt.centre;
+            let oz = &mut rays.oz[..n];
+            for i in 0..n {
+                let (a, b) = (ox[i] - cx, oy[i] - cy);
+                ox[i] = cx + xa * a + xb * b;
+                oy[i] = cy + ya * a + yb * b;
+                let dz = za * a + zb * b;
+                oz[i] = film_z + dz;
+                s.depth[i] = film_distance + dz;
+            }
+        }
+        let s = &out.scratch;
+        let [_, _, pupil_u, pupil_v, ..] = &s.u;
         rays.pixel.copy_from_slice(&s.pixel);
         rays.sample.fill(sample);
         self.pupil.sampler().sample(FilmRays {
             x: &rays.ox,
             y: &rays.oy,
+            depth: tilt.map(|_| &s.depth[..n]),
             u: pupil_u,
             v: pupil_v,
             dx: &mut rays.dx,

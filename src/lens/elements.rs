@@ -8,7 +8,8 @@
 //! |---|---|---|
 //! | [`derive_geometry`] | [`LensGeometry`] (packed surfaces, first-order data) | a surface or the aperture changes |
 //! | [`place_film`] | [`FilmPlacement`] (film distance) | the geometry or the focus changes |
-//! | [`bound_exit_pupil`] | [`ExitPupil`] bounds | the placement or the [`FilmFormat`] changes |
+//! | [`focus_on_pixel`](super::focus_probe::focus_on_pixel) | [`FilmPlacement`], [`FocusProbe`](super::focus_probe::FocusProbe) for a lens with [`FocusOnPixel`] | the geometry, focus target, movements, camera, film or scene changes |
+//! | [`bound_exit_pupil`] | [`ExitPupil`] bounds | the placement, the [`FilmMovements`] or the [`FilmFormat`] changes |
 //!
 //! A lens that cannot be used (bad edit, impossible focus) gets a [`LensFault`] instead.
 //!
@@ -23,7 +24,7 @@ use bevy_ecs::component::Component;
 use bevy_ecs::entity::Entity;
 use bevy_ecs::hierarchy::Children;
 use bevy_ecs::lifecycle::RemovedComponents;
-use bevy_ecs::query::With;
+use bevy_ecs::query::{With, Without};
 use bevy_ecs::resource::Resource;
 use bevy_ecs::schedule::{IntoScheduleConfigs, Schedule, SystemSet};
 use bevy_ecs::system::{Commands, Query, Res, ResMut};
@@ -33,6 +34,8 @@ use super::aperture::{ApertureSetting, stop_diameter};
 use super::diaphragm::Diaphragm;
 use super::first_order::FirstOrder;
 use super::focus::{FocusMode, best_film_distance, paraxial_film_distance};
+use super::focus_probe::{FocusOnPixel, FocusProbe};
+use super::movements::FilmMovements;
 use super::prescription::{LensFormat, Prescription, SurfaceRow};
 use super::pupil::{ExitPupil, PupilSampling};
 use super::system::LensSystem;
@@ -176,6 +179,7 @@ pub fn add_lens_systems(schedule: &mut Schedule) {
     schedule.add_systems((
         derive_geometry.in_set(LensDerivation::Geometry),
         place_film.in_set(LensDerivation::Placement),
+        super::focus_probe::focus_on_pixel.in_set(LensDerivation::Placement),
         bound_exit_pupil.in_set(LensDerivation::Pupil),
     ));
 }
@@ -351,14 +355,29 @@ pub fn build_geometry_with(
     Ok(geometry)
 }
 
-/// Solves the film distance of every lens whose geometry or focus changed.
+type PlacementQuery<'w, 's> = Query<
+    'w,
+    's,
+    (
+        Entity,
+        &'static Lens,
+        Ref<'static, LensGeometry>,
+        Ref<'static, FocusSetting>,
+    ),
+    Without<FocusOnPixel>,
+>;
+
+/// Solves the film distance of every lens whose geometry or focus changed (or that stopped
+/// focusing on a pixel), except those focused on a pixel.
 pub fn place_film(
     mut commands: Commands,
-    lenses: Query<(Entity, &Lens, Ref<LensGeometry>, Ref<FocusSetting>)>,
+    lenses: PlacementQuery,
+    mut unpinned: RemovedComponents<FocusOnPixel>,
     mut stats: ResMut<LensDerivationStats>,
 ) {
+    let unpinned: Vec<Entity> = unpinned.read().collect();
     for (entity, lens, geometry, focus) in &lenses {
-        if !(geometry.is_changed() || focus.is_changed()) {
+        if !(geometry.is_changed() || focus.is_changed() || unpinned.contains(&entity)) {
             continue;
         }
         let start = Instant::now();
@@ -367,7 +386,7 @@ pub fn place_film(
                 commands
                     .entity(entity)
                     .insert(FilmPlacement { film_distance })
-                    .remove::<LensFault>();
+                    .remove::<(LensFault, FocusProbe)>();
             }
             Err(message) => {
                 let message = format!("{}: {message}", lens.source.display());
@@ -406,29 +425,52 @@ pub fn film_distance_for(geometry: &LensGeometry, focus: FocusSetting) -> Result
     }
 }
 
-/// Bounds the exit pupil of every lens whose placement or dispersion setting changed, or of
-/// all when the film did: over every rendered wavelength for a spectral lens.
+type PupilQuery<'w, 's> = Query<
+    'w,
+    's,
+    (
+        Entity,
+        &'static Lens,
+        Ref<'static, LensGeometry>,
+        Ref<'static, FilmPlacement>,
+        Option<Ref<'static, Dispersion>>,
+        Option<Ref<'static, FilmMovements>>,
+    ),
+>;
+
+/// Bounds the exit pupil of every lens whose placement, movements or dispersion setting
+/// changed, or of all when the film did: over every rendered wavelength for a spectral lens,
+/// and over every point of a shifted or tilted film.
 pub fn bound_exit_pupil(
     mut commands: Commands,
-    lenses: Query<(
-        Entity,
-        Ref<LensGeometry>,
-        Ref<FilmPlacement>,
-        Option<Ref<Dispersion>>,
-    )>,
+    lenses: PupilQuery,
+    mut unmoved: RemovedComponents<FilmMovements>,
     film: Res<FilmFormat>,
     mut stats: ResMut<LensDerivationStats>,
 ) {
-    for (entity, geometry, placement, dispersion) in &lenses {
+    let unmoved: Vec<Entity> = unmoved.read().collect();
+    for (entity, lens, geometry, placement, dispersion, movements) in &lenses {
         let dispersion_changed = dispersion.as_ref().is_some_and(|d| d.is_changed());
+        let movements_changed = movements.as_ref().is_some_and(|m| m.is_changed());
         if !(geometry.is_changed()
             || placement.is_changed()
             || film.is_changed()
-            || dispersion_changed)
+            || dispersion_changed
+            || movements_changed
+            || unmoved.contains(&entity))
         {
             continue;
         }
         let start = Instant::now();
+        let movements = movements.as_deref().copied().unwrap_or_default();
+        if let Err(message) = movements.validate() {
+            let message = format!("{}: {message}", lens.source.display());
+            commands
+                .entity(entity)
+                .insert(LensFault(message))
+                .remove::<ExitPupil>();
+            continue;
+        }
         // A diaphragm lies inside the stop's circle: bounds for the circle hold for it, however
         // fine its features (a grid search could miss a mask's small holes).
         let circular;
@@ -438,14 +480,15 @@ pub fn bound_exit_pupil(
         } else {
             &geometry.system
         };
-        let pupil = ExitPupil::compute_over(
+        let pupil = ExitPupil::compute_moved(
             system,
             placement.film_distance,
             film.diagonal_mm,
             film.pupil_sampling,
             Dispersion::is_spectral(dispersion.as_deref(), &geometry),
+            &movements,
         );
-        commands.entity(entity).insert(pupil);
+        commands.entity(entity).insert(pupil).remove::<LensFault>();
         stats.pupil_runs += 1;
         stats.total_time += start.elapsed();
     }

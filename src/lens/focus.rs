@@ -203,3 +203,56 @@ pub fn rms_spot_radius(
     }
     (count > 0).then(|| (sum / count as f64).sqrt())
 }
+
+/// Lens-frame z of the plane (across the axis) on which the real-ray image of the object
+/// point `object` (lens frame, mm, in front of the lens) is smallest: rays from the point
+/// through a grid over the front element, and the z minimising their RMS distance from the
+/// spot's centroid. Off axis the image is not on the axis, so the spread is measured about
+/// the centroid: with x_i(z) = x₀ᵢ + sᵢ·z and δ the deviation from the mean over rays, the
+/// mean square spread is a quadratic in z with its minimum at z* = −Σ δx₀·δs / Σ δs².
+/// `None` when fewer than three rays pass.
+pub fn sharpest_image_z(system: &LensSystem, object: [f64; 3]) -> Option<f64> {
+    const GRID: usize = 96;
+    let aim = system.front_semi_aperture();
+    let mut lines: Vec<[f64; 4]> = Vec::new();
+    for iy in 0..GRID {
+        for ix in 0..GRID {
+            let x = aim * ((ix as f64 + 0.5) / GRID as f64 * 2.0 - 1.0);
+            let y = aim * ((iy as f64 + 0.5) / GRID as f64 * 2.0 - 1.0);
+            if x * x + y * y > aim * aim {
+                continue;
+            }
+            let direction = normalize([x - object[0], y - object[1], -object[2]]);
+            let ray = Ray {
+                origin: object,
+                direction,
+            };
+            let Ok(out) = trace(&system.f64s, ray, Travel::SceneToFilm) else {
+                continue;
+            };
+            let [px, py, pz] = out.origin;
+            let [dx, dy, dz] = out.direction;
+            let (sx, sy) = (dx / dz, dy / dz);
+            lines.push([px - sx * pz, sx, py - sy * pz, sy]);
+        }
+    }
+    if lines.len() < 3 {
+        return None;
+    }
+    let n = lines.len() as f64;
+    let mean = lines.iter().fold([0.0; 4], |mut m, l| {
+        for k in 0..4 {
+            m[k] += l[k] / n;
+        }
+        m
+    });
+    let (mut cross, mut slopes) = (0.0, 0.0);
+    for l in &lines {
+        for axis in [0, 2] {
+            let (x0, s) = (l[axis] - mean[axis], l[axis + 1] - mean[axis + 1]);
+            cross += x0 * s;
+            slopes += s * s;
+        }
+    }
+    (slopes > 0.0).then(|| -cross / slopes)
+}

@@ -13,6 +13,7 @@
 use rayon::prelude::*;
 
 use super::first_order::FirstOrder;
+use super::movements::FilmMovements;
 use super::system::LensSystem;
 use super::trace::Travel;
 use super::trace_batch::trace_batch;
@@ -113,9 +114,14 @@ pub struct PupilSample {
 #[derive(bevy_ecs::component::Component, Clone, Debug, PartialEq)]
 pub struct ExitPupil {
     pub sampling: PupilSampling,
-    /// Half the film diagonal, mm.
+    /// Farthest film point from the axis, mm: half the film diagonal, plus the shift of a
+    /// shifted frame.
     pub film_radius: f64,
+    /// Rear vertex → the frame centre, mm.
     pub film_distance: f64,
+    /// Unit normal of the film plane (+z; tilted with the film, see
+    /// [`crate::lens::movements`]): the camera weight's film cosine is taken against it.
+    pub film_normal: [f64; 3],
     pub rear_z: f64,
     pub rear_radius: f64,
     /// Bounds for film points at radius in [k, k+1)·film_radius/SEGMENTS on the +x axis.
@@ -146,13 +152,43 @@ impl ExitPupil {
         sampling: PupilSampling,
         all_wavelengths: bool,
     ) -> ExitPupil {
+        ExitPupil::compute_moved(
+            system,
+            film_distance,
+            film_diagonal,
+            sampling,
+            all_wavelengths,
+            &FilmMovements::NONE,
+        )
+    }
+
+    /// As [`compute_over`](Self::compute_over), for a film shifted and tilted by `movements`:
+    /// the segments reach the farthest shifted film point, and for a tilted film each
+    /// segment's bounds are the union of those from film points at the nearest, the middle
+    /// and the farthest z the tilted film reaches (a pupil's projection onto the rear plane
+    /// moves monotonically with the film point's z).
+    pub fn compute_moved(
+        system: &LensSystem,
+        film_distance: f64,
+        film_diagonal: f64,
+        sampling: PupilSampling,
+        all_wavelengths: bool,
+        movements: &FilmMovements,
+    ) -> ExitPupil {
         let mut systems = vec![system.clone()];
         if all_wavelengths && system.is_dispersive() {
             systems.push(system.at_wavelength(crate::spectral::LAMBDA_MIN));
             systems.push(system.at_wavelength(crate::spectral::LAMBDA_MAX));
         }
-        let film_radius = film_diagonal / 2.0;
+        let reach = movements.reach(film_diagonal);
+        let film_radius = reach.radius;
         let rear_z = system.rear_z();
+        let film_z = rear_z + film_distance;
+        let film_zs: Vec<f64> = if movements.is_tilted() {
+            vec![film_z + reach.dz[0], film_z, film_z + reach.dz[1]]
+        } else {
+            vec![film_z]
+        };
         let rear_radius = system.rear_semi_aperture();
         let pupil_diameter =
             FirstOrder::compute(system).map_or(rear_radius, |fo| fo.exit_pupil.diameter_mm);
@@ -167,13 +203,7 @@ impl ExitPupil {
                 systems
                     .iter()
                     .map(|system| {
-                        segment_bounds(
-                            system,
-                            rear_z + film_distance,
-                            rear_radius,
-                            [r0, r1],
-                            coarse_grid,
-                        )
+                        segment_bounds(system, &film_zs, rear_radius, [r0, r1], coarse_grid)
                     })
                     .fold((Rect::EMPTY, 0), |(bounds, traced), (b, t)| {
                         (bounds.union(&b), traced + t)
@@ -184,6 +214,7 @@ impl ExitPupil {
             sampling,
             film_radius,
             film_distance,
+            film_normal: movements.film_normal(),
             rear_z,
             rear_radius,
             rays_traced: results.iter().map(|r| r.1).sum(),
@@ -200,6 +231,12 @@ impl ExitPupil {
     /// Picks the rear-plane point for film point (`x`, `y`) (lens frame, mm) from uniform `u`.
     /// `None` when no ray from that film point can pass the lens.
     pub fn sample(&self, x: f32, y: f32, u: [f32; 2]) -> Option<PupilSample> {
+        self.sample_at(x, y, self.film_distance as f32, u)
+    }
+
+    /// As [`sample`](Self::sample) for a film point `depth` (mm) behind the rear-vertex plane
+    /// (a tilted film's points lie off the frame centre's plane).
+    pub fn sample_at(&self, x: f32, y: f32, depth: f32, u: [f32; 2]) -> Option<PupilSample> {
         let (px, py, area) = match self.sampling {
             PupilSampling::Bounds => {
                 let r = (x * x + y * y).sqrt();
@@ -224,11 +261,15 @@ impl ExitPupil {
                 )
             }
         };
-        let z = self.film_distance as f32;
-        let to = [px - x, py - y, -z];
+        let to = [px - x, py - y, -depth];
+        let weight = if self.film_normal == [0.0, 0.0, 1.0] {
+            camera_weight(to, area, 1.0 / (depth * depth))
+        } else {
+            tilted_camera_weight(to, self.film_normal.map(|v| v as f32), area, depth)
+        };
         Some(PupilSample {
             point: [px, py, self.rear_z as f32],
-            weight: camera_weight(to, area, 1.0 / (z * z)),
+            weight,
         })
     }
 
@@ -252,6 +293,7 @@ impl ExitPupil {
             rear_radius: self.rear_radius as f32,
             film_distance: z,
             inv_z2: 1.0 / (z * z),
+            film_normal: self.film_normal.map(|v| v as f32),
         }
     }
 }
@@ -262,6 +304,18 @@ impl ExitPupil {
 fn camera_weight(to: [f32; 3], area: f32, inv_z2: f32) -> f32 {
     let cos2 = to[2] * to[2] / (to[0] * to[0] + to[1] * to[1] + to[2] * to[2]);
     cos2 * cos2 * area * inv_z2
+}
+
+/// The camera weight on a tilted film, from a film point `depth` behind the rear-vertex plane:
+/// E = ∫ L cos θ_film cos θ_rear / d² dA over the rear plane, with d = depth / cos θ_rear, so a
+/// ray along `to` out of an area `area` sampled uniformly weighs
+/// |cos θ_film| · cos³θ_rear · A / depth² (cos⁴θ · A / z² when the film is not tilted).
+#[inline(always)]
+fn tilted_camera_weight(to: [f32; 3], normal: [f32; 3], area: f32, depth: f32) -> f32 {
+    let inv_len = 1.0 / (to[0] * to[0] + to[1] * to[1] + to[2] * to[2]).sqrt();
+    let cos_rear = (to[2] * inv_len).abs();
+    let cos_film = ((to[0] * normal[0] + to[1] * normal[1] + to[2] * normal[2]) * inv_len).abs();
+    cos_film * cos_rear * cos_rear * cos_rear * area / (depth * depth)
 }
 
 /// [`ExitPupil::sample`] in f32 over whole batches, with what depends only on the lens worked
@@ -280,12 +334,16 @@ pub struct PupilSampler {
     rear_radius: f32,
     film_distance: f32,
     inv_z2: f32,
+    film_normal: [f32; 3],
 }
 
 /// Film points and the camera rays out of them, structure of arrays (lens frame, mm).
 pub struct FilmRays<'a> {
     pub x: &'a [f32],
     pub y: &'a [f32],
+    /// Each film point's depth behind the rear-vertex plane, mm, on a tilted film; `None`:
+    /// all at the pupil's film distance.
+    pub depth: Option<&'a [f32]>,
     /// Uniform numbers choosing each ray's point in the pupil.
     pub u: &'a [f32],
     pub v: &'a [f32],
@@ -317,6 +375,9 @@ impl PupilSampler {
 
     #[inline(always)]
     fn sample_with(&self, rays: FilmRays, point: impl Fn(f32, f32, f32, f32) -> ([f32; 2], f32)) {
+        if let Some(depth) = rays.depth {
+            return self.sample_tilted(rays, depth, point);
+        }
         let n = rays.x.len();
         let (x, y, u, v) = (&rays.x[..n], &rays.y[..n], &rays.u[..n], &rays.v[..n]);
         let (dx, dy, dz) = (&mut rays.dx[..n], &mut rays.dy[..n], &mut rays.dz[..n]);
@@ -331,6 +392,33 @@ impl PupilSampler {
             dy[i] = if passing { d[1] } else { 0.0 };
             dz[i] = if passing { d[2] } else { -1.0 };
             weight[i] = camera_weight(d, area, self.inv_z2);
+            passes[i] = passing;
+        }
+    }
+
+    /// [`Self::sample_with`] for the points of a tilted film, each at its own depth.
+    #[inline(always)]
+    fn sample_tilted(
+        &self,
+        rays: FilmRays,
+        depth: &[f32],
+        point: impl Fn(f32, f32, f32, f32) -> ([f32; 2], f32),
+    ) {
+        let n = rays.x.len();
+        let (x, y, u, v) = (&rays.x[..n], &rays.y[..n], &rays.u[..n], &rays.v[..n]);
+        let depth = &depth[..n];
+        let (dx, dy, dz) = (&mut rays.dx[..n], &mut rays.dy[..n], &mut rays.dz[..n]);
+        let (weight, passes) = (&mut rays.weight[..n], &mut rays.passes[..n]);
+        for i in 0..n {
+            let ([px, py], area) = point(x[i], y[i], u[i], v[i]);
+            let to = [px - x[i], py - y[i], -depth[i]];
+            let inv_len = 1.0 / (to[0] * to[0] + to[1] * to[1] + to[2] * to[2]).sqrt();
+            let passing = area > 0.0;
+            let d = to.map(|c| c * inv_len);
+            dx[i] = if passing { d[0] } else { 0.0 };
+            dy[i] = if passing { d[1] } else { 0.0 };
+            dz[i] = if passing { d[2] } else { -1.0 };
+            weight[i] = tilted_camera_weight(to, self.film_normal, area, depth[i]);
             passes[i] = passing;
         }
     }
@@ -385,7 +473,7 @@ pub fn concentric_disk(u: [f32; 2]) -> [f32; 2] {
 /// Bounds of the rear-plane points whose rays from film points at x ∈ {r0, r1} pass the lens.
 fn segment_bounds(
     system: &LensSystem,
-    film_z: f64,
+    film_zs: &[f64],
     rear_radius: f64,
     radii: [f64; 2],
     coarse_grid: usize,
@@ -399,10 +487,13 @@ fn segment_bounds(
     };
     let mut traced = 0u64;
     // Square cells over the 2:1 half-window.
+    let points: Vec<[f64; 2]> = film_zs
+        .iter()
+        .flat_map(|&z| radii.map(|r| [r, z]))
+        .collect();
     let coarse = passing_bounds(
         system,
-        film_z,
-        radii,
+        &points,
         &search,
         [coarse_grid, coarse_grid / 2],
         &mut traced,
@@ -419,8 +510,7 @@ fn segment_bounds(
     };
     let fine = passing_bounds(
         system,
-        film_z,
-        radii,
+        &points,
         &window,
         [FINE_GRID, FINE_GRID],
         &mut traced,
@@ -444,23 +534,22 @@ fn segment_bounds(
 }
 
 /// Traces a `grid[0]` × `grid[1]` lattice of cell centres of `window` from each film point
-/// (r, 0) and returns the bounds of the centres whose rays pass.
+/// (r, 0, z) of `points` ([r, z]) and returns the bounds of the centres whose rays pass.
 fn passing_bounds(
     system: &LensSystem,
-    film_z: f64,
-    radii: [f64; 2],
+    points: &[[f64; 2]],
     window: &Rect,
     grid: [usize; 2],
     traced: &mut u64,
 ) -> Rect {
     let rear_z = system.rear_z() as f32;
-    let mut batch = RayBatch::with_capacity(grid[0] * grid[1] * radii.len());
+    let mut batch = RayBatch::with_capacity(grid[0] * grid[1] * points.len());
     let step = [
         (window.max[0] - window.min[0]) / grid[0] as f64,
         (window.max[1] - window.min[1]) / grid[1] as f64,
     ];
     let centre = |i: usize, axis: usize| window.min[axis] + (i as f64 + 0.5) * step[axis];
-    for &r in &radii {
+    for &[r, film_z] in points {
         for iy in 0..grid[1] {
             for ix in 0..grid[0] {
                 let (x, y) = (centre(ix, 0) as f32, centre(iy, 1) as f32);
@@ -518,6 +607,7 @@ mod tests {
                 pupil.sampler().sample(FilmRays {
                     x: &x,
                     y: &y,
+                    depth: None,
                     u: &u,
                     v: &v,
                     dx: &mut dx,
@@ -556,5 +646,74 @@ mod tests {
             }
         }
         assert!(compared > 10_000, "{compared}");
+    }
+
+    /// On a shifted, tilted film each point has its own depth: the f32 sampler's rays and
+    /// weights agree with the f64 reference at that depth.
+    #[test]
+    fn f32_sampler_agrees_with_f64_reference_on_a_tilted_film() {
+        const N: usize = 2000;
+        let w = LensWorkload::new("dgauss.50mm", 1).unwrap();
+        let movements = FilmMovements {
+            shift_mm: [3.0, -2.0],
+            tilt_deg: [8.0, -5.0],
+        };
+        let pupil = ExitPupil::compute_moved(
+            &w.system,
+            w.film_distance,
+            35.0,
+            PupilSampling::Bounds,
+            false,
+            &movements,
+        );
+        let film_z = w.system.rear_z() + w.film_distance;
+        let mut rng = Rng::new(5, 6);
+        let mut points = Vec::new();
+        for _ in 0..N {
+            let [a, b] = rng.next_2d().map(|v| (v as f64 - 0.5) * 30.0);
+            points.push(movements.film_point(a, b, film_z));
+        }
+        let x: Vec<f32> = points.iter().map(|p| p[0] as f32).collect();
+        let y: Vec<f32> = points.iter().map(|p| p[1] as f32).collect();
+        let depth: Vec<f32> = points
+            .iter()
+            .map(|p| (p[2] - w.system.rear_z()) as f32)
+            .collect();
+        let (u, v): (Vec<f32>, Vec<f32>) = (0..N).map(|_| rng.next_2d().into()).unzip();
+        let (mut dx, mut dy, mut dz, mut weight) =
+            (vec![0.0; N], vec![0.0; N], vec![0.0; N], vec![0.0; N]);
+        let mut passes = vec![false; N];
+        pupil.sampler().sample(FilmRays {
+            x: &x,
+            y: &y,
+            depth: Some(&depth),
+            u: &u,
+            v: &v,
+            dx: &mut dx,
+            dy: &mut dy,
+            dz: &mut dz,
+            weight: &mut weight,
+            passes: &mut passes,
+        });
+        let mut compared = 0;
+        for i in 0..N {
+            let k = (x[i] as f64).hypot(y[i] as f64) / pupil.film_radius * SEGMENTS as f64;
+            if (k - k.round()).abs() < 1e-4 {
+                continue;
+            }
+            let Some(reference) = pupil.sample_at(x[i], y[i], depth[i], [u[i], v[i]]) else {
+                assert!(!passes[i] && weight[i] == 0.0);
+                continue;
+            };
+            let [px, py, _] = reference.point;
+            let to = [px - x[i], py - y[i], -depth[i]];
+            let len = (to[0] * to[0] + to[1] * to[1] + to[2] * to[2]).sqrt();
+            for (axis, fast) in [dx[i], dy[i], dz[i]].into_iter().enumerate() {
+                assert!((fast - to[axis] / len).abs() < 1e-5, "ray {i}");
+            }
+            assert!((weight[i] / reference.weight - 1.0).abs() < 1e-5, "ray {i}");
+            compared += 1;
+        }
+        assert!(compared > N / 2, "{compared}");
     }
 }
