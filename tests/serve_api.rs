@@ -128,7 +128,12 @@ fn every_endpoint_answers_over_loopback() {
     );
     let mut seen = String::new();
     let mut buffer = [0u8; 4096];
-    while !seen.contains("event: image") {
+    // An event ends with a blank line; it may arrive over several reads.
+    let whole_event = |seen: &str| {
+        seen.find("event: image")
+            .is_some_and(|at| seen[at..].contains("\n\n"))
+    };
+    while !whole_event(&seen) {
         let n = stream
             .read(&mut buffer)
             .expect("an event before the timeout");
