@@ -122,10 +122,12 @@ fn every_endpoint_answers_over_loopback() {
         .unwrap();
     use std::io::{Read, Write};
     write!(stream, "GET /api/events HTTP/1.1\r\nHost: x\r\n\r\n").unwrap();
-    assert_eq!(
-        served.post("/api/settings", &json!({"seed": 7})).status,
-        200
-    );
+    // Every publication has a larger revision, so a client can order answers that cross.
+    let revision_before = served.state()["revision"].as_u64().unwrap();
+    let changed = served.post("/api/settings", &json!({"seed": 7}));
+    assert_eq!(changed.status, 200);
+    let revision_changed = changed.json()["revision"].as_u64().unwrap();
+    assert!(revision_changed > revision_before);
     let mut seen = String::new();
     let mut buffer = [0u8; 4096];
     // An event ends with a blank line; it may arrive over several reads.
@@ -142,6 +144,14 @@ fn every_endpoint_answers_over_loopback() {
     }
     assert!(seen.starts_with("HTTP/1.1 200") && seen.contains("text/event-stream"));
     assert!(seen.contains("\"generation\""), "{seen}");
+    let revisions: Vec<u64> = seen
+        .lines()
+        .filter_map(|line| line.strip_prefix("data: "))
+        .map(|data| serde_json::from_str::<Value>(data).unwrap()["revision"].as_u64().unwrap())
+        .collect();
+    assert!(revisions.windows(2).all(|w| w[0] < w[1]), "{seen}");
+    let finished = served.wait_until_done();
+    assert!(finished["revision"].as_u64().unwrap() > revision_changed);
 }
 
 #[test]

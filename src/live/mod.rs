@@ -40,6 +40,10 @@ enum Request {
 /// The latest image and numbers, for any number of readers.
 #[derive(Clone)]
 pub struct Published {
+    /// Increases with every publication (a new image, a change of settings, an error), so a
+    /// reader holding two states can tell which is newer: answers to concurrent requests may
+    /// arrive in any order.
+    pub revision: u64,
     /// Increases with every new image.
     pub generation: u64,
     /// Increases with every change of settings.
@@ -58,7 +62,7 @@ type LensReportCache = (u64, Arc<Value>, Arc<String>);
 
 struct Shared {
     published: Mutex<Published>,
-    /// Signalled when `published.generation` grows (or the session stops).
+    /// Signalled at every publication (or when the session stops).
     new_image: Condvar,
     cancel: Arc<AtomicBool>,
     stopped: AtomicBool,
@@ -83,6 +87,7 @@ impl LiveLab {
     pub fn start(session: Session, cancel: Arc<AtomicBool>) -> LiveLab {
         let shared = Arc::new(Shared {
             published: Mutex::new(Published {
+                revision: 0,
                 generation: 0,
                 settings_generation: 0,
                 image: None,
@@ -182,6 +187,20 @@ impl LiveLab {
             })
             .unwrap_or_else(|e| e.into_inner());
         published.generation
+    }
+
+    /// Waits until something newer than `revision` is published (or `timeout` passes); returns
+    /// the latest revision.
+    pub fn wait_for_revision(&self, revision: u64, timeout: Duration) -> u64 {
+        let published = lock(&self.shared.published);
+        let (published, _) = self
+            .shared
+            .new_image
+            .wait_timeout_while(published, timeout, |p| {
+                p.revision <= revision && !self.shared.stopped.load(Ordering::Relaxed)
+            })
+            .unwrap_or_else(|e| e.into_inner());
+        published.revision
     }
 
     /// The current image as PNG (encoded once per image), with its generation.
@@ -486,6 +505,8 @@ impl RenderLoop {
         );
         let exposure = image.as_ref().map(|i| session.exposure(i));
         let mut published = lock(&self.shared.published);
+        published.revision += 1;
+        state.insert("revision".into(), json!(published.revision));
         state.insert("generation".into(), json!(published.generation));
         if let (Some(image), Some(exposure)) = (image, exposure) {
             published.generation += 1;

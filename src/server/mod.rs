@@ -121,22 +121,31 @@ fn handle_connection(lab: &LiveLab, mut stream: TcpStream, streams: &AtomicUsize
     let _ = response.write_to(&mut stream);
 }
 
-/// Server-sent events: `image` with the generation and spp each time a new image is out.
+/// Server-sent events: `image` each time a new image is out, `state` when only the state
+/// changed (new settings, an error); both carry `{revision, generation, spp_done,
+/// settings_generation}`.
 fn event_stream(lab: &LiveLab, stream: &mut TcpStream) -> std::io::Result<()> {
     stream.write_all(
         b"HTTP/1.1 200 OK\r\nContent-Type: text/event-stream\r\nCache-Control: no-store\r\nConnection: close\r\n\r\n",
     )?;
-    let mut seen = 0;
+    let (mut seen_revision, mut seen_generation) = (0, 0);
     loop {
         let published = lab.published();
-        if published.generation > seen {
-            seen = published.generation;
+        if published.revision > seen_revision {
+            seen_revision = published.revision;
+            let kind = if published.generation > seen_generation {
+                "image"
+            } else {
+                "state"
+            };
+            seen_generation = published.generation;
             let data = json!({
+                "revision": published.revision,
                 "generation": published.generation,
                 "spp_done": published.state.get("spp_done"),
                 "settings_generation": published.settings_generation,
             });
-            write!(stream, "event: image\ndata: {data}\n\n")?;
+            write!(stream, "event: {kind}\ndata: {data}\n\n")?;
         } else {
             stream.write_all(b": keep-alive\n\n")?;
         }
@@ -144,7 +153,7 @@ fn event_stream(lab: &LiveLab, stream: &mut TcpStream) -> std::io::Result<()> {
         if lab.is_stopped() {
             return Ok(());
         }
-        lab.wait_for_image(seen, KEEP_ALIVE);
+        lab.wait_for_revision(seen_revision, KEEP_ALIVE);
     }
 }
 

@@ -3,7 +3,10 @@
 
 const $ = (id) => document.getElementById(id);
 let state = null;
-let shownGeneration = -1;
+// Answers to concurrent requests may arrive in any order: keep only the newest state (the
+// server's `revision` grows with every publication) and the newest image.
+let requestedGeneration = -1;
+let displayedGeneration = -1;
 let lensGeneration = null;
 
 async function api(path, body) {
@@ -21,7 +24,9 @@ async function api(path, body) {
 function message(text) { $("message").textContent = text || ""; }
 
 function show(newState) {
+  if (state && newState.revision < state.revision) return;
   state = newState;
+  refreshImage(state.generation);
   for (const name of ["focus_distance", "f_number", "aperture", "film_diagonal"]) {
     const input = $(name);
     const value = state[name];
@@ -74,10 +79,14 @@ async function change(settings) {
 }
 
 function refreshImage(generation) {
-  if (generation <= shownGeneration) return;
-  shownGeneration = generation;
+  if (generation <= requestedGeneration || generation === 0) return;
+  requestedGeneration = generation;
   const next = new Image();
-  next.onload = () => { $("image").src = next.src; };
+  next.onload = () => {
+    if (generation <= displayedGeneration) return;
+    displayedGeneration = generation;
+    $("image").src = next.src;
+  };
   next.src = "/api/image.png?g=" + generation;
 }
 
@@ -98,7 +107,6 @@ async function start() {
     $("lens").append(option);
   }
   show(await api("/api/state"));
-  refreshImage(state.generation);
 
   $("lens").addEventListener("change", (e) => change({ lens: e.target.value }));
   for (const name of ["focus_distance", "f_number", "aperture", "film_diagonal"]) {
@@ -130,11 +138,12 @@ async function start() {
   });
 
   const events = new EventSource("/api/events");
-  events.addEventListener("image", (e) => {
-    const data = JSON.parse(e.data);
-    refreshImage(data.generation);
+  const announced = (e) => {
+    refreshImage(JSON.parse(e.data).generation);
     refreshStats();
-  });
+  };
+  events.addEventListener("image", announced);
+  events.addEventListener("state", announced);
 }
 
 start().catch((e) => message(e.message));
