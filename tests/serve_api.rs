@@ -147,7 +147,11 @@ fn every_endpoint_answers_over_loopback() {
     let revisions: Vec<u64> = seen
         .lines()
         .filter_map(|line| line.strip_prefix("data: "))
-        .map(|data| serde_json::from_str::<Value>(data).unwrap()["revision"].as_u64().unwrap())
+        .map(|data| {
+            serde_json::from_str::<Value>(data).unwrap()["revision"]
+                .as_u64()
+                .unwrap()
+        })
         .collect();
     assert!(revisions.windows(2).all(|w| w[0] < w[1]), "{seen}");
     let finished = served.wait_until_done();
@@ -453,20 +457,8 @@ fn save_writes_what_the_command_line_it_shows_renders() {
     let exr = std::fs::read(served.path().join("render.exr")).unwrap();
 
     let command = saved["command"].as_str().unwrap();
-    let words: Vec<&str> = command.split(' ').collect();
-    assert_eq!(&words[..2], ["realcam", "render"], "{command}");
     assert!(command.contains("--lens wide.22mm") && command.contains("--f-number 8"));
-    let elsewhere = tempfile::tempdir().unwrap();
-    let out = Command::new(env!("CARGO_BIN_EXE_realcam"))
-        .args(&words[1..])
-        .current_dir(elsewhere.path())
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let elsewhere = render_command_line(command);
     assert_eq!(
         std::fs::read(elsewhere.path().join("render.png")).unwrap(),
         png
@@ -474,6 +466,150 @@ fn save_writes_what_the_command_line_it_shows_renders() {
     assert_eq!(
         std::fs::read(elsewhere.path().join("render.exr")).unwrap(),
         exr
+    );
+}
+
+/// Runs a `realcam render …` command line the server showed (plain words, no quoting) in a
+/// new folder, which it returns.
+fn render_command_line(command: &str) -> tempfile::TempDir {
+    let words: Vec<&str> = command.split(' ').collect();
+    assert_eq!(&words[..2], ["realcam", "render"], "{command}");
+    let folder = tempfile::tempdir().unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_realcam"))
+        .args(&words[1..])
+        .current_dir(folder.path())
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{command}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    folder
+}
+
+#[test]
+fn blades_shift_and_tilt_change_live_and_stay_through_a_lens_swap() {
+    let served = Served::start(SMALL);
+    let unmoved = served.wait_until_done();
+    let plain_png = served.get("/api/image.png").body;
+
+    let state = served
+        .post(
+            "/api/settings",
+            &json!({"shift": [1.5, -0.5], "tilt": [2, 0], "blades": 6, "blade_rotation": 15, "film_diagonal": 24}),
+        )
+        .json();
+    assert_eq!(state["shift"], json!([1.5, -0.5]), "{state}");
+    assert_eq!(state["tilt"], json!([2.0, 0.0]), "{state}");
+    assert_eq!(
+        (state["blades"].as_u64(), state["blade_rotation"].as_f64()),
+        (Some(6), Some(15.0))
+    );
+    let diaphragm = served.get("/api/lens.json").json()["diaphragm"].clone();
+    assert!(
+        (diaphragm["open_fraction"].as_f64().unwrap()
+            - 3.0 * 3f64.sqrt() / (2.0 * std::f64::consts::PI))
+            .abs()
+            < 1e-9,
+        "six straight blades open a regular hexagon: 3√3/2π of the circle; {diaphragm}"
+    );
+
+    // A tilted film larger than the lens covers, a tilt past 60°, a malformed pair: refused,
+    // the settings stay.
+    for (bad, says) in [
+        (
+            json!({"film_diagonal": 70}),
+            "beyond what this lens can cover",
+        ),
+        (json!({"tilt": [75, 0]}), "tilt"),
+        (json!({"shift": [1]}), "shift"),
+        (json!({"shift": "1,2"}), "shift"),
+        (json!({"blade_curvature": 2}), "curvature"),
+    ] {
+        let reply = served.post("/api/settings", &bad);
+        assert_eq!(reply.status, 400, "{bad}");
+        let error = reply.json()["error"].as_str().unwrap().to_string();
+        assert!(error.contains(says), "{bad}: {error}");
+    }
+    assert_eq!(served.state()["shift"], json!([1.5, -0.5]));
+
+    // The new lens takes the same diaphragm and movements.
+    served.post("/api/settings", &json!({"lens": "wide.22mm"}));
+    let swapped = served.wait_until_done();
+    assert_eq!(swapped["lens"], "wide.22mm");
+    assert_eq!(swapped["shift"], json!([1.5, -0.5]));
+    let swapped_diaphragm = served.get("/api/lens.json").json()["diaphragm"].clone();
+    for field in ["shape", "open_fraction"] {
+        assert_eq!(swapped_diaphragm[field], diaphragm[field]);
+    }
+    let command = swapped["command"].as_str().unwrap();
+    for option in [
+        "--shift 1.5,-0.5",
+        "--tilt 2,0",
+        "--blades 6",
+        "--blade-rotation 15",
+    ] {
+        assert!(command.contains(option), "{option} missing: {command}");
+    }
+    // What the page shows is what that command renders: the swap kept them on the lens.
+    let shown = served.get("/api/image.png").body;
+    let rendered = render_command_line(command);
+    assert_eq!(
+        std::fs::read(rendered.path().join("render.png")).unwrap(),
+        shown
+    );
+
+    // Taking the blades away takes their rotation too; taking the movements away restores the
+    // unmoved picture.
+    let state = served
+        .post(
+            "/api/settings",
+            &json!({"blades": null, "shift": null, "tilt": null, "lens": unmoved["lens"],
+                "film_diagonal": unmoved["film_diagonal"]}),
+        )
+        .json();
+    assert_eq!(
+        (state["blades"].clone(), state["blade_rotation"].clone()),
+        (Value::Null, Value::Null)
+    );
+    served.wait_until_done();
+    assert_eq!(served.get("/api/image.png").body, plain_png);
+}
+
+#[test]
+fn focus_on_at_start_is_the_focus_render_finds() {
+    let pixel = "20,40";
+    let served = Served::start(&[SMALL, &["--focus-on", pixel]].concat());
+    let state = served.state();
+    assert_eq!(state["film_distance"], Value::Null);
+    let command = state["command"].as_str().unwrap();
+    assert!(!command.contains("--focus-on"), "{command}");
+
+    let argv: Vec<&str> = ["render", "--focus-on", pixel, "--stats", "stats.json"]
+        .into_iter()
+        .chain(SMALL.iter().copied())
+        .collect();
+    let folder = tempfile::tempdir().unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_realcam"))
+        .args(&argv)
+        .current_dir(folder.path())
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let stats: Value =
+        serde_json::from_slice(&std::fs::read(folder.path().join("stats.json")).unwrap()).unwrap();
+    let expected = stats["frames"][0]["focus_distance_m"]
+        .as_f64()
+        .unwrap_or_else(|| panic!("{stats}"));
+    let focused = state["focus_distance"].as_f64().unwrap();
+    assert!(
+        (focused - expected).abs() < 1e-9 * expected,
+        "{focused} m vs {expected} m"
     );
 }
 

@@ -1,7 +1,7 @@
 //! The page of `realcam serve` in a real browser: headless Chromium, driven over the DevTools
 //! protocol on a pipe (`--remote-debugging-pipe`), loads the page, picks another lens in the
-//! lens picker, types a focus distance, clicks the image to focus, and sees the image change
-//! each time. Skipped, saying so, when no Chromium is installed — unless
+//! lens picker, types a focus distance, clicks the image to focus, sets diaphragm blades and a
+//! film shift, and sees the image change each time. Skipped, saying so, when no Chromium is installed — unless
 //! `REALCAM_REQUIRE_CHROMIUM=1` (CI: `.ci/run` installs Debian's `chromium`).
 
 mod live_server;
@@ -267,10 +267,24 @@ fn the_page_changes_lens_and_focus_and_shows_the_new_image() {
           await until(() => state.focus_distance !== 0.5, "click to focus");
           await settled("the render focused by a click");
           const afterClick = pixels();
+          const blades = document.getElementById("blades");
+          blades.value = "5";
+          blades.dispatchEvent(new Event("change"));
+          await until(() => state.blades === 5, "the blades change");
+          await settled("the render through five blades");
+          const afterBlades = pixels();
+          const shiftX = document.getElementById("shift_x");
+          shiftX.value = "1";
+          shiftX.dispatchEvent(new Event("change"));
+          await until(() => state.shift && state.shift[0] === 1, "the shift change");
+          await settled("the shifted render");
+          const afterShift = pixels();
           const diagram = document.querySelector("#diagram svg") !== null;
           const numbers = document.getElementById("first-order").textContent;
           return { options: options.length, lensChanged: first !== afterLens,
             focusChanged: afterLens !== afterFocus, clickChanged: afterFocus !== afterClick,
+            bladesChanged: afterClick !== afterBlades, shiftChanged: afterBlades !== afterShift,
+            diaphragmShown: document.getElementById("first-order").textContent.includes("5 blades"),
             focus: state.focus_distance, diagram, numbers,
             message: document.getElementById("message").textContent };
         })()"##,
@@ -279,6 +293,9 @@ fn the_page_changes_lens_and_focus_and_shows_the_new_image() {
     assert_eq!(outcome["lensChanged"], true, "{outcome}");
     assert_eq!(outcome["focusChanged"], true, "{outcome}");
     assert_eq!(outcome["clickChanged"], true, "{outcome}");
+    assert_eq!(outcome["bladesChanged"], true, "{outcome}");
+    assert_eq!(outcome["shiftChanged"], true, "{outcome}");
+    assert_eq!(outcome["diaphragmShown"], true, "{outcome}");
     assert_eq!(outcome["diagram"], true, "{outcome}");
     assert!(
         outcome["numbers"].as_str().unwrap().contains("wide.22mm"),
@@ -302,8 +319,8 @@ fn readme_screenshot() {
         return;
     };
     let chromium = find_chromium().expect("chromium");
-    let served = Served::start(&["--spp", "32", "--f-number", "2"]);
-    let mut browser = Browser::launch(&chromium, 1500, 760);
+    let served = Served::start(&["--spp", "32", "--f-number", "2", "--blades", "6"]);
+    let mut browser = Browser::launch(&chromium, 1500, 900);
     browser.open(&served.url());
     browser.wait_for_page();
     browser.evaluate(HELPERS);

@@ -278,6 +278,10 @@ impl LensReport {
             "closest_focus_m": closest_focus_mm(system, fo) / 1000.0,
             "film_diagonal_mm": self.film_diagonal,
             "field_of_view_deg": self.field_of_view_degrees(),
+            "image_circle": self.image_circle().map(|(radius, angle)| json!({
+                "diameter_mm": 2.0 * radius,
+                "field_of_view_deg": 2.0 * angle.to_degrees(),
+            })),
             "exit_pupil_bounds": {
                 "segments": self.pupil.segments.len(),
                 "rays_traced": self.pupil.rays_traced,

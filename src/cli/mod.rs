@@ -57,9 +57,22 @@ impl Cli {
         Cli::try_parse_from(argv)
             .map(|cli| cli.command)
             .map_err(|e| {
+                // The message without clap's usage and help hints: its lines up to the first
+                // blank one ("the following required arguments were not provided:" is
+                // followed by the arguments on lines of their own).
                 let text = e.render().to_string();
-                let first = text.lines().next().unwrap_or("invalid setting");
-                first.strip_prefix("error: ").unwrap_or(first).to_string()
+                let message = text
+                    .lines()
+                    .take_while(|line| !line.trim().is_empty())
+                    .map(str::trim)
+                    .collect::<Vec<_>>()
+                    .join(" ");
+                let message = message.strip_prefix("error: ").unwrap_or(&message);
+                if message.is_empty() {
+                    "invalid setting".to_string()
+                } else {
+                    message.to_string()
+                }
             })
     }
 }

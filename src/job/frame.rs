@@ -17,12 +17,10 @@ use crate::film::checkpoint::{
 };
 use crate::film::output::{shown, write_image};
 use crate::film::samples::SampleSequence;
-use crate::lens::camera::FilmGeometry;
 use crate::lens::elements::{
     Dispersion, FilmPlacement, FocusSetting, LensDerivationStats, LensGeometry,
 };
 use crate::lens::focus_probe::FocusProbe;
-use crate::lens::movements::{FilmMovements, check_coverage};
 use crate::pipeline::{RenderSettings, RenderStats, Renderer};
 use crate::scene::default_scene::DEFAULT_SCENE_PATH;
 
@@ -124,27 +122,14 @@ pub(super) fn render_frame(
             .get::<FilmPlacement>()
             .context("film placement missing")?
             .film_distance;
-        if let Some(movements) = entity.get::<FilmMovements>() {
-            let (width, height) = {
-                let s = renderer.world.resource::<RenderSettings>();
-                (s.width, s.height)
-            };
-            let format = FilmGeometry::new(width, height, context.film_diagonal);
-            match check_coverage(
-                &geometry.system,
-                film,
-                movements,
-                format.width_mm as f64,
-                format.height_mm as f64,
-            ) {
-                Ok(None) => {}
-                Ok(Some(warning)) => eprintln!("warning: {warning}"),
-                Err(message) => bail!(
-                    "{}: cannot render this frame through {}: {message}",
-                    frame.out.display(),
-                    lens.prescription.name
-                ),
-            }
+        match renderer.check_coverage(lens.entity) {
+            Ok(None) => {}
+            Ok(Some(warning)) => eprintln!("warning: {warning}"),
+            Err(message) => bail!(
+                "{}: cannot render this frame through {}: {message}",
+                frame.out.display(),
+                lens.prescription.name
+            ),
         }
         (
             geometry.first_order.focal_length,

@@ -134,7 +134,8 @@ pub fn focus_on_pixel(
 }
 
 /// The film distance that focuses the lens on what `pixel` of `film` sees in the scene of
-/// `accel`, the camera placed by `world_from_camera` (see the module docs).
+/// `accel`, the camera placed by `world_from_camera` (see the module docs): the probe leaves
+/// the pixel's centre.
 pub fn solve_focus_on_pixel(
     system: &LensSystem,
     first_order: &FirstOrder,
@@ -150,7 +151,31 @@ pub fn solve_focus_on_pixel(
             film.width, film.height
         ));
     }
-    let [fx, fy, dz] = film.film_position(x as f32 + 0.5, y as f32 + 0.5);
+    let position = [x as f32 + 0.5, y as f32 + 0.5];
+    solve_focus_at(
+        system,
+        first_order,
+        accel,
+        world_from_camera,
+        film,
+        position,
+    )
+    .map_err(|e| format!("--focus-on {x},{y}: {e}"))
+}
+
+/// As [`solve_focus_on_pixel`], from the continuous image position `position` (pixels, (0, 0)
+/// the top-left corner of the image; a click needs no rounding to a pixel's centre).
+pub fn solve_focus_at(
+    system: &LensSystem,
+    first_order: &FirstOrder,
+    accel: &SceneAccel,
+    world_from_camera: Mat4,
+    film: &FilmGeometry,
+    position: [f32; 2],
+) -> Result<FocusProbe, String> {
+    let [px, py] = position;
+    let pixel = [px.max(0.0) as u32, py.max(0.0) as u32];
+    let [fx, fy, dz] = film.film_position(px, py);
     let camera_from_world = world_from_camera.inverse();
     let mut film_distance = paraxial_film_distance(system, first_order, INFINITY_FOCUS_MM)
         .map_err(|e| e.to_string())?;
@@ -158,7 +183,8 @@ pub fn solve_focus_on_pixel(
     for _ in 0..ROUNDS {
         let film_z = system.rear_z() + film_distance;
         let ray = probe_ray(system, [fx, fy, film_z + dz]).ok_or_else(|| {
-            format!("--focus-on {x},{y}: no light reaches the pixel through this lens (it lies outside the image circle)")
+            "no light reaches the pixel through this lens (it lies outside the image circle)"
+                .to_string()
         })?;
         // Lens frame (mm) → camera frame (m, origin at the frame centre's plane on the axis).
         let to_camera =
@@ -168,14 +194,14 @@ pub fn solve_focus_on_pixel(
             .transform_vector3(Vec3::from(ray.direction.map(|v| v as f32)))
             .normalize();
         let hit = accel.intersect(origin, direction, f32::INFINITY).ok_or_else(|| {
-            format!("--focus-on {x},{y}: the pixel sees only the sky (its ray meets no surface); choose a pixel on an object")
+            "the pixel sees only the sky (its ray meets no surface); choose a pixel on an object"
+                .to_string()
         })?;
         let point = origin + direction * hit.t;
         let seen = camera_from_world.transform_point3(point);
         let depth = -(seen.z as f64) * 1e3;
         let lateral = [seen.x as f64 * 1e3, seen.y as f64 * 1e3];
-        let solved = film_distance_for_point(system, first_order, lateral, depth, dz)
-            .map_err(|e| format!("--focus-on {x},{y}: {e}"))?;
+        let solved = film_distance_for_point(system, first_order, lateral, depth, dz)?;
         let settled = (solved - film_distance).abs() < 1e-6;
         film_distance = solved;
         probe = Some(FocusProbe {

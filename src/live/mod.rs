@@ -5,7 +5,6 @@
 //! front of it; the library API here is what both use.
 
 pub mod lenses;
-pub mod probe;
 pub mod session;
 pub mod settings;
 
@@ -350,35 +349,11 @@ impl RenderLoop {
                 self.answer(outcome, reply);
             }
             Request::FocusAt([x, y], reply) => {
-                let (width, height) = self.session.size();
-                let outcome = if !(x.is_finite()
-                    && y.is_finite()
-                    && (0.0..=width as f64).contains(&x)
-                    && (0.0..=height as f64).contains(&y))
-                {
-                    Err(format!(
-                        "the point ({x}, {y}) is outside the {width}×{height} image"
-                    ))
-                } else {
-                    self.ensure_full_film();
-                    match probe::focus_distance_at(
-                        self.session.renderer(),
-                        self.session.lens(),
-                        x,
-                        y,
-                    ) {
-                        Some(metres) => {
-                            let changes = json!({ "focus_distance": metres });
-                            self.session
-                                .settings()
-                                .changed(&changes)
-                                .and_then(|next| self.session.apply(next))
-                        }
-                        None => Err(format!(
-                            "nothing to focus on at ({x:.0}, {y:.0}): no ray from there through the lens meets the scene"
-                        )),
-                    }
-                };
+                let outcome = self
+                    .session
+                    .focus_at_pixel(x, y)
+                    .and_then(|changes| self.session.settings().changed(&changes))
+                    .and_then(|next| self.session.apply(next));
                 self.answer(outcome, reply);
             }
             Request::Save(reply) => {
@@ -386,19 +361,6 @@ impl RenderLoop {
             }
         }
         true
-    }
-
-    /// The film at the image's own size (the probe maps pixels to the film through it).
-    fn ensure_full_film(&mut self) {
-        let (width, height) = self.session.size();
-        let settings = self
-            .session
-            .renderer()
-            .world
-            .resource::<crate::pipeline::RenderSettings>();
-        if (settings.width, settings.height) != (width, height) {
-            let _ = self.session.begin_accumulation();
-        }
     }
 
     /// Restarts accumulation after an accepted change and answers with the new state.
@@ -475,6 +437,7 @@ impl RenderLoop {
         );
         state.insert("command".into(), json!(session.command_line()));
         state.insert("error".into(), json!(self.error));
+        state.insert("warning".into(), json!(session.warning()));
         let render_stats = session.renderer().world.resource::<RenderStats>();
         let (width, height) = session.size();
         let samples = session.spp_done as f64 * (width as f64 * height as f64);

@@ -10,6 +10,7 @@ use serde_json::{Value, json};
 
 use super::lenses::LensLibrary;
 use super::settings::LiveSettings;
+use crate::accel::SceneAccel;
 use crate::cli::render::RenderArgs;
 use crate::film::Image;
 use crate::film::footprint::RunSize;
@@ -17,11 +18,28 @@ use crate::film::format::{ImageFormat, Tone};
 use crate::film::output::{auto_exposure, write_image};
 use crate::job::frame::set_if_changed;
 use crate::job::outputs::Formats;
-use crate::job::{Job, tone};
+use crate::job::{Job, movements, tone};
 use crate::lens::Prescription;
 use crate::lens::aperture::ApertureSetting;
-use crate::lens::elements::{FilmPlacement, FocusSetting, LensGeometry};
-use crate::pipeline::{PassCancel, RenderSettings, Renderer};
+use crate::lens::camera::FilmGeometry;
+use crate::lens::elements::{FilmFormat, FilmPlacement, FocusSetting, LensGeometry};
+use crate::lens::focus_probe::{FocusOnPixel, solve_focus_at};
+use crate::lens::movements::FilmMovements;
+use crate::pipeline::{CameraPose, PassCancel, RenderSettings, Renderer};
+
+/// Puts `movements` on `lens`, or takes them off (`None`), writing only what changes.
+fn set_movements(renderer: &mut Renderer, lens: Entity, movements: Option<FilmMovements>) {
+    let mut entity = renderer.world.entity_mut(lens);
+    match movements {
+        Some(movements) if entity.get::<FilmMovements>() != Some(&movements) => {
+            entity.insert(movements);
+        }
+        None if entity.contains::<FilmMovements>() => {
+            entity.remove::<FilmMovements>();
+        }
+        _ => {}
+    }
+}
 
 /// Largest side of the first, coarse pass after a change (pixels): it shows the change at once.
 pub const PREVIEW_SIDE: u32 = 128;
@@ -43,6 +61,8 @@ pub struct Session {
     exr: PathBuf,
     /// Full-resolution passes on the film since the last change.
     pub spp_done: u32,
+    /// What the settings work but warn of (a shifted frame's corners leaving the image circle).
+    warning: Option<String>,
 }
 
 /// The `--exr` a session saves beside `--out` when none is given: `<out stem>.exr`.
@@ -76,6 +96,15 @@ impl Session {
         }
         renderer.set_active_lens(first.entity);
         renderer.world.insert_resource(cancel);
+        // `--focus-on` is resolved once, below, into a focus the page can then change.
+        let focus_on = job.args.focus_on;
+        if focus_on.is_some() {
+            renderer
+                .world
+                .entity_mut(first.entity)
+                .remove::<FocusOnPixel>();
+            settings.remove_fixed("focus_on");
+        }
         // The starting values as the job resolved them (the scene's hints, autofocus), so the
         // state shows numbers and the command line reproduces them.
         let lens_name = job
@@ -125,12 +154,28 @@ impl Session {
             out,
             exr,
             spp_done: 0,
+            warning: None,
         };
         let (settings, args) = (session.settings.clone(), session.args.clone());
         session
             .switch(&settings, &args)
             .map_err(anyhow::Error::msg)?;
+        if let Some([x, y]) = focus_on {
+            let focus = session
+                .focus_at_pixel(x as f64 + 0.5, y as f64 + 0.5)
+                .map_err(|e| anyhow::anyhow!("--focus-on {x},{y}: {e}"))?;
+            let next = session
+                .settings
+                .changed(&focus)
+                .map_err(anyhow::Error::msg)?;
+            session.apply(next).map_err(anyhow::Error::msg)?;
+        }
         Ok(session)
+    }
+
+    /// What the current settings warn of, if anything.
+    pub fn warning(&self) -> Option<&str> {
+        self.warning.as_deref()
     }
 
     pub fn settings(&self) -> &LiveSettings {
@@ -203,18 +248,17 @@ impl Session {
             .ok_or("the lens has no focus")?;
         let focus = args.lens_options.focus(current_focus);
         let aperture = args.lens_options.aperture(ApertureSetting::Full);
+        let diaphragm = args
+            .lens_options
+            .diaphragm()
+            .map_err(|e| format!("{e:#}"))?;
         if name != self.lens_name {
             let (prescription, argument) = self.library.load(&name)?;
-            let diaphragm = args
-                .lens_options
-                .diaphragm()
-                .map_err(|e| format!("{e:#}"))?;
             let entity = self.renderer.add_lens(&prescription, focus, aperture);
             self.renderer
                 .world
                 .entity_mut(entity)
                 .insert(args.dispersion.0);
-            self.renderer.set_diaphragm(entity, diaphragm);
             self.renderer.set_active_lens(entity);
             self.renderer.world.despawn(self.lens);
             self.lens = entity;
@@ -226,6 +270,9 @@ impl Session {
             set_if_changed(&mut self.renderer, self.lens, aperture);
             set_if_changed(&mut self.renderer, self.lens, args.dispersion.0);
         }
+        // The diaphragm and the film movements are the session's, whichever lens is on.
+        self.renderer.set_diaphragm(self.lens, diaphragm);
+        set_movements(&mut self.renderer, self.lens, movements(args));
         let film_diagonal = args
             .lens_options
             .film_diagonal
@@ -237,7 +284,55 @@ impl Session {
         self.renderer.update().map_err(|e| e.to_string())?;
         self.renderer
             .check_active_lens()
-            .map_err(|e| format!("{}: {e}", self.lens_name))
+            .map_err(|e| format!("{}: {e}", self.lens_name))?;
+        let warning = self
+            .renderer
+            .check_coverage(self.lens)
+            .map_err(|message| format!("{}: {message}", self.lens_name))?;
+        if warning.is_some() && warning != self.warning {
+            eprintln!("warning: {}", warning.as_deref().unwrap_or_default());
+        }
+        self.warning = warning;
+        Ok(())
+    }
+
+    /// The settings that focus the lens on what the image shows at (`x`, `y`) (pixels of the
+    /// full image, (0, 0) its top-left corner): a probe ray through the real lens, shift and
+    /// tilt included, as `--focus-on` does ([`solve_focus_at`]). The answer is a focus
+    /// distance (m, along the axis), or with a tilted film the film distance the solve found,
+    /// since a distance along the axis does not say where a tilted plane of focus lies.
+    pub fn focus_at_pixel(&self, x: f64, y: f64) -> Result<Value, String> {
+        let (width, height) = self.size();
+        let inside = (0.0..=width as f64).contains(&x) && (0.0..=height as f64).contains(&y);
+        if !inside {
+            return Err(format!(
+                "the point ({x}, {y}) is outside the {width}×{height} image"
+            ));
+        }
+        let world = &self.renderer.world;
+        let geometry = world
+            .get::<LensGeometry>(self.lens)
+            .ok_or("the lens is not derived")?;
+        let accel = world
+            .get_resource::<SceneAccel>()
+            .ok_or("no scene is loaded")?;
+        let pose = world.get_resource::<CameraPose>().ok_or("no camera")?;
+        let film = FilmGeometry::new(width, height, world.resource::<FilmFormat>().diagonal_mm)
+            .moved(movements(&self.args).unwrap_or_default());
+        let probe = solve_focus_at(
+            &geometry.system,
+            &geometry.first_order,
+            accel,
+            pose.0,
+            &film,
+            [x as f32, y as f32],
+        )
+        .map_err(|e| format!("nothing to focus on at ({x:.0}, {y:.0}): {e}"))?;
+        Ok(if film.movements.tilt_deg != [0.0, 0.0] {
+            json!({ "film_distance": probe.film_distance })
+        } else {
+            json!({ "focus_distance": probe.object_distance_mm / 1e3 })
+        })
     }
 
     fn render_settings(&self, scale: u32) -> RenderSettings {

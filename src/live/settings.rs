@@ -11,14 +11,19 @@ use crate::cli::{Cli, Command};
 
 /// Options a live session changes without reloading the scene or rebuilding its BVH, by their
 /// names in the API (`realcam render`'s long options without dashes, `-` as `_`).
-pub const LIVE_OPTIONS: [&str; 15] = [
+pub const LIVE_OPTIONS: [&str; 20] = [
     "lens",
     "focus_distance",
     "film_distance",
     "focus_mode",
     "f_number",
     "aperture",
+    "blades",
+    "blade_rotation",
+    "blade_curvature",
     "film_diagonal",
+    "shift",
+    "tilt",
     "pupil_sampling",
     "dispersion",
     "width",
@@ -30,7 +35,9 @@ pub const LIVE_OPTIONS: [&str; 15] = [
 ];
 
 /// Settings that take whole numbers (the rest of the numeric ones take any number).
-const WHOLE: [&str; 5] = ["width", "height", "spp", "seed", "max_depth"];
+const WHOLE: [&str; 6] = ["width", "height", "spp", "seed", "max_depth", "blades"];
+/// Settings that take two numbers (`[x, y]` in JSON, `X,Y` on the command line).
+const PAIRS: [&str; 2] = ["shift", "tilt"];
 /// Settings that take words.
 const WORDS: [&str; 4] = ["lens", "focus_mode", "pupil_sampling", "dispersion"];
 /// Pairs of settings of which one replaces the other.
@@ -38,8 +45,12 @@ const EITHER: [(&str, &str); 2] = [
     ("focus_distance", "film_distance"),
     ("f_number", "aperture"),
 ];
+/// Settings that only qualify another: removing it removes them.
+const QUALIFIERS: [(&str, [&str; 2]); 1] = [("blades", ["blade_rotation", "blade_curvature"])];
 /// What [`LiveSettings::state`] adds beside the settings: a client may send a state back.
-pub const READ_ONLY: [&str; 8] = [
+pub const READ_ONLY: [&str; 10] = [
+    "warning",
+    "revision",
     "spp_done",
     "spp_target",
     "generation",
@@ -102,6 +113,22 @@ impl LiveSettings {
         }
     }
 
+    /// Takes `--name VALUE` (or `--name=VALUE`) out of the kept arguments; `name` as in the
+    /// API (`_` for `-`).
+    pub fn remove_fixed(&mut self, name: &str) {
+        let option = format!("--{}", name.replace('_', "-"));
+        let mut kept = Vec::with_capacity(self.fixed.len());
+        let mut words = std::mem::take(&mut self.fixed).into_iter();
+        while let Some(word) = words.next() {
+            if word == option {
+                words.next();
+            } else if !word.starts_with(&format!("{option}=")) {
+                kept.push(word);
+            }
+        }
+        self.fixed = kept;
+    }
+
     pub fn unset(&mut self, name: &str) {
         self.values.remove(name);
     }
@@ -155,21 +182,38 @@ impl LiveSettings {
             let text = match value {
                 Value::Null => {
                     next.unset(name);
+                    for (qualified, qualifiers) in QUALIFIERS {
+                        if name == qualified {
+                            qualifiers.iter().for_each(|q| next.unset(q));
+                        }
+                    }
                     continue;
                 }
                 Value::String(s) if WORDS.contains(&name.as_str()) => s.clone(),
-                Value::Number(n) if !WORDS.contains(&name.as_str()) => n.to_string(),
+                Value::Array(pair) if PAIRS.contains(&name.as_str()) => match pair.as_slice() {
+                    [Value::Number(x), Value::Number(y)] => format!("{x},{y}"),
+                    _ => {
+                        return Err(format!(
+                            "{name}: expected [x, y] (two numbers), got {value}"
+                        ));
+                    }
+                },
+                Value::Number(n)
+                    if !WORDS.contains(&name.as_str()) && !PAIRS.contains(&name.as_str()) =>
+                {
+                    n.to_string()
+                }
                 // `inf` is a focus distance; JSON has no infinity.
                 Value::String(s) if s == "inf" && name == "focus_distance" => s.clone(),
                 _ => {
-                    return Err(format!(
-                        "{name}: expected {}, got {value}",
-                        if WORDS.contains(&name.as_str()) {
-                            "a string"
-                        } else {
-                            "a number"
-                        }
-                    ));
+                    let expected = if WORDS.contains(&name.as_str()) {
+                        "a string"
+                    } else if PAIRS.contains(&name.as_str()) {
+                        "[x, y] (two numbers)"
+                    } else {
+                        "a number"
+                    };
+                    return Err(format!("{name}: expected {expected}, got {value}"));
                 }
             };
             if text.len() > 1024 {
@@ -204,6 +248,11 @@ impl LiveSettings {
                 let value = match self.values.get(name) {
                     None => Value::Null,
                     Some(text) if WORDS.contains(name) => json!(text),
+                    Some(text) if PAIRS.contains(name) => text
+                        .split(',')
+                        .map(|v| v.trim().parse::<f64>().ok().filter(|v| v.is_finite()))
+                        .collect::<Option<Vec<f64>>>()
+                        .map_or_else(|| json!(text), |pair| json!(pair)),
                     Some(text) if WHOLE.contains(name) => text
                         .parse::<u64>()
                         .map_or_else(|_| json!(text), |v| json!(v)),
@@ -273,5 +322,49 @@ mod tests {
             "realcam render --f-number 4 --film-distance 40.5 --lens dgauss.50mm"
         );
         assert_eq!(shell_quote("it's"), "'it'\\''s'");
+    }
+
+    #[test]
+    fn pairs_are_json_arrays_and_blades_take_their_qualifiers_along() {
+        let settings = LiveSettings::from_arguments(&[
+            "--shift".into(),
+            "-2,0.5".into(),
+            "--blades".into(),
+            "7".into(),
+            "--blade-curvature".into(),
+            "0.3".into(),
+            "--focus-on".into(),
+            "3,4".into(),
+        ]);
+        let state = settings.to_json();
+        assert_eq!(state["shift"], json!([-2.0, 0.5]));
+        assert_eq!(
+            (state["blades"].clone(), state["blade_curvature"].clone()),
+            (json!(7), json!(0.3))
+        );
+        let tilted = settings.changed(&json!({"tilt": [1.5, -3]})).unwrap();
+        assert_eq!(tilted.to_json()["tilt"], json!([1.5, -3.0]));
+        for bad in [
+            json!({"tilt": [1]}),
+            json!({"tilt": [1, "a"]}),
+            json!({"tilt": 2}),
+            json!({"blades": [6, 1]}),
+        ] {
+            assert!(settings.changed(&bad).is_err(), "{bad} was accepted");
+        }
+        let round = settings.changed(&json!({"blades": null})).unwrap();
+        assert_eq!(
+            (round.get("blades"), round.get("blade_curvature")),
+            (None, None)
+        );
+        let mut unfocused = settings.clone();
+        unfocused.remove_fixed("focus_on");
+        assert!(
+            !unfocused
+                .arguments()
+                .iter()
+                .any(|a| a.contains("focus-on") || a == "3,4")
+        );
+        assert!(settings.arguments().contains(&"--focus-on".to_string()));
     }
 }

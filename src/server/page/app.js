@@ -2,6 +2,10 @@
 "use strict";
 
 const $ = (id) => document.getElementById(id);
+// Settings the page edits as one number each, and as a pair (inputs NAME_x, NAME_y).
+const NUMBERS = ["focus_distance", "f_number", "aperture", "film_diagonal", "blades",
+  "blade_rotation", "blade_curvature"];
+const PAIRS = ["shift", "tilt"];
 let state = null;
 // Answers to concurrent requests may arrive in any order: keep only the newest state (the
 // server's `revision` grows with every publication) and the newest image.
@@ -27,11 +31,15 @@ function show(newState) {
   if (state && newState.revision < state.revision) return;
   state = newState;
   refreshImage(state.generation);
-  for (const name of ["focus_distance", "f_number", "aperture", "film_diagonal"]) {
-    const input = $(name);
-    const value = state[name];
-    // Four significant digits are enough to read; the state keeps every digit.
+  // Four significant digits are enough to read; the state keeps every digit.
+  const shown = (input, value) => {
     if (document.activeElement !== input) input.value = typeof value === "number" ? Number(value.toPrecision(4)) : value ?? "";
+  };
+  for (const name of NUMBERS) shown($(name), state[name]);
+  for (const name of PAIRS) {
+    const [x, y] = state[name] ?? [null, null];
+    shown($(name + "_x"), x);
+    shown($(name + "_y"), y);
   }
   for (const name of ["focus_mode", "dispersion"]) {
     if (state[name]) $(name).value = state[name];
@@ -42,8 +50,10 @@ function show(newState) {
   $("spp-target").textContent = state.spp_target;
   $("command").textContent = state.command;
   if (state.error) message(state.error);
+  $("warning").textContent = state.warning || "";
   const key = JSON.stringify([state.lens, state.focus_distance, state.film_distance, state.f_number,
-    state.aperture, state.film_diagonal, state.focus_mode]);
+    state.aperture, state.film_diagonal, state.focus_mode, state.blades, state.blade_rotation,
+    state.blade_curvature, state.shift, state.tilt, state.dispersion]);
   if (key !== lensGeneration) { lensGeneration = key; refreshLens(); }
 }
 
@@ -64,13 +74,28 @@ async function refreshLens() {
       ["film distance", number(info.film_distance_mm, 3) + " mm"],
       ["focus distance", info.focus_distance_m == null ? "—" : number(info.focus_distance_m, 3) + " m"],
       ["closest focus", number(info.closest_focus_m, 3) + " m"],
-      ["field of view", number(info.field_of_view_deg, 1) + "°"],
+      ["field of view", typeof info.field_of_view_deg === "number" ? number(info.field_of_view_deg, 1) + "°"
+        : info.image_circle ? `corners outside the image circle (⌀ ${number(info.image_circle.diameter_mm, 1)} mm, ${number(info.image_circle.field_of_view_deg, 1)}°)` : "—"],
       ["entrance pupil", info.entrance_pupil ? number(info.entrance_pupil.diameter_mm ?? info.entrance_pupil.diameter) + " mm" : "—"],
       ["total track", number(info.total_track_mm) + " mm"],
+      ["diaphragm", info.diaphragm ? diaphragmText(info.diaphragm) : "round"],
     ];
+    const colour = info.chromatic;
+    if (colour) {
+      rows.push(["axial colour (F−C)", number(colour.axial_colour_mm * 1000, 1) + " µm"]);
+      rows.push(["lateral colour (F−C)", number(colour.lateral_colour_mm * 1000, 1) + " µm at "
+        + number(colour.lateral_colour_film_height_mm, 1) + " mm"]);
+      const glasses = [...new Set(colour.glasses.filter((g) => g.glass).map((g) => g.glass))];
+      rows.push(["glasses", glasses.length ? glasses.join(", ") : "none named"]);
+    }
     $("first-order").innerHTML = rows
       .map(([k, v]) => `<tr><td>${k}</td><td>${String(v).replace(/</g, "&lt;")}</td></tr>`).join("");
   } catch (e) { message(e.message); }
+}
+
+function diaphragmText(d) {
+  const fraction = typeof d.open_fraction === "number" ? ` (${(d.open_fraction * 100).toFixed(1)} % open)` : "";
+  return (d.shape || "shaped") + fraction;
 }
 
 async function change(settings) {
@@ -109,11 +134,19 @@ async function start() {
   show(await api("/api/state"));
 
   $("lens").addEventListener("change", (e) => change({ lens: e.target.value }));
-  for (const name of ["focus_distance", "f_number", "aperture", "film_diagonal"]) {
+  for (const name of NUMBERS) {
     $(name).addEventListener("change", (e) => {
       const v = e.target.value.trim();
       change({ [name]: v === "" ? null : Number(v) });
     });
+  }
+  for (const name of PAIRS) {
+    const changed = () => {
+      const [x, y] = [$(name + "_x").value.trim(), $(name + "_y").value.trim()];
+      change({ [name]: x === "" && y === "" ? null : [Number(x || 0), Number(y || 0)] });
+    };
+    $(name + "_x").addEventListener("change", changed);
+    $(name + "_y").addEventListener("change", changed);
   }
   for (const name of ["focus_mode", "dispersion"]) {
     $(name).addEventListener("change", (e) => change({ [name]: e.target.value }));
