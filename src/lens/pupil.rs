@@ -584,6 +584,47 @@ mod tests {
     use crate::lens::bundled::BUNDLED;
     use crate::sampling::Rng;
 
+    /// What the camera loop's f32 sampler gives for film points (x, y), at `depth` behind the
+    /// rear vertex when the film is tilted, and pupil samples (u, v).
+    struct SampledRays {
+        dx: Vec<f32>,
+        dy: Vec<f32>,
+        dz: Vec<f32>,
+        weight: Vec<f32>,
+        passes: Vec<bool>,
+    }
+
+    fn sample_with_camera_loop(
+        pupil: &ExitPupil,
+        x: &[f32],
+        y: &[f32],
+        depth: Option<&[f32]>,
+        u: &[f32],
+        v: &[f32],
+    ) -> SampledRays {
+        let n = x.len();
+        let mut rays = SampledRays {
+            dx: vec![0.0; n],
+            dy: vec![0.0; n],
+            dz: vec![0.0; n],
+            weight: vec![0.0; n],
+            passes: vec![false; n],
+        };
+        pupil.sampler().sample(FilmRays {
+            x,
+            y,
+            depth,
+            u,
+            v,
+            dx: &mut rays.dx,
+            dy: &mut rays.dy,
+            dz: &mut rays.dz,
+            weight: &mut rays.weight,
+            passes: &mut rays.passes,
+        });
+        rays
+    }
+
     /// The f32 sampler of the camera loop against the f64 reference: the same ray and weight,
     /// and the same verdict on film points no ray leaves (fisheye corners).
     #[test]
@@ -601,21 +642,13 @@ mod tests {
                 let mut film = || (rng.next_f32() - 0.5) * scale;
                 let (x, y): (Vec<f32>, Vec<f32>) = (0..N).map(|_| (film(), film())).unzip();
                 let (u, v): (Vec<f32>, Vec<f32>) = (0..N).map(|_| rng.next_2d().into()).unzip();
-                let (mut dx, mut dy, mut dz, mut weight) =
-                    (vec![0.0; N], vec![0.0; N], vec![0.0; N], vec![0.0; N]);
-                let mut passes = vec![false; N];
-                pupil.sampler().sample(FilmRays {
-                    x: &x,
-                    y: &y,
-                    depth: None,
-                    u: &u,
-                    v: &v,
-                    dx: &mut dx,
-                    dy: &mut dy,
-                    dz: &mut dz,
-                    weight: &mut weight,
-                    passes: &mut passes,
-                });
+                let SampledRays {
+                    dx,
+                    dy,
+                    dz,
+                    weight,
+                    passes,
+                } = sample_with_camera_loop(&pupil, &x, &y, None, &u, &v);
                 for i in 0..N {
                     let k = (x[i] as f64).hypot(y[i] as f64) / pupil.film_radius * SEGMENTS as f64;
                     if (k - k.round()).abs() < 1e-4 {
@@ -680,21 +713,13 @@ mod tests {
             .map(|p| (p[2] - w.system.rear_z()) as f32)
             .collect();
         let (u, v): (Vec<f32>, Vec<f32>) = (0..N).map(|_| rng.next_2d().into()).unzip();
-        let (mut dx, mut dy, mut dz, mut weight) =
-            (vec![0.0; N], vec![0.0; N], vec![0.0; N], vec![0.0; N]);
-        let mut passes = vec![false; N];
-        pupil.sampler().sample(FilmRays {
-            x: &x,
-            y: &y,
-            depth: Some(&depth),
-            u: &u,
-            v: &v,
-            dx: &mut dx,
-            dy: &mut dy,
-            dz: &mut dz,
-            weight: &mut weight,
-            passes: &mut passes,
-        });
+        let SampledRays {
+            dx,
+            dy,
+            dz,
+            weight,
+            passes,
+        } = sample_with_camera_loop(&pupil, &x, &y, Some(&depth), &u, &v);
         let mut compared = 0;
         for i in 0..N {
             let k = (x[i] as f64).hypot(y[i] as f64) / pupil.film_radius * SEGMENTS as f64;
