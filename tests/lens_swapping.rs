@@ -3,6 +3,7 @@
 
 mod support;
 
+use bevy_ecs::entity::Entity;
 use glam::Vec3;
 use realcam::film::Image;
 use realcam::lens::aperture::ApertureSetting;
@@ -41,6 +42,18 @@ fn duck_renderer() -> Renderer {
         tile_size: 16,
     });
     renderer
+}
+
+/// The duck scene through dgauss.50mm focused at 4 m, wide open: the lens entity is active.
+fn duck_through_dgauss() -> (Renderer, Entity) {
+    let mut renderer = duck_renderer();
+    let lens = renderer.add_lens(
+        &load_lens("dgauss.50mm", None).unwrap(),
+        focus(4.0),
+        ApertureSetting::Full,
+    );
+    renderer.set_active_lens(lens);
+    (renderer, lens)
 }
 
 fn render(renderer: &mut Renderer) -> Image {
@@ -96,13 +109,7 @@ fn a_then_b_then_a_gives_a_bit_for_bit() {
 
 #[test]
 fn editing_an_element_and_back_gives_the_same_image() {
-    let mut renderer = duck_renderer();
-    let lens = renderer.add_lens(
-        &load_lens("dgauss.50mm", None).unwrap(),
-        focus(4.0),
-        ApertureSetting::Full,
-    );
-    renderer.set_active_lens(lens);
+    let (mut renderer, lens) = duck_through_dgauss();
     let before = render(&mut renderer);
     let mut surfaces = renderer.world.query::<&mut LensSurface>();
     let original = surfaces
@@ -139,13 +146,7 @@ fn editing_an_element_and_back_gives_the_same_image() {
 fn a_cancelled_pass_leaves_the_film_untouched() {
     use std::sync::Arc;
     use std::sync::atomic::{AtomicBool, Ordering};
-    let mut renderer = duck_renderer();
-    let lens = renderer.add_lens(
-        &load_lens("dgauss.50mm", None).unwrap(),
-        focus(4.0),
-        ApertureSetting::Full,
-    );
-    renderer.set_active_lens(lens);
+    let (mut renderer, _) = duck_through_dgauss();
     renderer.set_sample_plan(3);
     let reference = render(&mut renderer);
 

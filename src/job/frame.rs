@@ -169,14 +169,19 @@ pub(super) fn render_frame(
         None => (None, planned),
     };
     renderer.begin_film(start_image.as_ref())?;
-    let checkpoint_info = |remaining: SampleSequence, samples: u32| CheckpointInfo {
-        version: FORMAT_VERSION,
-        samples,
-        remaining: remaining.to_vec(),
-        planned: args.spp,
-        shard: args.shard.map(|s| (s.index, s.count)),
-        settings: settings.clone(),
-        invocation: Invocation::current(),
+    // The film so far and the samples still to render, for a resume (the checkpoint) or a
+    // shard merge (the partial).
+    let save_checkpoint = |path: &Path, image: &Image, remaining: SampleSequence| {
+        let info = CheckpointInfo {
+            version: FORMAT_VERSION,
+            samples: image.samples,
+            remaining: remaining.to_vec(),
+            planned: args.spp,
+            shard: args.shard.map(|s| (s.index, s.count)),
+            settings: settings.clone(),
+            invocation: Invocation::current(),
+        };
+        write_checkpoint(path, image, &info)
     };
     let (width, height) = {
         let s = renderer.world.resource::<RenderSettings>();
@@ -193,11 +198,7 @@ pub(super) fn render_frame(
         if let Some(code) = (context.stop)() {
             progress.finish();
             let image = renderer.image();
-            write_checkpoint(
-                &checkpoint_path,
-                &image,
-                &checkpoint_info(remaining, image.samples),
-            )?;
+            save_checkpoint(&checkpoint_path, &image, remaining)?;
             if args.shard.is_none() {
                 let exposure = choose_exposure(args, &image);
                 write_image(
@@ -224,11 +225,7 @@ pub(super) fn render_frame(
             && last_checkpoint.elapsed().as_secs_f64() >= every
         {
             let image = renderer.image();
-            write_checkpoint(
-                &checkpoint_path,
-                &image,
-                &checkpoint_info(remaining, image.samples),
-            )?;
+            save_checkpoint(&checkpoint_path, &image, remaining)?;
             last_checkpoint = Instant::now();
         }
     }
@@ -252,11 +249,7 @@ pub(super) fn render_frame(
                 &format!("shard-{}-of-{}", shard.index, shard.count),
             )
         });
-        write_checkpoint(
-            &partial,
-            &image,
-            &checkpoint_info(SampleSequence::default(), image.samples),
-        )?;
+        save_checkpoint(&partial, &image, SampleSequence::default())?;
         eprintln!(
             "wrote {} (shard {}/{}, {} of {} spp)",
             partial.display(),
