@@ -5,6 +5,8 @@
 //! the default scene from its camera, 160², 4 spp per timed render, depth 5, 2 threads.
 //!
 //! `cargo bench --bench lens_variants`; compare the pairs' rates in one run (BENCHMARKS.md).
+//! After divan's tables, `frame_pairs` measures the pairs the targets name round by round
+//! (`cargo bench --bench lens_variants -- frame_pairs` runs it alone).
 
 mod common;
 
@@ -26,6 +28,73 @@ const MAX_DEPTH: u32 = 5;
 
 fn main() {
     divan::main();
+    // Divan takes name filters as plain arguments; the pairs run unless filtered out.
+    let filters: Vec<String> = std::env::args()
+        .skip(1)
+        .filter(|a| !a.starts_with('-'))
+        .collect();
+    if filters.is_empty() || filters.iter().any(|f| "frame_pairs".contains(f.as_str())) {
+        frame_pairs();
+    }
+}
+
+/// The frame pairs whose ratio the targets name: (numerator, denominator).
+const PAIRS: [(&str, &str); 3] = [
+    ("rf16-aspheric", "rf16-spherical-twin"),
+    ("dgauss50-spectral", "dgauss50-fixed-index"),
+    ("ef35-spectral", "ef35-fixed-index"),
+];
+const PAIR_ROUNDS: usize = 25;
+
+/// Each pair's cost ratio, measured round by round: a render of one, then of the other (the
+/// order alternating), so a change in the machine's speed (another process, the clock) falls on
+/// both halves of a round alike and the ratio of the round stays true. Prints the median ratio
+/// and its quartiles over the rounds.
+fn frame_pairs() {
+    let pool = thread_pool(2);
+    println!(
+        "\nframe_pairs: {PAIR_ROUNDS} rounds of one {WIDTH}×{HEIGHT}, {SPP}-spp render each, order alternating"
+    );
+    println!(
+        "{:<44} {:>9} {:>9} {:>9}   {:>9} {:>9}",
+        "pair (a / b)", "q1", "median", "q3", "a median", "b median"
+    );
+    for (a, b) in PAIRS {
+        let mut renderers = [a, b].map(|name| pool.install(|| renderer(name)));
+        let mut time = |which: usize| {
+            let renderer = &mut renderers[which];
+            let start = std::time::Instant::now();
+            pool.install(|| renderer.render(SPP, |_, _| true).expect("renders"));
+            start.elapsed().as_secs_f64()
+        };
+        let mut ratios = Vec::with_capacity(PAIR_ROUNDS);
+        let mut times = [Vec::new(), Vec::new()];
+        for round in 0..PAIR_ROUNDS {
+            let (ta, tb) = if round % 2 == 0 {
+                let ta = time(0);
+                (ta, time(1))
+            } else {
+                let tb = time(1);
+                (time(0), tb)
+            };
+            ratios.push(ta / tb);
+            times[0].push(ta);
+            times[1].push(tb);
+        }
+        let quantile = |values: &mut Vec<f64>, q: f64| {
+            values.sort_by(f64::total_cmp);
+            values[((values.len() - 1) as f64 * q).round() as usize]
+        };
+        println!(
+            "{:<44} {:>8.3}× {:>8.3}× {:>8.3}×   {:>6.2} ms {:>6.2} ms",
+            format!("{a} / {b}"),
+            quantile(&mut ratios, 0.25),
+            quantile(&mut ratios, 0.5),
+            quantile(&mut ratios, 0.75),
+            quantile(&mut times[0], 0.5) * 1e3,
+            quantile(&mut times[1], 0.5) * 1e3,
+        );
+    }
 }
 
 /// (bench name, bundled lens, spherical twin?, dispersion)

@@ -4,20 +4,12 @@
 
 mod support;
 
+use support::cli::realcam;
+
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output, Stdio};
 
 use serde_json::{Value, json};
 use support::GltfBuilder;
-
-fn realcam(dir: &Path, args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_realcam"))
-        .args(args)
-        .current_dir(dir)
-        .stdin(Stdio::null())
-        .output()
-        .unwrap()
-}
 
 /// Renders `scene` small, returning stderr and the stats' per-frame warnings; checks exit 0.
 fn render(dir: &Path, scene: &Path, extra: &[&str]) -> (String, Vec<String>) {

@@ -4,9 +4,10 @@
 
 mod support;
 
+use support::cli::{ok, realcam, refused, refused_by_parser};
+
 use std::f64::consts::PI;
 use std::path::Path;
-use std::process::{Command, Output, Stdio};
 use std::sync::Arc;
 
 use glam::{Mat4, Vec3};
@@ -393,28 +394,6 @@ fn the_diaphragm_is_a_component_of_the_stop_surface() {
     assert_eq!(back.system, round.system);
 }
 
-fn realcam(dir: &Path, args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_realcam"))
-        .args(args)
-        .current_dir(dir)
-        .stdin(Stdio::null())
-        .output()
-        .unwrap()
-}
-
-fn ok(output: &Output) -> String {
-    let stderr = String::from_utf8_lossy(&output.stderr).to_string();
-    assert!(output.status.success(), "{stderr}");
-    stderr
-}
-
-fn refused(output: &Output, words: &str) {
-    let stderr = String::from_utf8_lossy(&output.stderr);
-    assert!(!output.status.success(), "accepted: {stderr}");
-    assert!(stderr.contains(words), "{stderr}");
-    assert!(!stderr.contains("panicked"), "{stderr}");
-}
-
 #[test]
 fn bad_diaphragm_values_are_clear_errors() {
     let dir = tempfile::tempdir().unwrap();
@@ -431,20 +410,20 @@ fn bad_diaphragm_values_are_clear_errors() {
             args.extend(extra);
             realcam(d, &args)
         };
-        refused(&run(&["--blades", "2"]), "at least 3 blades");
-        refused(&run(&["--blades", "-4"]), "out of range");
+        refused(&run(&["--blades", "2"]), &["at least 3 blades"]);
+        refused_by_parser(&run(&["--blades", "-4"]), &["out of range"]);
         refused(
             &run(&["--blades", "6", "--blade-curvature", "1.5"]),
-            "--blade-curvature 1.5",
+            &["--blade-curvature 1.5"],
         );
         refused(
             &run(&["--blades", "6", "--blade-curvature", "-0.1"]),
-            "between 0",
+            &["between 0"],
         );
-        refused(&run(&["--blade-rotation", "10"]), "--blades");
-        refused(&run(&["--aperture-image", "missing.png"]), "missing.png");
-        refused(&run(&["--aperture-image", "garbage.png"]), "garbage.png");
-        refused(&run(&["--aperture-image", "black.png"]), "no light");
+        refused_by_parser(&run(&["--blade-rotation", "10"]), &["--blades"]);
+        refused(&run(&["--aperture-image", "missing.png"]), &["missing.png"]);
+        refused(&run(&["--aperture-image", "garbage.png"]), &["garbage.png"]);
+        refused(&run(&["--aperture-image", "black.png"]), &["no light"]);
     }
     assert!(!d.join("render.png").exists(), "nothing written");
 }
@@ -532,30 +511,31 @@ fn fingerprints_record_the_diaphragm_only_when_set() {
 fn blades_combine_with_lens_runs_and_sweeps() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    let stderr = ok(&realcam(
-        d,
-        &[
-            "render",
-            "--spp",
-            "1",
-            "--width",
-            "16",
-            "--height",
-            "16",
-            "--max-depth",
-            "1",
-            "--lens",
-            "dgauss.50mm",
-            "--lens",
-            "wide.22mm",
-            "--blades",
-            "5",
-            "--f-number",
-            "8",
-            "--stats",
-            "stats.json",
-        ],
-    ));
+    // One sample of a 16² image, direct light only.
+    const TINY: [&str; 9] = [
+        "render",
+        "--spp",
+        "1",
+        "--width",
+        "16",
+        "--height",
+        "16",
+        "--max-depth",
+        "1",
+    ];
+    let render = |extra: &[&str]| ok(&realcam(d, &[&TINY[..], extra].concat()));
+    let stderr = render(&[
+        "--lens",
+        "dgauss.50mm",
+        "--lens",
+        "wide.22mm",
+        "--blades",
+        "5",
+        "--f-number",
+        "8",
+        "--stats",
+        "stats.json",
+    ]);
     assert!(stderr.contains("note: f/8 with 5 blades"), "{stderr}");
     let stats: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(d.join("stats.json")).unwrap()).unwrap();
@@ -565,28 +545,16 @@ fn blades_combine_with_lens_runs_and_sweeps() {
         let f = frame["f_number"].as_f64().unwrap();
         assert!((f - 8.0).abs() < 1e-6, "{frame}");
     }
-    ok(&realcam(
-        d,
-        &[
-            "render",
-            "--spp",
-            "1",
-            "--width",
-            "16",
-            "--height",
-            "16",
-            "--max-depth",
-            "1",
-            "--blades",
-            "6",
-            "--blade-curvature",
-            "0.5",
-            "--aperture-sweep",
-            "4:8:3",
-            "--out",
-            "sweep.png",
-        ],
-    ));
+    render(&[
+        "--blades",
+        "6",
+        "--blade-curvature",
+        "0.5",
+        "--aperture-sweep",
+        "4:8:3",
+        "--out",
+        "sweep.png",
+    ]);
     for k in 0..3 {
         assert!(d.join(format!("sweep-{k:03}.png")).exists());
     }

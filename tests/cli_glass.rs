@@ -1,18 +1,12 @@
 //! `realcam glass` from the outside: the text and JSON a user and a script see, and errors.
 
-use std::process::Command;
+mod support;
 
+use support::cli::realcam_texts;
+
+/// `realcam glass ARGS`: exit code, standard output and error.
 fn realcam(args: &[&str]) -> (i32, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_realcam"))
-        .arg("glass")
-        .args(args)
-        .output()
-        .unwrap();
-    (
-        out.status.code().unwrap_or(-1),
-        String::from_utf8_lossy(&out.stdout).into(),
-        String::from_utf8_lossy(&out.stderr).into(),
-    )
+    realcam_texts(&[&["glass"], args].concat(), None)
 }
 
 fn json(args: &[&str]) -> serde_json::Value {

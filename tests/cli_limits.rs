@@ -4,9 +4,13 @@
 
 #![cfg(target_os = "linux")]
 
+mod support;
+
+use support::cli::{command, realcam, refused, stderr};
+
 use std::os::unix::process::CommandExt;
 use std::path::Path;
-use std::process::{Command, Output, Stdio};
+use std::process::Command;
 use std::time::{Duration, Instant};
 
 use realcam::film::MAX_SPP;
@@ -19,13 +23,7 @@ const ADDRESS_SPACE: u64 = 1 << 30;
 
 /// `realcam` with `args` in `dir`, under an address-space limit (`ulimit -v`).
 fn limited(dir: &Path, args: &[&str]) -> Command {
-    let mut command = Command::new(env!("CARGO_BIN_EXE_realcam"));
-    command
-        .args(args)
-        .current_dir(dir)
-        .stdin(Stdio::null())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped());
+    let mut command = command(dir, args);
     // SAFETY: setrlimit is async-signal-safe, and nothing else runs between fork and exec.
     unsafe {
         command.pre_exec(|| {
@@ -40,28 +38,6 @@ fn limited(dir: &Path, args: &[&str]) -> Command {
         });
     }
     command
-}
-
-fn realcam(dir: &Path, args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_realcam"))
-        .args(args)
-        .current_dir(dir)
-        .stdin(Stdio::null())
-        .output()
-        .unwrap()
-}
-
-fn stderr(output: &Output) -> String {
-    String::from_utf8_lossy(&output.stderr).into_owned()
-}
-
-fn refused(output: &Output, phrases: &[&str]) {
-    let text = stderr(output);
-    assert_eq!(output.status.code(), Some(1), "{text}");
-    for phrase in phrases {
-        assert!(text.contains(phrase), "missing {phrase:?}: {text}");
-    }
-    assert!(!text.contains("panicked"), "{text}");
 }
 
 fn empty(dir: &Path) {

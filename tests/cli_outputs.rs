@@ -4,48 +4,18 @@
 
 #![cfg(unix)]
 
+mod support;
+
+use support::cli::{command, ok, realcam, refused, stderr};
+
 use std::io::Read;
 use std::os::unix::fs::FileTypeExt;
 use std::path::Path;
-use std::process::{Child, Command, Output, Stdio};
+use std::process::{Child, Command};
 use std::thread::JoinHandle;
 use std::time::Duration;
 
 use realcam::film::checkpoint::read_checkpoint;
-
-fn command(dir: &Path, args: &[&str]) -> Command {
-    let mut command = Command::new(env!("CARGO_BIN_EXE_realcam"));
-    command
-        .args(args)
-        .current_dir(dir)
-        .stdin(Stdio::null())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped());
-    command
-}
-
-fn realcam(dir: &Path, args: &[&str]) -> Output {
-    command(dir, args).output().unwrap()
-}
-
-fn stderr(output: &Output) -> String {
-    String::from_utf8_lossy(&output.stderr).into_owned()
-}
-
-fn ok(output: &Output) {
-    assert!(output.status.success(), "{}", stderr(output));
-}
-
-/// Exit 1 with `error:` holding every phrase, nothing written to `dir` beyond `keep`.
-fn refused(output: &Output, phrases: &[&str]) {
-    let text = stderr(output);
-    assert_eq!(output.status.code(), Some(1), "{text}");
-    assert!(text.contains("error: "), "{text}");
-    for phrase in phrases {
-        assert!(text.contains(phrase), "missing {phrase:?}: {text}");
-    }
-    assert!(!text.contains("panicked"), "{text}");
-}
 
 /// A small, cheap render.
 const SMALL: [&str; 10] = [

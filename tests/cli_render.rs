@@ -1,28 +1,15 @@
 //! `realcam render` from the outside: lens runs and sweeps, stats, interruption and resume,
 //! shards, determinism across thread counts.
 
+mod support;
+
+use support::cli::{ok, realcam};
+
 use std::path::Path;
-use std::process::{Command, Output, Stdio};
+use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
 use realcam::film::checkpoint::read_checkpoint;
-
-fn realcam(dir: &Path, args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_realcam"))
-        .args(args)
-        .current_dir(dir)
-        .stdin(Stdio::null())
-        .output()
-        .unwrap()
-}
-
-fn ok(output: &Output) {
-    assert!(
-        output.status.success(),
-        "{}",
-        String::from_utf8_lossy(&output.stderr)
-    );
-}
 
 /// Linear RGB floats of an EXR written by `--exr`.
 fn exr_pixels(path: &Path) -> Vec<f32> {

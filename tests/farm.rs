@@ -2,28 +2,15 @@
 //! delivered twice still saves the checkpoint, and `realcam merge` names the exact command that
 //! finishes a stopped shard — a command that works when run as printed.
 
+mod support;
+
+use support::cli::{ok, realcam};
+
 use std::io::{BufRead, BufReader, Read};
 use std::path::Path;
-use std::process::{Child, Command, Output, Stdio};
+use std::process::{Child, Command, Stdio};
 
 use realcam::film::checkpoint::read_checkpoint;
-
-fn realcam(dir: &Path, args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_realcam"))
-        .args(args)
-        .current_dir(dir)
-        .stdin(Stdio::null())
-        .output()
-        .unwrap()
-}
-
-fn ok(output: &Output) {
-    assert!(
-        output.status.success(),
-        "{}",
-        String::from_utf8_lossy(&output.stderr)
-    );
-}
 
 /// Many cheap sample passes (an 8×8 image, direct light only), so that a signal lands
 /// mid-render.

@@ -5,6 +5,8 @@
 
 mod support;
 
+use support::cli::realcam;
+
 use std::path::{Path, PathBuf};
 
 use glam::{Mat4, Vec3};
@@ -535,14 +537,6 @@ fn coverage_warns_for_shift_and_refuses_an_uncoverable_tilt() {
     let error = check_coverage(system, film_distance, &steep, 120.0, 80.0).unwrap_err();
     assert!(error.contains("into the lens"), "{error}");
     assert!(shifted([0.0, 0.0], [5.0, -3.0]).unwrap().is_none());
-}
-
-fn realcam(dir: &Path, args: &[&str]) -> std::process::Output {
-    std::process::Command::new(env!("CARGO_BIN_EXE_realcam"))
-        .current_dir(dir)
-        .args(args)
-        .output()
-        .unwrap()
 }
 
 /// From the command line: --focus-on with two lenses and an aperture sweep prints and records

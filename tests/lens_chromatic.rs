@@ -4,8 +4,9 @@
 
 mod support;
 
+use support::cli::realcam_texts;
+
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
 use glam::{Mat4, Vec3};
 use realcam::film::Image;
@@ -26,29 +27,6 @@ use realcam::shade::Environment;
 use realcam::spectral::{XYZ_FROM_SRGB, cmf, spectral_film};
 use serde_json::Value;
 use support::{GltfBuilder, emitter, quad};
-
-fn realcam(args: &[&str], stdin: Option<&str>) -> (bool, String, String) {
-    use std::io::Write;
-    let mut child = Command::new(env!("CARGO_BIN_EXE_realcam"))
-        .args(args)
-        .stdin(std::process::Stdio::piped())
-        .stdout(std::process::Stdio::piped())
-        .stderr(std::process::Stdio::piped())
-        .spawn()
-        .unwrap();
-    child
-        .stdin
-        .take()
-        .unwrap()
-        .write_all(stdin.unwrap_or("").as_bytes())
-        .unwrap();
-    let out = child.wait_with_output().unwrap();
-    (
-        out.status.success(),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
-}
 
 fn glass(name: &str) -> Glass {
     Glass::Catalogue(catalogue().find(name).unwrap())
@@ -108,8 +86,8 @@ fn lens_json_reports_the_colour_and_first_order_data_at_a_wavelength() {
     let json = |extra: &[&str]| -> Value {
         let mut args = vec!["lens", "dgauss.50mm", "--json"];
         args.extend(extra);
-        let (ok, out, err) = realcam(&args, None);
-        assert!(ok, "{err}");
+        let (code, out, err) = realcam_texts(&args, None);
+        assert_eq!(code, 0, "{err}");
         serde_json::from_str(&out).unwrap()
     };
     let d = json(&[]);
@@ -130,18 +108,18 @@ fn lens_json_reports_the_colour_and_first_order_data_at_a_wavelength() {
     let rays = r#"[{"origin":[0,6,-10],"direction":[0,0,1],"wavelength_nm":450},
                    {"origin":[0,6,-10],"direction":[0,0,1],"wavelength_nm":650},
                    {"origin":[0,6,-10],"direction":[0,0,1]}]"#;
-    let (ok, out, err) = realcam(&["lens", "dgauss.50mm", "--trace"], Some(rays));
-    assert!(ok, "{err}");
+    let (code, out, err) = realcam_texts(&["lens", "dgauss.50mm", "--trace"], Some(rays));
+    assert_eq!(code, 0, "{err}");
     let traced: Value = serde_json::from_str(&out).unwrap();
     let dy = |i: usize| traced[i]["direction"][1].as_f64().unwrap();
     assert!(dy(0) < dy(2) && dy(2) < dy(1), "{traced}");
-    let (ok, _, err) = realcam(
+    let (code, _, err) = realcam_texts(
         &["lens", "dgauss.50mm", "--trace"],
         Some(r#"[{"origin":[0,6,-10],"direction":[0,0,1],"wavelength_nm":-3}]"#),
     );
-    assert!(!ok && err.contains("wavelength_nm -3"), "{err}");
-    let (ok, _, err) = realcam(&["lens", "dgauss.50mm", "--wavelength", "nan"], None);
-    assert!(!ok && err.contains("--wavelength"), "{err}");
+    assert!(code != 0 && err.contains("wavelength_nm -3"), "{err}");
+    let (code, _, err) = realcam_texts(&["lens", "dgauss.50mm", "--wavelength", "nan"], None);
+    assert!(code != 0 && err.contains("--wavelength"), "{err}");
 }
 
 fn png_pixels(path: &Path) -> Vec<u8> {
@@ -175,8 +153,8 @@ fn lenses_without_glass_render_what_they_did_before() {
         let mut args: Vec<&str> = common.to_vec();
         args.extend(&extra);
         args.extend(["--out", out.to_str().unwrap()]);
-        let (ok, _, err) = realcam(&args, None);
-        assert!(ok, "{err}");
+        let (code, _, err) = realcam_texts(&args, None);
+        assert_eq!(code, 0, "{err}");
         assert!(
             png_pixels(&out) == reference,
             "{name}: pixels differ from before"

@@ -5,8 +5,11 @@
 //! lentil, the makers' marked values, the Zemax file's targets), not from realcam: see each
 //! lens file's `notes` and lenses/README.md for where each comes from.
 
+mod support;
+
+use support::cli::realcam_texts;
+
 use std::path::Path;
-use std::process::Command;
 
 use realcam::lens::bundled::{BUNDLED, BundledLens, load_lens};
 use realcam::lens::clear_aperture::widest_stop;
@@ -375,21 +378,9 @@ fn rudolph_double_gauss_is_its_zemax_file() {
     }
 }
 
-fn realcam(args: &[&str]) -> (i32, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_realcam"))
-        .args(args)
-        .output()
-        .unwrap();
-    (
-        out.status.code().unwrap_or(-1),
-        String::from_utf8_lossy(&out.stdout).into(),
-        String::from_utf8_lossy(&out.stderr).into(),
-    )
-}
-
 #[test]
 fn lenses_command_lists_every_bundled_lens() {
-    let (code, stdout, stderr) = realcam(&["lenses"]);
+    let (code, stdout, stderr) = realcam_texts(&["lenses"], None);
     assert_eq!(code, 0, "{stderr}");
     for lens in BUNDLED {
         assert!(
@@ -414,7 +405,7 @@ fn lenses_command_lists_every_bundled_lens() {
 
 #[test]
 fn lenses_json_has_every_figure() {
-    let (code, stdout, stderr) = realcam(&["lenses", "--json"]);
+    let (code, stdout, stderr) = realcam_texts(&["lenses", "--json"], None);
     assert_eq!(code, 0, "{stderr}");
     let entries: Vec<serde_json::Value> = serde_json::from_str(&stdout).unwrap();
     assert_eq!(entries.len(), BUNDLED.len());
@@ -459,7 +450,7 @@ fn lenses_json_has_every_figure() {
 
 #[test]
 fn lenses_filter_and_its_errors() {
-    let (code, stdout, _) = realcam(&["lenses", "fisheye"]);
+    let (code, stdout, _) = realcam_texts(&["lenses", "fisheye"], None);
     assert_eq!(code, 0);
     let names: Vec<&str> = stdout
         .lines()
@@ -476,17 +467,17 @@ fn lenses_filter_and_its_errors() {
             "minolta-fisheye-16mm-f2.8"
         ]
     );
-    let (code, stdout, stderr) = realcam(&["lenses", "no-such-maker"]);
+    let (code, stdout, stderr) = realcam_texts(&["lenses", "no-such-maker"], None);
     assert_ne!(code, 0);
     assert!(stdout.is_empty());
     assert!(stderr.contains("no-such-maker"), "{stderr}");
-    let (code, _, stderr) = realcam(&["lenses", "--no-such-option"]);
+    let (code, _, stderr) = realcam_texts(&["lenses", "--no-such-option"], None);
     assert_eq!(code, 2, "{stderr}");
 }
 
 #[test]
 fn readme_documents_every_option_of_realcam_lenses() {
-    let (code, help, _) = realcam(&["lenses", "--help"]);
+    let (code, help, _) = realcam_texts(&["lenses", "--help"], None);
     assert_eq!(code, 0);
     let readme =
         std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/README.md")).unwrap();

@@ -243,8 +243,8 @@ impl Plan<'_> {
                 }
             }
             Travel::FilmToScene => {
-                for lane in 0..n {
-                    carried[lane] = index_after(count - 1, lane);
+                for (lane, index) in carried[..n].iter_mut().enumerate() {
+                    *index = index_after(count - 1, lane);
                 }
                 for step in 0..count {
                     let surface = count - 1 - step;

@@ -27,7 +27,8 @@ impl<const N: usize> Tabulated<N> {
     /// The values at `wavelength_nm` (linear interpolation).
     pub fn at(&self, wavelength_nm: f64) -> [f64; N] {
         let x = (wavelength_nm - self.start) / self.step;
-        if !(x >= 0.0) || x > (self.values.len() - 1) as f64 {
+        // Outside the table (or not a number): nothing.
+        if x.is_nan() || x < 0.0 || x > (self.values.len() - 1) as f64 {
             return [0.0; N];
         }
         let i = (x as usize).min(self.values.len() - 2);
