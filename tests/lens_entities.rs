@@ -1,11 +1,13 @@
 //! Lens entities: derived data follows every kind of edit, and only what an edit invalidates
 //! is recomputed (change detection).
 
+use realcam::lens::Asphere;
 use realcam::lens::aperture::ApertureSetting;
 use realcam::lens::bundled::load_lens;
+use realcam::lens::chromatic::axial_colour;
 use realcam::lens::elements::{
     FilmFormat, FilmPlacement, FocusSetting, LensDerivationStats, LensFault, LensGeometry,
-    LensSurface, activate_lens, spawn_lens,
+    LensSurface, SurfaceAsphere, SurfaceGlass, activate_lens, spawn_lens,
 };
 use realcam::lens::focus::FocusMode;
 use realcam::lens::pupil::ExitPupil;
@@ -209,4 +211,131 @@ fn lenses_are_independent_entity_sets() {
         .iter(&renderer.world)
         .count();
     assert_eq!(left, 13, "only wide.22mm's 13 surfaces remain");
+}
+
+/// The entities of `lens`'s surfaces, front to back.
+fn surface_entities(
+    renderer: &Renderer,
+    lens: bevy_ecs::entity::Entity,
+) -> Vec<bevy_ecs::entity::Entity> {
+    let children: Vec<_> = renderer
+        .world
+        .get::<bevy_ecs::hierarchy::Children>(lens)
+        .unwrap()
+        .iter()
+        .copied()
+        .collect();
+    let mut ordered: Vec<(usize, bevy_ecs::entity::Entity)> = children
+        .into_iter()
+        .map(|c| (renderer.world.get::<LensSurface>(c).unwrap().order, c))
+        .collect();
+    ordered.sort();
+    ordered.into_iter().map(|(_, c)| c).collect()
+}
+
+/// An asphere and a glass are components of their surface's entity: taking the aspheres away
+/// gives exactly the lens with spherical surfaces (its spherical twin), and a lens whose
+/// glasses are taken away has no colour (the F- and C-line foci coincide), each a single
+/// re-derivation of the geometry.
+#[test]
+fn aspheres_and_glasses_are_surface_components() {
+    let mut renderer = Renderer::new();
+    let aspheric = load_lens("canon-rf-16mm-f2.8", None).unwrap();
+    let lens = spawn_lens(
+        &mut renderer.world,
+        &aspheric,
+        focus(3.0),
+        ApertureSetting::Full,
+    );
+    activate_lens(&mut renderer.world, lens);
+    renderer.update().unwrap();
+    let surfaces = surface_entities(&renderer, lens);
+    let with_asphere: Vec<usize> = (0..surfaces.len())
+        .filter(|&i| renderer.world.get::<SurfaceAsphere>(surfaces[i]).is_some())
+        .collect();
+    let in_file: Vec<usize> = (0..aspheric.rows.len())
+        .filter(|&i| aspheric.rows[i].asphere != Asphere::NONE)
+        .collect();
+    assert_eq!(with_asphere, in_file);
+    assert!(!in_file.is_empty());
+    for (i, &surface) in surfaces.iter().enumerate() {
+        assert_eq!(
+            renderer.world.get::<SurfaceGlass>(surface).map(|g| g.0),
+            aspheric.rows[i].glass
+        );
+    }
+
+    // Take the aspheres away: the geometry is the spherical twin's, derived once more.
+    let (geometry_runs, _, _) = runs(&renderer);
+    for &i in &with_asphere {
+        renderer
+            .world
+            .entity_mut(surfaces[i])
+            .remove::<SurfaceAsphere>();
+    }
+    renderer.update().unwrap();
+    assert_eq!(runs(&renderer).0, geometry_runs + 1);
+    let mut twin = aspheric.clone();
+    for row in &mut twin.rows {
+        row.asphere = Asphere::NONE;
+    }
+    let twin_lens = spawn_lens(
+        &mut renderer.world,
+        &twin,
+        focus(3.0),
+        ApertureSetting::Full,
+    );
+    renderer.update().unwrap();
+    let geometry = |renderer: &Renderer, e| {
+        renderer
+            .world
+            .get::<LensGeometry>(e)
+            .unwrap()
+            .system
+            .clone()
+    };
+    assert_eq!(geometry(&renderer, lens), geometry(&renderer, twin_lens));
+    assert!(
+        geometry(&renderer, lens)
+            .rows
+            .iter()
+            .all(|r| r.asphere == Asphere::NONE)
+    );
+
+    // Take the glasses away: no dispersion, so no axial colour.
+    let colour = |renderer: &Renderer| axial_colour(&geometry(renderer, lens)).unwrap();
+    assert!(
+        colour(&renderer).abs() > 1e-3,
+        "the lens has colour: {} mm",
+        colour(&renderer)
+    );
+    for &surface in &surfaces {
+        renderer.world.entity_mut(surface).remove::<SurfaceGlass>();
+    }
+    renderer.update().unwrap();
+    assert!(
+        geometry(&renderer, lens)
+            .rows
+            .iter()
+            .all(|r| r.glass.is_none())
+    );
+    assert!(colour(&renderer).abs() < 1e-12, "{} mm", colour(&renderer));
+
+    // A glass put back on one surface brings that surface's dispersion back.
+    let first_glass = aspheric
+        .rows
+        .iter()
+        .position(|r| r.glass.is_some())
+        .unwrap();
+    let glass = aspheric.rows[first_glass].glass.unwrap();
+    renderer
+        .world
+        .entity_mut(surfaces[first_glass])
+        .insert(SurfaceGlass(glass));
+    renderer.update().unwrap();
+    assert_eq!(
+        geometry(&renderer, lens).rows[first_glass].glass,
+        Some(glass)
+    );
+    assert!(colour(&renderer).abs() > 1e-4);
 }

@@ -1,7 +1,8 @@
 //! Lenses as ECS entities, and the systems that derive what tracing needs from them.
 //!
 //! A lens is a root entity ([`Lens`], [`FocusSetting`], [`ApertureSetting`]) whose children are
-//! its surfaces ([`LensSurface`], one per prescription row). Derived data lives in components
+//! its surfaces ([`LensSurface`], one per prescription row, with [`SurfaceAsphere`] on an
+//! aspheric surface and [`SurfaceGlass`] where the file names the glass after it). Derived data lives in components
 //! on the lens entity and is recomputed only when its inputs change, in three steps:
 //!
 //! | step | writes | reruns when |
@@ -14,7 +15,8 @@
 //! A lens that cannot be used (bad edit, impossible focus) gets a [`LensFault`] instead.
 //!
 //! The stop's surface entity may carry a [`Diaphragm`] (blades, a mask): adding, changing or
-//! removing it re-derives the geometry like any edit of a surface.
+//! removing it, like a [`SurfaceAsphere`] or a [`SurfaceGlass`], re-derives the geometry as any
+//! edit of a surface does.
 
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
@@ -38,7 +40,9 @@ use super::focus_probe::{FocusOnPixel, FocusProbe};
 use super::movements::FilmMovements;
 use super::prescription::{LensFormat, Prescription, SurfaceRow};
 use super::pupil::{ExitPupil, PupilSampling};
+use super::shape::Asphere;
 use super::system::LensSystem;
+use crate::glass::Glass;
 
 /// The lens (root) entity.
 #[derive(Component, Clone, Debug)]
@@ -53,7 +57,36 @@ pub struct Lens {
 pub struct LensSurface {
     /// Position from the front (0) to the back.
     pub order: usize,
+    /// The base surface: radius, thickness, index, clear aperture, stop. On the entity the
+    /// row's `asphere` and `glass` stay empty: they are the [`SurfaceAsphere`] and
+    /// [`SurfaceGlass`] components, so each can be added, changed or taken away on its own.
     pub row: SurfaceRow,
+}
+
+/// The conic and polynomial terms of an aspheric surface: a component of its [`LensSurface`]
+/// entity (absent: a sphere, or a plane).
+#[derive(Component, Clone, Copy, Debug, PartialEq)]
+pub struct SurfaceAsphere(pub Asphere);
+
+/// The glass of the medium after a surface, which gives the dispersion around the row's index
+/// (see [`SurfaceRow::index_at`]): a component of its [`LensSurface`] entity (absent: a fixed
+/// index at every wavelength).
+#[derive(Component, Clone, Copy, Debug, PartialEq)]
+pub struct SurfaceGlass(pub Glass);
+
+impl LensSurface {
+    /// The whole prescription row: the base row with the surface's asphere and glass.
+    pub fn full_row(
+        &self,
+        asphere: Option<&SurfaceAsphere>,
+        glass: Option<&SurfaceGlass>,
+    ) -> SurfaceRow {
+        SurfaceRow {
+            asphere: asphere.map_or(Asphere::NONE, |a| a.0),
+            glass: glass.map(|g| g.0),
+            ..self.row
+        }
+    }
 }
 
 /// Marks the lens the renderer uses.
@@ -199,7 +232,18 @@ pub fn spawn_lens(
     let mut entity = world.spawn((lens, focus, aperture));
     entity.with_children(|children| {
         for (order, row) in prescription.rows.iter().enumerate() {
-            children.spawn(LensSurface { order, row: *row });
+            let base = SurfaceRow {
+                asphere: Asphere::NONE,
+                glass: None,
+                ..*row
+            };
+            let mut surface = children.spawn(LensSurface { order, row: base });
+            if row.asphere != Asphere::NONE {
+                surface.insert(SurfaceAsphere(row.asphere));
+            }
+            if let Some(glass) = row.glass {
+                surface.insert(SurfaceGlass(glass));
+            }
         }
     });
     entity.id()
@@ -253,39 +297,57 @@ pub fn activate_lens(world: &mut World, lens: Entity) {
     world.entity_mut(lens).insert(ActiveLens);
 }
 
-/// Builds the geometry of every lens whose surfaces (or the stop's diaphragm) or aperture
-/// changed.
+/// A surface entity's components, each with its change ticks.
+type SurfaceParts = (
+    Ref<'static, LensSurface>,
+    Option<Ref<'static, SurfaceAsphere>>,
+    Option<Ref<'static, SurfaceGlass>>,
+    Option<Ref<'static, Diaphragm>>,
+);
+
+/// Builds the geometry of every lens whose surfaces (a row, an asphere, a glass, the stop's
+/// diaphragm: changed, added or taken away) or aperture changed.
+// A system's parameters are its explicit queries and resources (bevy style), not a bundle.
+#[allow(clippy::too_many_arguments)]
 pub fn derive_geometry(
     mut commands: Commands,
     lenses: Query<(Entity, &Lens, Ref<Children>, Ref<ApertureSetting>)>,
-    surfaces: Query<(Ref<LensSurface>, Option<Ref<Diaphragm>>)>,
+    surfaces: Query<SurfaceParts>,
+    mut removed_aspheres: RemovedComponents<SurfaceAsphere>,
+    mut removed_glasses: RemovedComponents<SurfaceGlass>,
     mut removed_diaphragms: RemovedComponents<Diaphragm>,
     mut stats: ResMut<LensDerivationStats>,
 ) {
-    let removed: Vec<Entity> = removed_diaphragms.read().collect();
+    let removed: Vec<Entity> = removed_aspheres
+        .read()
+        .chain(removed_glasses.read())
+        .chain(removed_diaphragms.read())
+        .collect();
     for (entity, lens, children, aperture) in &lenses {
         let surface_changed = children.iter().any(|c| {
             removed.contains(c)
-                || surfaces
-                    .get(*c)
-                    .is_ok_and(|(s, d)| s.is_changed() || d.is_some_and(|d| d.is_changed()))
+                || surfaces.get(*c).is_ok_and(|(s, a, g, d)| {
+                    s.is_changed()
+                        || a.is_some_and(|a| a.is_changed())
+                        || g.is_some_and(|g| g.is_changed())
+                        || d.is_some_and(|d| d.is_changed())
+                })
         });
         if !(children.is_changed() || aperture.is_changed() || surface_changed) {
             continue;
         }
         let start = Instant::now();
-        let mut rows: Vec<(LensSurface, Option<&Diaphragm>)> = children
+        let mut parts: Vec<(usize, SurfaceRow, Option<&Diaphragm>)> = children
             .iter()
-            .filter_map(|c| {
-                surfaces
-                    .get(*c)
-                    .ok()
-                    .map(|(s, d)| (*s, d.map(|d| d.into_inner())))
+            .filter_map(|c| surfaces.get(*c).ok())
+            .map(|(s, a, g, d)| {
+                let row = s.full_row(a.as_deref(), g.as_deref());
+                (s.order, row, d.map(|d| d.into_inner()))
             })
             .collect();
-        rows.sort_by_key(|(s, _)| s.order);
-        let diaphragm = rows.iter().find_map(|(_, d)| *d);
-        let rows: Vec<SurfaceRow> = rows.into_iter().map(|(s, _)| s.row).collect();
+        parts.sort_by_key(|(order, _, _)| *order);
+        let diaphragm = parts.iter().find_map(|(_, _, d)| *d);
+        let rows: Vec<SurfaceRow> = parts.into_iter().map(|(_, row, _)| row).collect();
         match build_geometry_with(lens, &rows, *aperture, diaphragm) {
             Ok(geometry) => {
                 commands
