@@ -602,6 +602,10 @@ fn cli_focus_on_with_lenses_sweeps_and_movements() {
         (vec!["--focus-on", "-1,2"], "is not a pixel"),
         (vec!["--tilt", "75,0"], "--tilt 75,0°"),
         (vec!["--shift", "nan,1"], "not two finite numbers"),
+        (
+            vec!["--shift", "1e308,0"],
+            "--shift 1e308,0 mm: each component must be a number of mm between −1000 and 1000",
+        ),
         (vec!["--tilt", "0,40", "--film-diagonal", "60"], "tilt"),
     ] {
         let mut args: Vec<&str> = common.to_vec();

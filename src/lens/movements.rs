@@ -27,6 +27,9 @@ use crate::batch::RayBatch;
 
 /// Tilts at or beyond this (degrees) turn the film nearly edge-on to the lens: refused.
 pub const MAX_TILT_DEG: f64 = 60.0;
+/// Largest shift, mm, either way: the widest image circles of large-format lenses are some
+/// 500 mm across, so a frame shifted further than this lies in the dark behind any lens.
+pub const MAX_SHIFT_MM: f64 = 1000.0;
 
 /// Shift and tilt of the film behind a lens: a component of the lens entity (absent = none).
 #[derive(Component, Clone, Copy, Debug, PartialEq, Default)]
@@ -63,10 +66,23 @@ impl FilmMovements {
     /// Checks the values themselves (what the lens can cover is checked by
     /// [`check_coverage`]).
     pub fn validate(&self) -> Result<(), String> {
-        if !self.shift_mm.iter().all(|v| v.is_finite()) {
+        if !self
+            .shift_mm
+            .iter()
+            .all(|v| v.is_finite() && v.abs() <= MAX_SHIFT_MM)
+        {
+            // `{:e}` for a huge value: `{}` would spell out all its 300 digits.
+            let shown = |v: f64| {
+                if v.abs() < 1e9 {
+                    format!("{v}")
+                } else {
+                    format!("{v:e}")
+                }
+            };
             return Err(format!(
-                "shift {:?} mm: both components must be finite numbers",
-                self.shift_mm
+                "shift {},{} mm: each component must be a number of mm between −{MAX_SHIFT_MM} and {MAX_SHIFT_MM} (further, the frame lies outside any lens's image circle)",
+                shown(self.shift_mm[0]),
+                shown(self.shift_mm[1])
             ));
         }
         if !self
