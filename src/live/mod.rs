@@ -62,7 +62,7 @@ type LensReportCache = (u64, Arc<Value>, Arc<String>);
 struct Shared {
     published: Mutex<Published>,
     /// Signalled at every publication (or when the session stops).
-    new_image: Condvar,
+    published_changed: Condvar,
     cancel: Arc<AtomicBool>,
     stopped: AtomicBool,
     png: Mutex<Option<(u64, Arc<Vec<u8>>)>>,
@@ -95,7 +95,7 @@ impl LiveLab {
                 stats: Map::new(),
                 lens: None,
             }),
-            new_image: Condvar::new(),
+            published_changed: Condvar::new(),
             cancel,
             stopped: AtomicBool::new(false),
             png: Mutex::new(None),
@@ -177,29 +177,32 @@ impl LiveLab {
     /// Waits until an image newer than `generation` is out (or `timeout` passes); returns the
     /// latest generation.
     pub fn wait_for_image(&self, generation: u64, timeout: Duration) -> u64 {
-        let published = lock(&self.shared.published);
-        let (published, _) = self
-            .shared
-            .new_image
-            .wait_timeout_while(published, timeout, |p| {
-                p.generation <= generation && !self.shared.stopped.load(Ordering::Relaxed)
-            })
-            .unwrap_or_else(|e| e.into_inner());
-        published.generation
+        self.wait_while(timeout, |p| p.generation <= generation)
+            .generation
     }
 
     /// Waits until something newer than `revision` is published (or `timeout` passes); returns
     /// the latest revision.
     pub fn wait_for_revision(&self, revision: u64, timeout: Duration) -> u64 {
+        self.wait_while(timeout, |p| p.revision <= revision)
+            .revision
+    }
+
+    /// The published state once `waiting` says false of it, the session stops or `timeout`
+    /// passes (every publication wakes the waiters).
+    fn wait_while(
+        &self,
+        timeout: Duration,
+        waiting: impl Fn(&Published) -> bool,
+    ) -> MutexGuard<'_, Published> {
         let published = lock(&self.shared.published);
-        let (published, _) = self
-            .shared
-            .new_image
+        self.shared
+            .published_changed
             .wait_timeout_while(published, timeout, |p| {
-                p.revision <= revision && !self.shared.stopped.load(Ordering::Relaxed)
+                waiting(p) && !self.shared.stopped.load(Ordering::Relaxed)
             })
-            .unwrap_or_else(|e| e.into_inner());
-        published.revision
+            .unwrap_or_else(|e| e.into_inner())
+            .0
     }
 
     /// The current image as PNG (encoded once per image), with its generation.
@@ -261,7 +264,7 @@ impl LiveLab {
             let _ = thread.join();
         }
         self.shared.stopped.store(true, Ordering::Relaxed);
-        self.shared.new_image.notify_all();
+        self.shared.published_changed.notify_all();
     }
 
     pub fn is_stopped(&self) -> bool {
@@ -482,6 +485,6 @@ impl RenderLoop {
         published.stats = stats;
         published.lens = Some(lens);
         drop(published);
-        self.shared.new_image.notify_all();
+        self.shared.published_changed.notify_all();
     }
 }
