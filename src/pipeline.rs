@@ -684,38 +684,6 @@ impl Renderer {
         Ok(())
     }
 
-    /// Whether `lens` covers the film as its [`FilmMovements`] move it (see
-    /// [`check_coverage`](crate::lens::movements::check_coverage)): `Err` when a tilted film
-    /// would reach into the lens or leave the image circle, `Ok(Some(warning))` for a shifted
-    /// frame's dark corners, `Ok(None)` when the lens covers it or nothing is moved.
-    pub fn check_coverage(&self, lens: Entity) -> Result<Option<String>, String> {
-        let entity = self
-            .world
-            .get_entity(lens)
-            .map_err(|_| "no such lens".to_string())?;
-        let Some(movements) = entity.get::<FilmMovements>() else {
-            return Ok(None);
-        };
-        let (Some(geometry), Some(placement)) =
-            (entity.get::<LensGeometry>(), entity.get::<FilmPlacement>())
-        else {
-            return Err("the lens is not derived (no geometry or film placement)".into());
-        };
-        let settings = self.world.resource::<RenderSettings>();
-        let film = FilmGeometry::new(
-            settings.width,
-            settings.height,
-            self.world.resource::<FilmFormat>().diagonal_mm,
-        );
-        crate::lens::movements::check_coverage(
-            &geometry.system,
-            placement.film_distance,
-            movements,
-            film.width_mm as f64,
-            film.height_mm as f64,
-        )
-    }
-
     /// Clears the film and renders samples 0..`spp`, calling `progress(done, total)` after each
     /// pass; stops early (keeping what was rendered) when `progress` returns false.
     pub fn render(

@@ -539,6 +539,70 @@ fn coverage_warns_for_shift_and_refuses_an_uncoverable_tilt() {
     assert!(shifted([0.0, 0.0], [5.0, -3.0]).unwrap().is_none());
 }
 
+/// The same verdicts derived on the lens entity (no caller has to ask): an uncoverable tilt
+/// faults the lens until the tilt is taken back, dark corners are a warning on it, and taking
+/// the movements away takes the verdict away.
+#[test]
+fn coverage_is_derived_on_the_lens_entity() {
+    use realcam::lens::coverage::FilmCoverage;
+    let mut renderer = Renderer::new();
+    renderer.set_settings(RenderSettings {
+        width: 36,
+        height: 24,
+        ..RenderSettings::default()
+    });
+    renderer.set_film(43.27, PupilSampling::Bounds);
+    let lens = renderer.add_lens(
+        &load_lens("dgauss.50mm", None).unwrap(),
+        FocusSetting::Distance {
+            metres: 5.0,
+            mode: FocusMode::Paraxial,
+        },
+        ApertureSetting::Full,
+    );
+    renderer.set_active_lens(lens);
+    let mut moved = |shift_mm: [f64; 2], tilt_deg: [f64; 2]| {
+        renderer
+            .world
+            .entity_mut(lens)
+            .insert(FilmMovements { shift_mm, tilt_deg });
+        renderer.update().unwrap();
+        let coverage = renderer.world.get::<FilmCoverage>(lens).cloned();
+        (
+            coverage,
+            renderer.check_active_lens().map_err(|e| e.to_string()),
+        )
+    };
+    assert_eq!(
+        moved([3.0, 2.0], [0.0, 0.0]),
+        (Some(FilmCoverage::Covered), Ok(()))
+    );
+    let (coverage, active) = moved([40.0, 0.0], [0.0, 0.0]);
+    assert!(
+        coverage
+            .unwrap()
+            .warning()
+            .unwrap()
+            .contains("image circle")
+    );
+    assert!(active.is_ok());
+    let (coverage, active) = moved([40.0, 0.0], [2.0, 0.0]);
+    assert!(matches!(coverage, Some(FilmCoverage::Uncovered(_))));
+    assert!(
+        active
+            .unwrap_err()
+            .contains("beyond what this lens can cover")
+    );
+    assert_eq!(
+        moved([0.0, 0.0], [5.0, -3.0]),
+        (Some(FilmCoverage::Covered), Ok(()))
+    );
+    renderer.world.entity_mut(lens).remove::<FilmMovements>();
+    renderer.update().unwrap();
+    assert!(renderer.world.get::<FilmCoverage>(lens).is_none());
+    assert!(renderer.check_active_lens().is_ok());
+}
+
 /// From the command line: --focus-on with two lenses and an aperture sweep prints and records
 /// each frame's object and film distance; with --shift and --tilt too, and the fingerprint
 /// of a checkpoint records the movements; bad values are clear errors.

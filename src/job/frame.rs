@@ -17,6 +17,7 @@ use crate::film::checkpoint::{
 };
 use crate::film::output::{shown, write_image};
 use crate::film::samples::SampleSequence;
+use crate::lens::coverage::FilmCoverage;
 use crate::lens::elements::{
     Dispersion, FilmPlacement, FocusSetting, LensDerivationStats, LensGeometry,
 };
@@ -122,14 +123,8 @@ pub(super) fn render_frame(
             .get::<FilmPlacement>()
             .context("film placement missing")?
             .film_distance;
-        match renderer.check_coverage(lens.entity) {
-            Ok(None) => {}
-            Ok(Some(warning)) => eprintln!("warning: {warning}"),
-            Err(message) => bail!(
-                "{}: cannot render this frame through {}: {message}",
-                frame.out.display(),
-                lens.prescription.name
-            ),
+        if let Some(warning) = entity.get::<FilmCoverage>().and_then(FilmCoverage::warning) {
+            eprintln!("warning: {warning}");
         }
         (
             geometry.first_order.focal_length,

@@ -11,6 +11,7 @@
 //! | [`place_film`] | [`FilmPlacement`] (film distance) | the geometry or the focus changes |
 //! | [`focus_on_pixel`](super::focus_probe::focus_on_pixel) | [`FilmPlacement`], [`FocusProbe`](super::focus_probe::FocusProbe) for a lens with [`FocusOnPixel`] | the geometry, focus target, movements, camera, film or scene changes |
 //! | [`bound_exit_pupil`] | [`ExitPupil`] bounds | the placement, the [`FilmMovements`] or the [`FilmFormat`] changes |
+//! | [`check_film_coverage`](super::coverage::check_film_coverage) | [`FilmCoverage`](super::coverage::FilmCoverage) (and a [`LensFault`] for a tilt the lens cannot cover) on a lens with [`FilmMovements`] | the placement, the movements, the film format or the image size changes |
 //!
 //! A lens that cannot be used (bad edit, impossible focus) gets a [`LensFault`] instead.
 //!
@@ -214,6 +215,9 @@ pub fn add_lens_systems(schedule: &mut Schedule) {
         place_film.in_set(LensDerivation::Placement),
         super::focus_probe::focus_on_pixel.in_set(LensDerivation::Placement),
         bound_exit_pupil.in_set(LensDerivation::Pupil),
+        super::coverage::check_film_coverage
+            .in_set(LensDerivation::Pupil)
+            .after(bound_exit_pupil),
     ));
 }
 

@@ -22,6 +22,7 @@ pub mod bundled;
 pub mod camera;
 pub mod chromatic;
 pub mod clear_aperture;
+pub mod coverage;
 pub mod dat_file;
 pub mod diagram;
 pub mod diaphragm;

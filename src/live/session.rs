@@ -22,6 +22,7 @@ use crate::job::{Job, movements, tone};
 use crate::lens::Prescription;
 use crate::lens::aperture::ApertureSetting;
 use crate::lens::camera::FilmGeometry;
+use crate::lens::coverage::FilmCoverage;
 use crate::lens::elements::{FilmFormat, FilmPlacement, FocusSetting, LensGeometry};
 use crate::lens::focus_probe::{FocusOnPixel, solve_focus_at};
 use crate::lens::movements::FilmMovements;
@@ -287,8 +288,10 @@ impl Session {
             .map_err(|e| format!("{}: {e}", self.lens_name))?;
         let warning = self
             .renderer
-            .check_coverage(self.lens)
-            .map_err(|message| format!("{}: {message}", self.lens_name))?;
+            .world
+            .get::<FilmCoverage>(self.lens)
+            .and_then(FilmCoverage::warning)
+            .map(str::to_string);
         if warning.is_some() && warning != self.warning {
             eprintln!("warning: {}", warning.as_deref().unwrap_or_default());
         }
