@@ -10,7 +10,7 @@
 //! in metres along them.
 //!
 //! Traversal is obvhs's stack traversal with, where the CPU has AVX2, an 8-wide node test
-//! compiled for it (see [`traversal`]); obvhs's own code is the portable path and the reference
+//! compiled for it (see `traversal.rs`); obvhs's own code is the portable path and the reference
 //! the fast one reproduces exactly ([`SceneAccel::intersect_with`]). Batches of camera rays go
 //! through the tree eight at a time (module `packet`), with the same hits.
 

@@ -32,6 +32,9 @@ use crate::lens::trace::{Ray, Travel, normalize, trace};
 use crate::lens::{Prescription, SurfaceKind};
 use crate::pipeline::Renderer;
 
+// The field docs are `--help` text for a terminal: brackets there are clap's "[default: …]"
+// and JSON, not rustdoc links.
+#[allow(rustdoc::broken_intra_doc_links)]
 #[derive(Args, Debug, Clone)]
 pub struct LensArgs {
     /// Lens prescription file, or a bundled lens name (e.g. dgauss.50mm).

@@ -20,6 +20,9 @@ use crate::job::{Job, Progress, outputs::validate};
 use crate::lens::elements::Dispersion;
 use crate::memory::MAX_THREADS;
 
+// The field docs are `--help` text for a terminal: brackets there are clap's "[default: …]"
+// and JSON, not rustdoc links.
+#[allow(rustdoc::broken_intra_doc_links)]
 #[derive(Args, Debug, Clone)]
 pub struct RenderArgs {
     /// glTF 2.0 scene (.gltf or .glb) [default: the built-in dof-dragons scene].

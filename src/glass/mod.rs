@@ -11,7 +11,7 @@
 //!   435.8343 nm). The Abbe number is V_d = (n_d − 1) / (n_F − n_C).
 //!
 //! A lens surface refers to its glass by a small `Copy` value, [`Glass`]: either an entry of
-//! the built-in [`catalogue`] (1,610 glasses from Schott, Ohara, Hoya, Hikari, CDGM and Sumita;
+//! the built-in [`catalogue()`] (1,610 glasses from Schott, Ohara, Hoya, Hikari, CDGM and Sumita;
 //! see `assets/glass/README.md`) or, when a prescription gives only n_d and V_d, the
 //! [`model`] dispersion through those two numbers.
 

@@ -306,7 +306,7 @@ impl ApertureMask {
         top + (bottom - top) * ty
     }
 
-    /// [`Self::sample`] in f32, for the batch kernels.
+    /// `Self::sample` in f32, for the batch kernels.
     pub fn sample_f32(&self, u: f32, v: f32) -> f32 {
         let (w, h) = (self.width as usize, self.height as usize);
         let fx = (u - 0.5).clamp(0.0, (w - 1) as f32);

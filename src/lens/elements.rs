@@ -9,7 +9,7 @@
 //! |---|---|---|
 //! | [`derive_geometry`] | [`LensGeometry`] (packed surfaces, first-order data) | a surface or the aperture changes |
 //! | [`place_film`] | [`FilmPlacement`] (film distance) | the geometry or the focus changes |
-//! | [`focus_on_pixel`](super::focus_probe::focus_on_pixel) | [`FilmPlacement`], [`FocusProbe`](super::focus_probe::FocusProbe) for a lens with [`FocusOnPixel`] | the geometry, focus target, movements, camera, film or scene changes |
+//! | [`focus_on_pixel`](super::focus_probe::focus_on_pixel) | [`FilmPlacement`], [`FocusProbe`] for a lens with [`FocusOnPixel`] | the geometry, focus target, movements, camera, film or scene changes |
 //! | [`bound_exit_pupil`] | [`ExitPupil`] bounds | the placement, the [`FilmMovements`] or the [`FilmFormat`] changes |
 //! | [`check_film_coverage`](super::coverage::check_film_coverage) | [`FilmCoverage`](super::coverage::FilmCoverage) (and a [`LensFault`] for a tilt the lens cannot cover) on a lens with [`FilmMovements`] | the placement, the movements, the film format or the image size changes |
 //!

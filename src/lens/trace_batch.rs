@@ -1,6 +1,6 @@
 //! Exact ray tracing through the lens for a whole batch at once (structure of arrays, f32).
 //!
-//! The surface step ([`refract::refract_at`]) is written once, generically over the lane type,
+//! The surface step (`refract::refract_at`) is written once, generically over the lane type,
 //! and run by two kernels that give bit-identical rays:
 //!
 //! * [`Kernel::AutoVectorised`]: a plain loop over one `f32` ray at a time, surface by surface

@@ -47,7 +47,7 @@ const EITHER: [(&str, &str); 2] = [
 ];
 /// Settings that only qualify another: removing it removes them.
 const QUALIFIERS: [(&str, [&str; 2]); 1] = [("blades", ["blade_rotation", "blade_curvature"])];
-/// What [`LiveSettings::state`] adds beside the settings: a client may send a state back.
+/// What the live session's state adds beside the settings: a client may send a state back.
 pub const READ_ONLY: [&str; 10] = [
     "warning",
     "revision",

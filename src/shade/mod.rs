@@ -136,8 +136,8 @@ impl Shader<'_> {
     /// the caller weights it. A ray without an entry in `hits` is traced here.
     ///
     /// The paths advance together, one vertex at a time (a wavefront): every path takes its
-    /// next step ([`Shader::advance`], the same step the one-ray reference
-    /// [`Shader::path_radiance`] takes), then all the bounce rays are traced as one batch,
+    /// next step (`Shader::advance`, the same step the one-ray reference
+    /// `Shader::path_radiance` takes), then all the bounce rays are traced as one batch,
     /// grouped by direction octant so that the batch call's 8-ray packets hold rays of one
     /// octant leaving neighbouring pixels. The hits are exactly those of single rays and each
     /// path keeps its own random stream, so the result is the reference's, bit for bit.
