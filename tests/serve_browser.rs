@@ -320,7 +320,7 @@ fn readme_screenshot() {
     };
     let chromium = find_chromium().expect("chromium");
     let served = Served::start(&["--spp", "32", "--f-number", "2", "--blades", "6"]);
-    let mut browser = Browser::launch(&chromium, 1500, 900);
+    let mut browser = Browser::launch(&chromium, 1500, 1010);
     browser.open(&served.url());
     browser.wait_for_page();
     browser.evaluate(HELPERS);

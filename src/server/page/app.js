@@ -4,7 +4,7 @@
 const $ = (id) => document.getElementById(id);
 // Settings the page edits as one number each, and as a pair (inputs NAME_x, NAME_y).
 const NUMBERS = ["focus_distance", "f_number", "aperture", "film_diagonal", "blades",
-  "blade_rotation", "blade_curvature"];
+  "blade_rotation", "blade_curvature", "width", "height", "exposure"];
 const PAIRS = ["shift", "tilt"];
 let state = null;
 // Answers to concurrent requests may arrive in any order: keep only the newest state (the
