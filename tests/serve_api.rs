@@ -525,7 +525,7 @@ fn blades_shift_and_tilt_change_live_and_stay_through_a_lens_swap() {
         (json!({"tilt": [75, 0]}), "tilt"),
         (json!({"shift": [1e308, 0]}), "between −1000 and 1000"),
         (json!({"shift": [1]}), "shift"),
-        (json!({"shift": "1,2"}), "shift"),
+        (json!({"shift": "1,two"}), "shift"),
         (json!({"blade_curvature": 2}), "curvature"),
     ] {
         let reply = served.post("/api/settings", &bad);

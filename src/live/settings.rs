@@ -189,7 +189,6 @@ impl LiveSettings {
                     }
                     continue;
                 }
-                Value::String(s) if WORDS.contains(&name.as_str()) => s.clone(),
                 Value::Array(pair) if PAIRS.contains(&name.as_str()) => match pair.as_slice() {
                     [Value::Number(x), Value::Number(y)] => format!("{x},{y}"),
                     _ => {
@@ -203,8 +202,9 @@ impl LiveSettings {
                 {
                     n.to_string()
                 }
-                // `inf` is a focus distance; JSON has no infinity.
-                Value::String(s) if s == "inf" && name == "focus_distance" => s.clone(),
+                // The command line's own text is welcome too ("4", "inf" — JSON has no
+                // infinity — or "1.5,-2" for a pair): the option parser checks it.
+                Value::String(s) => s.clone(),
                 _ => {
                     let expected = if WORDS.contains(&name.as_str()) {
                         "a string"
@@ -218,6 +218,10 @@ impl LiveSettings {
             };
             if text.len() > 1024 {
                 return Err(format!("{name}: value too long"));
+            }
+            // A value is never an option of its own (it goes to the parser as the next word).
+            if text.starts_with("--") {
+                return Err(format!("{name}: {text:?} is not a value"));
             }
             next.set(name, text);
             for (a, b) in EITHER {
@@ -313,6 +317,9 @@ mod tests {
             json!({"lens": 3}),
             json!([1, 2]),
             json!({"f_number": 2, "aperture": 3}),
+            json!({"f_number": "four"}),
+            json!({"lens": "--out=/tmp/elsewhere.png"}),
+            json!({"focus_mode": "--spp"}),
         ] {
             let outcome = settings.changed(&bad).and_then(|s| s.parse());
             assert!(outcome.is_err(), "{bad} was accepted");
@@ -322,6 +329,13 @@ mod tests {
             "realcam render --f-number 4 --film-distance 40.5 --lens dgauss.50mm"
         );
         assert_eq!(shell_quote("it's"), "'it'\\''s'");
+        // The command line's text is accepted as well as JSON numbers.
+        let texts = settings
+            .changed(&json!({"f_number": "5.6", "focus_distance": "inf"}))
+            .unwrap();
+        let args = texts.parse().unwrap();
+        assert_eq!(args.lens_options.f_number, Some(5.6));
+        assert_eq!(args.lens_options.focus_distance, Some(f64::INFINITY));
     }
 
     #[test]
