@@ -615,6 +615,21 @@ impl Renderer {
         set_diaphragm(&mut self.world, lens, diaphragm);
     }
 
+    /// Puts `movements` on `lens`, or takes them off (`None`), touching the component only
+    /// when it changes.
+    pub fn set_movements(&mut self, lens: Entity, movements: Option<FilmMovements>) {
+        let mut entity = self.world.entity_mut(lens);
+        match movements {
+            Some(movements) if entity.get::<FilmMovements>() != Some(&movements) => {
+                entity.insert(movements);
+            }
+            None if entity.contains::<FilmMovements>() => {
+                entity.remove::<FilmMovements>();
+            }
+            _ => {}
+        }
+    }
+
     /// Makes `lens` the lens the next render uses.
     pub fn set_active_lens(&mut self, lens: Entity) {
         activate_lens(&mut self.world, lens);

@@ -25,22 +25,7 @@ use crate::lens::camera::FilmGeometry;
 use crate::lens::coverage::FilmCoverage;
 use crate::lens::elements::{FilmFormat, FilmPlacement, FocusSetting, LensGeometry};
 use crate::lens::focus_probe::{FocusOnPixel, solve_focus_at};
-use crate::lens::movements::FilmMovements;
 use crate::pipeline::{CameraPose, PassCancel, RenderSettings, Renderer};
-
-/// Puts `movements` on `lens`, or takes them off (`None`), writing only what changes.
-fn set_movements(renderer: &mut Renderer, lens: Entity, movements: Option<FilmMovements>) {
-    let mut entity = renderer.world.entity_mut(lens);
-    match movements {
-        Some(movements) if entity.get::<FilmMovements>() != Some(&movements) => {
-            entity.insert(movements);
-        }
-        None if entity.contains::<FilmMovements>() => {
-            entity.remove::<FilmMovements>();
-        }
-        _ => {}
-    }
-}
 
 /// Largest side of the first, coarse pass after a change (pixels): it shows the change at once.
 pub const PREVIEW_SIDE: u32 = 128;
@@ -273,7 +258,7 @@ impl Session {
         }
         // The diaphragm and the film movements are the session's, whichever lens is on.
         self.renderer.set_diaphragm(self.lens, diaphragm);
-        set_movements(&mut self.renderer, self.lens, movements(args));
+        self.renderer.set_movements(self.lens, movements(args));
         let film_diagonal = args
             .lens_options
             .film_diagonal
@@ -331,7 +316,7 @@ impl Session {
             [x as f32, y as f32],
         )
         .map_err(|e| format!("nothing to focus on at ({x:.0}, {y:.0}): {e}"))?;
-        Ok(if film.movements.tilt_deg != [0.0, 0.0] {
+        Ok(if film.movements.is_tilted() {
             json!({ "film_distance": probe.film_distance })
         } else {
             json!({ "focus_distance": probe.object_distance_mm / 1e3 })
