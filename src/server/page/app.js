@@ -31,9 +31,11 @@ function show(newState) {
   if (state && newState.revision < state.revision) return;
   state = newState;
   refreshImage(state.generation);
-  // Four significant digits are enough to read; the state keeps every digit.
+  // Four significant digits are enough to read a measure (the state keeps every digit); whole
+  // numbers (pixels, blades) are shown as they are.
+  const readable = (value) => Number.isInteger(value) ? value : Number(value.toPrecision(4));
   const shown = (input, value) => {
-    if (document.activeElement !== input) input.value = typeof value === "number" ? Number(value.toPrecision(4)) : value ?? "";
+    if (document.activeElement !== input) input.value = typeof value === "number" ? readable(value) : value ?? "";
   };
   for (const name of NUMBERS) shown($(name), state[name]);
   for (const name of PAIRS) {
