@@ -382,7 +382,7 @@ fn the_diaphragm_is_a_component_of_the_stop_surface() {
                 .world
                 .get::<realcam::lens::elements::LensSurface>(c)
                 .unwrap()
-                .row
+                .base
                 .stop
         })
         .collect();

@@ -103,10 +103,10 @@ fn editing_an_element_and_back_restores_the_lens() {
         .iter(&renderer.world)
         .find(|s| s.order == 0)
         .unwrap()
-        .row;
+        .base;
     for mut s in surfaces.iter_mut(&mut renderer.world) {
         if s.order == 0 {
-            s.row.radius *= 1.1;
+            s.base.radius *= 1.1;
         }
     }
     renderer.update().unwrap();
@@ -122,7 +122,7 @@ fn editing_an_element_and_back_restores_the_lens() {
 
     for mut s in surfaces.iter_mut(&mut renderer.world) {
         if s.order == 0 {
-            s.row = original;
+            s.base = original;
         }
     }
     renderer.update().unwrap();
@@ -166,7 +166,7 @@ fn a_broken_edit_or_impossible_focus_faults_the_lens_clearly() {
     let mut surfaces = renderer.world.query::<&mut LensSurface>();
     for mut s in surfaces.iter_mut(&mut renderer.world) {
         if s.order == 1 {
-            s.row.thickness = -3.0;
+            s.base.thickness = -3.0;
         }
     }
     renderer.update().unwrap();

@@ -116,17 +116,17 @@ fn editing_an_element_and_back_gives_the_same_image() {
         .iter(&renderer.world)
         .find(|s| s.order == 3)
         .unwrap()
-        .row;
+        .base;
     for mut s in surfaces.iter_mut(&mut renderer.world) {
         if s.order == 3 {
-            s.row.index = 1.75;
+            s.base.index = 1.75;
         }
     }
     let edited = render(&mut renderer);
     assert_ne!(before, edited, "a different glass changes the image");
     for mut s in surfaces.iter_mut(&mut renderer.world) {
         if s.order == 3 {
-            s.row = original;
+            s.base = original;
         }
     }
     assert_eq!(render(&mut renderer), before);

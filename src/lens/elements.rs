@@ -58,10 +58,37 @@ pub struct Lens {
 pub struct LensSurface {
     /// Position from the front (0) to the back.
     pub order: usize,
-    /// The base surface: radius, thickness, index, clear aperture, stop. On the entity the
-    /// row's `asphere` and `glass` stay empty: they are the [`SurfaceAsphere`] and
-    /// [`SurfaceGlass`] components, so each can be added, changed or taken away on its own.
-    pub row: SurfaceRow,
+    pub base: SurfaceBase,
+}
+
+/// What every surface has (the prescription row less its asphere and glass, which are the
+/// [`SurfaceAsphere`] and [`SurfaceGlass`] components, so each can be added, changed or taken
+/// away on its own). The fields mean what [`SurfaceRow`]'s do.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SurfaceBase {
+    /// Signed vertex radius of curvature, mm (> 0: centre toward the film; ∞ flat).
+    pub radius: f64,
+    pub thickness: f64,
+    /// Refractive index of the medium after the surface (n_d with a glass).
+    pub index: f64,
+    /// Clear aperture diameter, mm.
+    pub aperture: f64,
+    /// 1-based line in the source file (0 for rows made in code).
+    pub line: usize,
+    pub stop: bool,
+}
+
+impl SurfaceBase {
+    pub fn of(row: &SurfaceRow) -> SurfaceBase {
+        SurfaceBase {
+            radius: row.radius,
+            thickness: row.thickness,
+            index: row.index,
+            aperture: row.aperture,
+            line: row.line,
+            stop: row.stop,
+        }
+    }
 }
 
 /// The conic and polynomial terms of an aspheric surface: a component of its [`LensSurface`]
@@ -76,16 +103,29 @@ pub struct SurfaceAsphere(pub Asphere);
 pub struct SurfaceGlass(pub Glass);
 
 impl LensSurface {
-    /// The whole prescription row: the base row with the surface's asphere and glass.
+    /// The whole prescription row: the base with the surface's asphere and glass.
     pub fn full_row(
         &self,
         asphere: Option<&SurfaceAsphere>,
         glass: Option<&SurfaceGlass>,
     ) -> SurfaceRow {
+        let SurfaceBase {
+            radius,
+            thickness,
+            index,
+            aperture,
+            line,
+            stop,
+        } = self.base;
         SurfaceRow {
+            radius,
+            thickness,
+            index,
+            aperture,
+            line,
+            stop,
             asphere: asphere.map_or(Asphere::NONE, |a| a.0),
             glass: glass.map(|g| g.0),
-            ..self.row
         }
     }
 }
@@ -236,12 +276,10 @@ pub fn spawn_lens(
     let mut entity = world.spawn((lens, focus, aperture));
     entity.with_children(|children| {
         for (order, row) in prescription.rows.iter().enumerate() {
-            let base = SurfaceRow {
-                asphere: Asphere::NONE,
-                glass: None,
-                ..*row
-            };
-            let mut surface = children.spawn(LensSurface { order, row: base });
+            let mut surface = children.spawn(LensSurface {
+                order,
+                base: SurfaceBase::of(row),
+            });
             if row.asphere != Asphere::NONE {
                 surface.insert(SurfaceAsphere(row.asphere));
             }
@@ -267,7 +305,7 @@ pub fn set_diaphragm(world: &mut World, lens: Entity, diaphragm: Option<Diaphrag
     // The stop as [`LensSystem::new`] finds it: the stop row, else the first.
     let Some(stop) = surfaces
         .iter()
-        .find(|(_, s)| s.row.stop)
+        .find(|(_, s)| s.base.stop)
         .or_else(|| surfaces.iter().find(|(_, s)| s.order == 0))
         .map(|(e, _)| *e)
     else {
