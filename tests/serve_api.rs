@@ -50,6 +50,12 @@ fn lens_cli_json(state: &Value) -> Value {
 #[test]
 fn every_endpoint_answers_over_loopback() {
     let served = Served::start(SMALL);
+    // The state is whole from the moment the URL is printed (it was once published by the
+    // render thread after the server had started answering).
+    let first = served.state();
+    for name in ["lens", "film_diagonal", "spp_target", "command", "revision"] {
+        assert!(!first[name].is_null(), "{name} missing at start: {first}");
+    }
     let page = served.get("/");
     assert_eq!(page.status, 200);
     let html = String::from_utf8(page.body).unwrap();

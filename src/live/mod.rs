@@ -103,10 +103,11 @@ impl LiveLab {
         });
         let library = Arc::new(session.library().clone());
         let (sender, receiver) = channel();
-        let worker = Arc::clone(&shared);
+        // The first state is published here, before any request can ask for it.
+        let render_loop = RenderLoop::new(session, Arc::clone(&shared));
         let thread = std::thread::Builder::new()
             .name("realcam-live".into())
-            .spawn(move || RenderLoop::new(session, worker).run(receiver))
+            .spawn(move || render_loop.run(receiver))
             .expect("cannot start the render thread");
         LiveLab {
             shared,
