@@ -132,32 +132,24 @@ pub fn best_film_distance(
     const GRID: usize = 96;
     const ROUNDS: usize = 6;
     let mut film = initial;
-    let aim = system.front_semi_aperture();
     for _ in 0..ROUNDS {
         let object_z = system.rear_z() + film - focus_distance_mm;
         let origin = [0.0, 0.0, object_z];
         let (mut sum_x0s, mut sum_ss, mut count) = (0.0, 0.0, 0usize);
-        for iy in 0..GRID {
-            for ix in 0..GRID {
-                let x = aim * ((ix as f64 + 0.5) / GRID as f64 * 2.0 - 1.0);
-                let y = aim * ((iy as f64 + 0.5) / GRID as f64 * 2.0 - 1.0);
-                if x * x + y * y > aim * aim {
-                    continue;
-                }
-                let direction = normalize([x, y, -object_z]);
-                let Ok(out) = trace(&system.f64s, Ray { origin, direction }, Travel::SceneToFilm)
-                else {
-                    continue;
-                };
-                let [px, py, pz] = out.origin;
-                let [dx, dy, dz] = out.direction;
-                for (p, slope) in [(px, dx / dz), (py, dy / dz)] {
-                    let x0 = p - slope * pz;
-                    sum_x0s += x0 * slope;
-                    sum_ss += slope * slope;
-                }
-                count += 1;
+        for [x, y] in front_aim_points(system, GRID) {
+            let direction = normalize([x, y, -object_z]);
+            let Ok(out) = trace(&system.f64s, Ray { origin, direction }, Travel::SceneToFilm)
+            else {
+                continue;
+            };
+            let [px, py, pz] = out.origin;
+            let [dx, dy, dz] = out.direction;
+            for (p, slope) in [(px, dx / dz), (py, dy / dz)] {
+                let x0 = p - slope * pz;
+                sum_x0s += x0 * slope;
+                sum_ss += slope * slope;
             }
+            count += 1;
         }
         if count == 0 || sum_ss == 0.0 {
             return Err(FocusError::NoRays);
@@ -213,28 +205,20 @@ pub fn rms_spot_radius(
 /// `None` when fewer than three rays pass.
 pub fn sharpest_image_z(system: &LensSystem, object: [f64; 3]) -> Option<f64> {
     const GRID: usize = 96;
-    let aim = system.front_semi_aperture();
     let mut lines: Vec<[f64; 4]> = Vec::new();
-    for iy in 0..GRID {
-        for ix in 0..GRID {
-            let x = aim * ((ix as f64 + 0.5) / GRID as f64 * 2.0 - 1.0);
-            let y = aim * ((iy as f64 + 0.5) / GRID as f64 * 2.0 - 1.0);
-            if x * x + y * y > aim * aim {
-                continue;
-            }
-            let direction = normalize([x - object[0], y - object[1], -object[2]]);
-            let ray = Ray {
-                origin: object,
-                direction,
-            };
-            let Ok(out) = trace(&system.f64s, ray, Travel::SceneToFilm) else {
-                continue;
-            };
-            let [px, py, pz] = out.origin;
-            let [dx, dy, dz] = out.direction;
-            let (sx, sy) = (dx / dz, dy / dz);
-            lines.push([px - sx * pz, sx, py - sy * pz, sy]);
-        }
+    for [x, y] in front_aim_points(system, GRID) {
+        let direction = normalize([x - object[0], y - object[1], -object[2]]);
+        let ray = Ray {
+            origin: object,
+            direction,
+        };
+        let Ok(out) = trace(&system.f64s, ray, Travel::SceneToFilm) else {
+            continue;
+        };
+        let [px, py, pz] = out.origin;
+        let [dx, dy, dz] = out.direction;
+        let (sx, sy) = (dx / dz, dy / dz);
+        lines.push([px - sx * pz, sx, py - sy * pz, sy]);
     }
     if lines.len() < 3 {
         return None;
@@ -255,4 +239,14 @@ pub fn sharpest_image_z(system: &LensSystem, object: [f64; 3]) -> Option<f64> {
         }
     }
     (slopes > 0.0).then(|| -cross / slopes)
+}
+
+/// Where the focus solvers aim their real rays: the centres of a `grid` × `grid` lattice over
+/// the front element's clear aperture, those inside its circle, row by row.
+fn front_aim_points(system: &LensSystem, grid: usize) -> impl Iterator<Item = [f64; 2]> {
+    let aim = system.front_semi_aperture();
+    let coordinate = move |k: usize| aim * ((k as f64 + 0.5) / grid as f64 * 2.0 - 1.0);
+    (0..grid)
+        .flat_map(move |iy| (0..grid).map(move |ix| [coordinate(ix), coordinate(iy)]))
+        .filter(move |[x, y]| x * x + y * y <= aim * aim)
 }
