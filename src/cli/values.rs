@@ -11,27 +11,28 @@ use glam::Vec3;
 
 /// `X,Y,Z`: three finite numbers, any sign.
 pub fn parse_vec3(s: &str) -> Result<Vec3, String> {
-    let parts: Vec<f32> = s
-        .split(',')
-        .map(|p| p.trim().parse::<f32>())
-        .collect::<Result<_, _>>()
-        .map_err(|_| format!("'{s}' is not X,Y,Z"))?;
-    match parts[..] {
-        [x, y, z] if parts.iter().all(|v| v.is_finite()) => Ok(Vec3::new(x, y, z)),
-        _ => Err(format!("'{s}' is not three finite numbers X,Y,Z")),
-    }
+    finite_numbers::<f32, 3>(s, "X,Y,Z", "three").map(Vec3::from_array)
 }
 
 /// `X,Y`: two finite numbers, any sign (a shift in mm, a tilt in degrees).
 pub fn parse_pair(s: &str) -> Result<[f64; 2], String> {
-    let parts: Vec<f64> = s
+    finite_numbers::<f64, 2>(s, "X,Y", "two")
+}
+
+/// `N` finite numbers separated by commas; `form` (`X,Y,Z`) and `count` (`three`) name them
+/// in the messages.
+fn finite_numbers<T, const N: usize>(s: &str, form: &str, count: &str) -> Result<[T; N], String>
+where
+    T: std::str::FromStr + Copy + Into<f64>,
+{
+    let parts: Vec<T> = s
         .split(',')
-        .map(|p| p.trim().parse::<f64>())
+        .map(|p| p.trim().parse::<T>())
         .collect::<Result<_, _>>()
-        .map_err(|_| format!("'{s}' is not X,Y"))?;
-    match parts[..] {
-        [x, y] if x.is_finite() && y.is_finite() => Ok([x, y]),
-        _ => Err(format!("'{s}' is not two finite numbers X,Y")),
+        .map_err(|_| format!("'{s}' is not {form}"))?;
+    match <[T; N]>::try_from(parts) {
+        Ok(values) if values.iter().all(|&v| v.into().is_finite()) => Ok(values),
+        _ => Err(format!("'{s}' is not {count} finite numbers {form}")),
     }
 }
 
