@@ -4,16 +4,16 @@
 //! bounds of every lens; and whole camera-ray generation (sample patterns, exit pupil, lens,
 //! world frame) for one tile.
 //! The rays are film → scene camera rays as the renderer makes them (see
-//! `realcam::cli::bench::LensWorkload`, which `realcam bench` measures too).
+//! `realcam::lens::workload::LensWorkload`, which `realcam bench` measures too).
 
 use divan::{Bencher, black_box};
 use glam::Mat4;
 use realcam::batch::RayBatch;
-use realcam::cli::bench::LensWorkload;
 use realcam::lens::bundled::BUNDLED;
 use realcam::lens::camera::{CameraRays, FilmGeometry, LensCamera};
 use realcam::lens::pupil::{ExitPupil, PupilSampling};
 use realcam::lens::trace_batch::{Isa, Kernel};
+use realcam::lens::workload::LensWorkload;
 
 const RAYS: usize = 4096;
 

@@ -236,10 +236,10 @@ const KERNEL_NAMES: [&str; 7] = [
 #[divan::bench(args = KERNEL_NAMES, sample_count = 40)]
 fn lens_kernel(bencher: Bencher, name: &str) {
     use realcam::batch::RayBatch;
-    use realcam::cli::bench::LensWorkload;
     use realcam::lens::LensSystem;
     use realcam::lens::trace::Travel;
     use realcam::lens::trace_batch::{Wavelengths, trace_batch, trace_batch_spectral};
+    use realcam::lens::workload::LensWorkload;
     let &(_, lens, twin, spectral, blades) =
         KERNELS.iter().find(|k| k.0 == name).expect("a kernel");
     let workload = LensWorkload::new(lens, 4096).expect("lens sets up");

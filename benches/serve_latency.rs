@@ -3,16 +3,17 @@
 //! new settings being out. Target (issue 13): under 0.3 s on 2 cores. Also the full pass the
 //! coarse first pass stands in for.
 
+use std::sync::Arc;
 use std::time::Duration;
 
 use divan::Bencher;
-use realcam::cli::{Cli, Command};
+use realcam::cli::render::parse_render_arguments;
 use realcam::job::Job;
 use realcam::job::outputs::validate;
 use realcam::live::LiveLab;
 use realcam::live::lenses::LensLibrary;
 use realcam::live::session::Session;
-use realcam::live::settings::LiveSettings;
+use realcam::live::settings::{LiveSettings, SpecParser};
 use serde_json::{Value, json};
 
 fn main() {
@@ -32,18 +33,14 @@ fn lab() -> LiveLab {
         .map(|s| s.to_string())
         .collect();
     let settings = LiveSettings::from_arguments(&argv);
-    let full = ["realcam", "render"]
-        .iter()
-        .map(|s| s.to_string())
-        .chain(settings.arguments());
-    let Ok(Some(Command::Render(args))) = Cli::try_parse_from_args(full) else {
-        panic!("render arguments")
-    };
-    let formats = validate(&args).unwrap();
-    let job = Job::prepare(&args, formats).unwrap();
+    let parser: SpecParser = Arc::new(parse_render_arguments);
+    let spec = settings.parse(&parser).expect("render arguments");
+    let formats = validate(&spec).unwrap();
+    let job = Job::prepare(&spec, formats).unwrap();
     let library = LensLibrary::new(Vec::new(), None, None).unwrap();
     let (flag, cancel) = LiveLab::cancel_flag();
-    let lab = LiveLab::start(Session::new(job, settings, library, cancel).unwrap(), flag);
+    let session = Session::new(job, settings, parser, library, cancel).unwrap();
+    let lab = LiveLab::start(session, flag);
     // Into the steady state: full passes under way.
     let generation = lab.published().generation;
     lab.wait_for_image(generation + 1, Duration::from_secs(60));

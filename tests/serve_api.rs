@@ -403,17 +403,10 @@ fn click_to_focus_traces_the_real_lens_to_the_scene() {
     let served = Served::start(SMALL);
     // The distance along the axis to what the image centre shows, by a plain ray from the
     // camera (the library's autofocus): the on-axis ray through the lens runs along the axis.
-    let argv = ["realcam", "render"]
-        .iter()
-        .chain(SMALL)
-        .map(|s| s.to_string());
-    let Some(realcam::cli::Command::Render(args)) =
-        realcam::cli::Cli::try_parse_from_args(argv).unwrap()
-    else {
-        panic!("a render command")
-    };
-    let formats = realcam::job::outputs::validate(&args).unwrap();
-    let mut job = realcam::job::Job::prepare(&args, formats).unwrap();
+    let arguments: Vec<String> = SMALL.iter().map(|s| s.to_string()).collect();
+    let spec = realcam::cli::render::parse_render_arguments(&arguments).unwrap();
+    let formats = realcam::job::outputs::validate(&spec).unwrap();
+    let mut job = realcam::job::Job::prepare(&spec, formats).unwrap();
     let wfc = job.world_from_camera;
     let realcam::lens::elements::FocusSetting::Distance { metres: axial, .. } =
         realcam::job::setup::autofocus(&mut job.renderer, wfc)

@@ -1,23 +1,16 @@
-//! Lens options shared by `realcam render` and `realcam lens`.
+//! Lens options shared by `realcam render` and `realcam lens`: the command line's form of
+//! [`LensSettings`].
 
 use std::path::PathBuf;
-use std::sync::Arc;
 
 use clap::Args;
 
 use super::values::{number, whole};
 
 use crate::lens::LensFormat;
-use crate::lens::aperture::ApertureSetting;
-use crate::lens::diaphragm::{ApertureMask, Blades, Diaphragm};
-use crate::lens::elements::FocusSetting;
 use crate::lens::focus::FocusMode;
 use crate::lens::pupil::PupilSampling;
-
-/// Largest film distance accepted. Film distances far beyond the focal length focus near the
-/// front focal point at huge magnification; 100 m is beyond any real bellows, and keeps the
-/// f32 ray generator far from overflow.
-pub const MAX_FILM_DISTANCE_MM: f64 = 1e5;
+use crate::lens::settings::LensSettings;
 
 #[derive(Args, Debug, Clone, Default)]
 pub struct LensOptions {
@@ -77,94 +70,35 @@ pub struct LensOptions {
 }
 
 impl LensOptions {
-    /// The focus the flags ask for, else `fallback`.
-    pub fn focus(&self, fallback: FocusSetting) -> FocusSetting {
-        match (self.film_distance, self.focus_distance) {
-            (Some(mm), _) => FocusSetting::FilmDistance(mm),
-            (None, Some(metres)) => FocusSetting::Distance {
-                metres,
-                mode: self.focus_mode,
-            },
-            (None, None) => match fallback {
-                FocusSetting::Distance { metres, .. } => FocusSetting::Distance {
-                    metres,
-                    mode: self.focus_mode,
-                },
-                other => other,
-            },
+    /// The settings these options give.
+    pub fn settings(&self) -> LensSettings {
+        let LensOptions {
+            focus_distance,
+            focus_mode,
+            film_distance,
+            aperture,
+            f_number,
+            film_diagonal,
+            lens_format,
+            pupil_sampling,
+            blades,
+            blade_rotation,
+            blade_curvature,
+            aperture_image,
+        } = self.clone();
+        LensSettings {
+            focus_distance,
+            focus_mode,
+            film_distance,
+            aperture,
+            f_number,
+            film_diagonal,
+            lens_format,
+            pupil_sampling,
+            blades,
+            blade_rotation,
+            blade_curvature,
+            aperture_image,
         }
-    }
-
-    /// The aperture the flags ask for, else `fallback`.
-    pub fn aperture(&self, fallback: ApertureSetting) -> ApertureSetting {
-        match (self.aperture, self.f_number) {
-            (Some(mm), _) => ApertureSetting::Diameter(mm),
-            (None, Some(n)) => ApertureSetting::FNumber(n),
-            (None, None) => fallback,
-        }
-    }
-
-    /// The diaphragm the flags ask for (`None`: the stop's circle); reads the mask image.
-    pub fn diaphragm(&self) -> anyhow::Result<Option<Diaphragm>> {
-        let blades = self.blades_setting()?;
-        let mask = match &self.aperture_image {
-            Some(path) => {
-                let mask = ApertureMask::load(path).map_err(anyhow::Error::msg)?;
-                if mask.width != mask.height {
-                    eprintln!(
-                        "warning: --aperture-image {}: {}×{} pixels is not square; it is stretched over the stop's diameter",
-                        path.display(),
-                        mask.width,
-                        mask.height
-                    );
-                }
-                Some(Arc::new(mask))
-            }
-            None => None,
-        };
-        let diaphragm = Diaphragm { blades, mask };
-        Ok((!diaphragm.is_circular()).then_some(diaphragm))
-    }
-
-    fn blades_setting(&self) -> anyhow::Result<Option<Blades>> {
-        self.blades
-            .map(|count| {
-                Blades::new(
-                    count,
-                    self.blade_rotation.unwrap_or(0.0),
-                    self.blade_curvature.unwrap_or(0.0),
-                )
-                .map_err(anyhow::Error::msg)
-            })
-            .transpose()
-    }
-
-    pub fn validate(&self) -> anyhow::Result<()> {
-        self.blades_setting()?;
-        let positive = |name: &str, v: Option<f64>| match v {
-            Some(x) if !(x.is_finite() && x > 0.0) => Err(anyhow::anyhow!(
-                "--{name} must be a positive number, got {x}"
-            )),
-            _ => Ok(()),
-        };
-        if let Some(metres) = self.focus_distance
-            && (metres.is_nan() || metres <= 0.0)
-        {
-            anyhow::bail!(
-                "--focus-distance must be a positive number of metres or inf, got {metres}"
-            );
-        }
-        positive("film-distance", self.film_distance)?;
-        if let Some(mm) = self.film_distance
-            && mm > MAX_FILM_DISTANCE_MM
-        {
-            anyhow::bail!(
-                "--film-distance {mm} mm is beyond {MAX_FILM_DISTANCE_MM} mm (100 m): no lens focuses with its film that far back"
-            );
-        }
-        positive("aperture", self.aperture)?;
-        positive("f-number", self.f_number)?;
-        positive("film-diagonal", self.film_diagonal)?;
-        Ok(())
     }
 }

@@ -14,10 +14,13 @@ use indicatif::{ProgressBar, ProgressStyle};
 use super::interrupt::Interrupt;
 use super::options::LensOptions;
 use super::values::{number, parse_pair, parse_pixel, parse_vec3, whole};
+use super::{Cli, Command};
 use crate::film::{MAX_IMAGE_SIDE, MAX_SPP};
 use crate::job::plan::{Shard, Sweep};
+use crate::job::spec::{EnvironmentSpec, JobSpec, OutputSpec, ViewSpec};
 use crate::job::{Job, Progress, outputs::validate};
 use crate::lens::elements::Dispersion;
+use crate::lens::movements::FilmMovements;
 use crate::memory::MAX_THREADS;
 
 // The field docs are `--help` text for a terminal: brackets there are clap's "[default: …]"
@@ -150,16 +153,116 @@ pub struct RenderArgs {
     pub partial: Option<PathBuf>,
 }
 
+impl RenderArgs {
+    /// The job these options ask for.
+    pub fn spec(&self) -> JobSpec {
+        let RenderArgs {
+            scene,
+            lens,
+            spp,
+            width,
+            height,
+            lens_options,
+            camera,
+            look_from,
+            look_at,
+            up,
+            env,
+            seed,
+            threads,
+            max_depth,
+            out,
+            exr,
+            exposure,
+            quality,
+            stats,
+            focus_sweep,
+            aperture_sweep,
+            contact_sheet,
+            checkpoint,
+            checkpoint_every,
+            resume,
+            shard,
+            dispersion,
+            focus_on,
+            shift,
+            tilt,
+            partial,
+        } = self.clone();
+        JobSpec {
+            scene,
+            lenses: lens,
+            lens: lens_options.settings(),
+            view: ViewSpec {
+                camera,
+                look_from,
+                look_at,
+                up,
+            },
+            // `R,G,B` is a sky; anything else names an image.
+            environment: env.map(|text| match parse_vec3(&text) {
+                Ok(rgb) => EnvironmentSpec::Uniform(rgb),
+                Err(_) => EnvironmentSpec::Image(PathBuf::from(text)),
+            }),
+            spp,
+            width,
+            height,
+            seed,
+            threads,
+            max_depth,
+            dispersion: dispersion.0,
+            focus_on,
+            movements: FilmMovements {
+                shift_mm: shift.unwrap_or_default(),
+                tilt_deg: tilt.unwrap_or_default(),
+            },
+            focus_sweep,
+            aperture_sweep,
+            output: OutputSpec {
+                out,
+                exr,
+                exposure,
+                quality,
+                stats,
+                contact_sheet,
+                checkpoint,
+                checkpoint_every,
+                resume,
+                shard,
+                partial,
+            },
+        }
+    }
+}
+
+/// Reads `realcam render` arguments (without the program and command names) as the command
+/// line does, with its messages: the parser a live session reads its settings with.
+pub fn parse_render_arguments(arguments: &[String]) -> Result<JobSpec, String> {
+    let argv = ["realcam", "render"]
+        .into_iter()
+        .map(String::from)
+        .chain(arguments.iter().cloned());
+    match Cli::try_parse_from_args(argv)? {
+        Some(Command::Render(args)) => {
+            let spec = args.spec();
+            spec.lens.validate().map_err(|e| e.to_string())?;
+            Ok(spec)
+        }
+        _ => Err("not a render command".into()),
+    }
+}
+
 pub fn run(args: &RenderArgs) -> anyhow::Result<ExitCode> {
-    let formats = validate(args)?;
-    if let Some(threads) = args.threads {
+    let spec = args.spec();
+    let formats = validate(&spec)?;
+    if let Some(threads) = spec.threads {
         rayon::ThreadPoolBuilder::new()
             .num_threads(threads)
             .build_global()
             .context("cannot start worker threads")?;
     }
     let interrupt = Interrupt::install()?;
-    let job = Job::prepare(args, formats)?;
+    let job = Job::prepare(&spec, formats)?;
     let stopped = job.run(&|| interrupt.requested(), &mut Bar(None))?;
     Ok(stopped.map_or(ExitCode::SUCCESS, ExitCode::from))
 }

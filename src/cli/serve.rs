@@ -3,12 +3,13 @@
 use std::net::{IpAddr, Ipv4Addr, SocketAddr};
 use std::path::PathBuf;
 use std::process::ExitCode;
+use std::sync::Arc;
 
 use anyhow::{Context, bail};
 use clap::Args;
 
 use super::interrupt::Interrupt;
-use super::render::RenderArgs;
+use super::render::{RenderArgs, parse_render_arguments};
 use super::values::whole;
 use crate::film::output::is_stdout;
 use crate::job::Job;
@@ -16,7 +17,7 @@ use crate::job::outputs::validate;
 use crate::live::LiveLab;
 use crate::live::lenses::LensLibrary;
 use crate::live::session::{Session, default_exr};
-use crate::live::settings::LiveSettings;
+use crate::live::settings::{LiveSettings, SpecParser};
 use crate::server::Server;
 
 #[derive(Args, Debug, Clone)]
@@ -88,12 +89,13 @@ pub fn run(args: &ServeArgs) -> anyhow::Result<ExitCode> {
     refuse_batch_options(&args.render)?;
     let argv: Vec<String> = std::env::args().collect();
     let settings = LiveSettings::from_arguments(&render_arguments(&argv, args));
-    let render = settings.parse().map_err(anyhow::Error::msg)?;
+    let parser: SpecParser = Arc::new(parse_render_arguments);
+    let render = settings.parse(&parser).map_err(anyhow::Error::msg)?;
     let formats = validate(&render)?;
     let library = LensLibrary::new(
         args.render.lens.clone(),
         args.lens_dir.as_deref(),
-        render.lens_options.lens_format,
+        render.lens.lens_format,
     )?;
     if let Some(threads) = render.threads {
         rayon::ThreadPoolBuilder::new()
@@ -104,7 +106,7 @@ pub fn run(args: &ServeArgs) -> anyhow::Result<ExitCode> {
     let interrupt = Interrupt::install()?;
     let job = Job::prepare(&render, formats)?;
     let (flag, cancel) = LiveLab::cancel_flag();
-    let session = Session::new(job, settings, library, cancel)?;
+    let session = Session::new(job, settings, parser, library, cancel)?;
     let lab = LiveLab::start(session, flag);
     let address = SocketAddr::new(
         args.listen.unwrap_or(IpAddr::V4(Ipv4Addr::LOCALHOST)),
@@ -129,4 +131,43 @@ pub fn run(args: &ServeArgs) -> anyhow::Result<ExitCode> {
     lab.stop();
     eprintln!("stopped");
     Ok(ExitCode::SUCCESS)
+}
+
+#[cfg(test)]
+mod tests {
+    use serde_json::json;
+
+    use super::*;
+
+    /// The live lab's settings are read by the command line's own parser, with its ranges.
+    #[test]
+    fn live_settings_parse_as_the_command_line_does() {
+        let parser: SpecParser = Arc::new(parse_render_arguments);
+        let mut settings = LiveSettings::new(vec![]);
+        settings.set("lens", "dgauss.50mm");
+        settings.set("focus_distance", "3");
+        let next = settings
+            .changed(&json!({"film_distance": 40.5, "f_number": 4}))
+            .unwrap();
+        let spec = next.parse(&parser).unwrap();
+        assert_eq!(spec.lens.film_distance, Some(40.5));
+        assert_eq!(spec.lens.f_number, Some(4.0));
+        assert_eq!(spec.lenses, vec!["dgauss.50mm".to_string()]);
+        for bad in [
+            json!({"spp": -1}),
+            json!({"spp": "many"}),
+            json!({"f_number": 0}),
+            json!({"f_number": "four"}),
+        ] {
+            let outcome = settings.changed(&bad).and_then(|s| s.parse(&parser));
+            assert!(outcome.is_err(), "{bad} was accepted");
+        }
+        // The command line's text is accepted as well as JSON numbers.
+        let texts = settings
+            .changed(&json!({"f_number": "5.6", "focus_distance": "inf"}))
+            .unwrap();
+        let spec = texts.parse(&parser).unwrap();
+        assert_eq!(spec.lens.f_number, Some(5.6));
+        assert_eq!(spec.lens.focus_distance, Some(f64::INFINITY));
+    }
 }

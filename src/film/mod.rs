@@ -8,6 +8,7 @@ pub mod checkpoint;
 pub mod contact_sheet;
 pub mod footprint;
 pub mod format;
+pub mod merge;
 pub mod output;
 pub mod samples;
 

@@ -96,7 +96,7 @@ pub(super) fn render_frame(
     frame: &Frame,
     progress: &mut dyn Progress,
 ) -> anyhow::Result<Outcome> {
-    let args = context.args;
+    let spec = context.spec;
     renderer.set_active_lens(lens.entity);
     set_if_changed(renderer, lens.entity, frame.focus);
     set_if_changed(renderer, lens.entity, frame.aperture);
@@ -148,19 +148,23 @@ pub(super) fn render_frame(
 
     let settings = settings_fingerprint(context, renderer, lens, frame);
     // Shards of one frame share its --out, so each keeps its own checkpoint beside it.
-    let checkpoint_path = args.checkpoint.clone().unwrap_or_else(|| match args.shard {
-        Some(shard) => sidecar(
-            &frame.out,
-            &format!("shard-{}-of-{}.checkpoint", shard.index, shard.count),
-        ),
-        None => sidecar(&frame.out, "checkpoint"),
-    });
-    let planned = match args.shard {
-        Some(shard) => shard.samples(args.spp),
-        None => SampleSequence::all(args.spp),
+    let checkpoint_path =
+        spec.output
+            .checkpoint
+            .clone()
+            .unwrap_or_else(|| match spec.output.shard {
+                Some(shard) => sidecar(
+                    &frame.out,
+                    &format!("shard-{}-of-{}.checkpoint", shard.index, shard.count),
+                ),
+                None => sidecar(&frame.out, "checkpoint"),
+            });
+    let planned = match spec.output.shard {
+        Some(shard) => shard.samples(spec.spp),
+        None => SampleSequence::all(spec.spp),
     };
-    let (start_image, samples) = match &args.resume {
-        Some(path) => resume_from(path, &settings, args.spp, args.shard)?,
+    let (start_image, samples) = match &spec.output.resume {
+        Some(path) => resume_from(path, &settings, spec.spp, spec.output.shard)?,
         None => (None, planned),
     };
     renderer.begin_film(start_image.as_ref())?;
@@ -171,8 +175,8 @@ pub(super) fn render_frame(
             version: FORMAT_VERSION,
             samples: image.samples,
             remaining: remaining.to_vec(),
-            planned: args.spp,
-            shard: args.shard.map(|s| (s.index, s.count)),
+            planned: spec.spp,
+            shard: spec.output.shard.map(|s| (s.index, s.count)),
             settings: settings.clone(),
             invocation: Invocation::current(),
         };
@@ -194,13 +198,13 @@ pub(super) fn render_frame(
             progress.finish();
             let image = renderer.image();
             save_checkpoint(&checkpoint_path, &image, remaining)?;
-            if args.shard.is_none() {
-                let exposure = choose_exposure(args, &image);
+            if spec.output.shard.is_none() {
+                let exposure = choose_exposure(spec, &image);
                 write_image(
                     &frame.out,
                     &image,
                     context.formats.out,
-                    tone(args, exposure),
+                    tone(spec, exposure),
                 )?;
                 eprintln!(
                     "interrupted: wrote the image so far ({} spp) to {}",
@@ -215,7 +219,7 @@ pub(super) fn render_frame(
             );
             return Ok(Outcome::Interrupted(code));
         }
-        if let Some(every) = args.checkpoint_every
+        if let Some(every) = spec.output.checkpoint_every
             && !remaining.is_empty()
             && last_checkpoint.elapsed().as_secs_f64() >= every
         {
@@ -231,14 +235,14 @@ pub(super) fn render_frame(
         .resource::<RenderStats>()
         .since(&stats_before);
     let lighting = SceneLighting::of(renderer);
-    let warnings: Vec<String> = black_image(&image, &frame_stats, &lighting, args.max_depth)
+    let warnings: Vec<String> = black_image(&image, &frame_stats, &lighting, spec.max_depth)
         .into_iter()
         .collect();
     for warning in &warnings {
         eprintln!("warning: {}: {warning}", shown(&frame.out));
     }
-    if let Some(shard) = args.shard {
-        let partial = args.partial.clone().unwrap_or_else(|| {
+    if let Some(shard) = spec.output.shard {
+        let partial = spec.output.partial.clone().unwrap_or_else(|| {
             sidecar(
                 &frame.out,
                 &format!("shard-{}-of-{}", shard.index, shard.count),
@@ -251,7 +255,7 @@ pub(super) fn render_frame(
             shard.index,
             shard.count,
             image.samples,
-            args.spp
+            spec.spp
         );
     }
     let report = FrameReport {
@@ -292,7 +296,7 @@ fn settings_fingerprint(
     lens: &RunLens,
     frame: &Frame,
 ) -> Value {
-    let args = context.args;
+    let spec = context.spec;
     let settings = renderer.world.resource::<RenderSettings>();
     let rows: Vec<[f64; 4]> = lens
         .prescription
@@ -301,20 +305,20 @@ fn settings_fingerprint(
         .map(|r| [r.radius, r.thickness, r.index, r.aperture])
         .collect();
     let mut fingerprint = json!({
-        "scene": args.scene.as_ref().map_or(DEFAULT_SCENE_PATH.to_string(), |p| p.display().to_string()),
+        "scene": spec.scene.as_ref().map_or(DEFAULT_SCENE_PATH.to_string(), |p| p.display().to_string()),
         "lens": lens.prescription.name,
         "lens_rows": rows,
         "focus": format!("{:?}", frame.focus),
         "aperture": format!("{:?}", frame.aperture),
         "film_diagonal_mm": context.film_diagonal,
-        "pupil_sampling": args.lens_options.pupil_sampling,
+        "pupil_sampling": spec.lens.pupil_sampling,
         "width": settings.width,
         "height": settings.height,
-        "spp": args.spp,
+        "spp": spec.spp,
         "seed": settings.seed.to_string(),
         "max_depth": settings.max_depth,
         "camera": context.world_from_camera.to_cols_array().map(f64::from),
-        "environment": args.env,
+        "environment": spec.environment.as_ref().map(ToString::to_string),
     });
     // What the four columns above do not say, recorded only when present, so a spherical lens
     // without glass data keeps the fingerprint it always had.
@@ -333,17 +337,17 @@ fn settings_fingerprint(
             .iter()
             .map(|r| r.glass.map(|g| g.label()))
             .collect();
-        fingerprint["dispersion"] = json!(args.dispersion.0 == Dispersion::On);
+        fingerprint["dispersion"] = json!(spec.dispersion == Dispersion::On);
     }
     if let Some(diaphragm) = context.diaphragm {
         fingerprint["diaphragm"] = diaphragm.fingerprint();
     }
     // Recorded only when set, so a render without them keeps the fingerprint it always had.
-    if let Some(movements) = super::movements(args) {
+    if let Some(movements) = spec.movements() {
         fingerprint["shift_mm"] = json!(movements.shift_mm);
         fingerprint["tilt_deg"] = json!(movements.tilt_deg);
     }
-    if let Some(pixel) = args.focus_on {
+    if let Some(pixel) = spec.focus_on {
         fingerprint["focus_on"] = json!(pixel);
     }
     fingerprint

@@ -6,6 +6,7 @@ pub mod frame;
 pub mod outputs;
 pub mod plan;
 pub mod setup;
+pub mod spec;
 pub mod stats;
 
 use std::path::PathBuf;
@@ -15,7 +16,6 @@ use anyhow::{Context, bail};
 use bevy_ecs::entity::Entity;
 use glam::Mat4;
 
-use crate::cli::render::RenderArgs;
 use crate::diagnosis::black_picture;
 use crate::film::Image;
 use crate::film::contact_sheet::{Thumbnail, contact_sheet};
@@ -28,7 +28,6 @@ use crate::lens::bundled::{DEFAULT_LENS, load_lens};
 use crate::lens::diaphragm::Diaphragm;
 use crate::lens::elements::FocusSetting;
 use crate::lens::focus_probe::FocusOnPixel;
-use crate::lens::movements::FilmMovements;
 use crate::pipeline::{RenderSettings, Renderer, SceneInputs, SceneSource, SceneWarnings};
 use crate::scene::CameraHints;
 use crate::scene::default_scene::{DEFAULT_SCENE_GLB, DEFAULT_SCENE_PATH};
@@ -36,6 +35,7 @@ use frame::{Outcome, render_frame};
 use outputs::{Formats, refuse_overwriting_scene_files};
 use plan::{FrameRequest, frame_count, plan_frames};
 use setup::{Placement, autofocus, choose_environment, frame_scene, place_camera};
+use spec::JobSpec;
 use stats::stats_json;
 
 /// How a front end shows a frame's progress (the command line: a progress bar).
@@ -59,7 +59,7 @@ impl Progress for Silent {
 /// A job whose scene is loaded, BVH built, camera placed and lenses spawned with their
 /// starting focus and stop: ready to render its frames, or to be driven live.
 pub struct Job<'a> {
-    pub args: &'a RenderArgs,
+    pub spec: &'a JobSpec,
     pub formats: Formats,
     pub renderer: Renderer,
     pub lenses: Vec<RunLens>,
@@ -85,11 +85,11 @@ impl<'a> Job<'a> {
     /// Loads the scene and builds its BVH, chooses the environment, places the camera, loads
     /// the lenses and settles each one's starting focus and stop, and sizes the film. `formats`
     /// come from [`outputs::validate`], run first.
-    pub fn prepare(args: &'a RenderArgs, formats: Formats) -> anyhow::Result<Job<'a>> {
+    pub fn prepare(spec: &'a JobSpec, formats: Formats) -> anyhow::Result<Job<'a>> {
         let start = Instant::now();
-        let diaphragm = args.lens_options.diaphragm()?;
+        let diaphragm = spec.lens.diaphragm()?;
         let mut renderer = Renderer::new();
-        let source = match &args.scene {
+        let source = match &spec.scene {
             Some(path) => SceneSource {
                 path: path.clone(),
                 embedded: None,
@@ -105,12 +105,12 @@ impl<'a> Job<'a> {
         for warning in &renderer.world.resource::<SceneWarnings>().0 {
             eprintln!("warning: {warning}");
         }
-        refuse_overwriting_scene_files(args, &renderer.world.resource::<SceneInputs>().0)?;
-        let environment = choose_environment(args, &mut renderer)?;
+        refuse_overwriting_scene_files(spec, &renderer.world.resource::<SceneInputs>().0)?;
+        let environment = choose_environment(spec, &mut renderer)?;
         renderer.set_environment(environment);
 
-        let placement = place_camera(args, &mut renderer)?;
-        let specs: Vec<String> = if args.lens.is_empty() {
+        let placement = place_camera(spec, &mut renderer)?;
+        let names: Vec<String> = if spec.lenses.is_empty() {
             vec![
                 placement
                     .hints
@@ -119,25 +119,25 @@ impl<'a> Job<'a> {
                     .unwrap_or_else(|| DEFAULT_LENS.to_string()),
             ]
         } else {
-            args.lens.clone()
+            spec.lenses.clone()
         };
-        let prescriptions = specs
+        let prescriptions = names
             .iter()
-            .map(|spec| load_lens(spec, args.lens_options.lens_format))
+            .map(|name| load_lens(name, spec.lens.lens_format))
             .collect::<Result<Vec<_>, _>>()?;
         for warning in prescriptions.iter().flat_map(|p| &p.warnings) {
             eprintln!("warning: {warning}");
         }
         // The film: as asked, else the format the (first) lens was designed for (a phone lens's is
         // a few mm), else the scene camera's.
-        let film_diagonal = args
-            .lens_options
+        let film_diagonal = spec
+            .lens
             .film_diagonal
             .or(prescriptions[0].info.film_diagonal_mm)
             .or(placement.hints.film_diagonal_mm)
             .unwrap_or(35.0);
         let (world_from_camera, framed_focus) = if placement.frame_bounds {
-            let aperture = args.lens_options.aperture(ApertureSetting::Full);
+            let aperture = spec.lens.aperture(ApertureSetting::Full);
             frame_scene(&mut renderer, &prescriptions[0], aperture, film_diagonal)
                 .with_context(|| source_path.display().to_string())?
         } else {
@@ -147,7 +147,7 @@ impl<'a> Job<'a> {
             .into_iter()
             .map(|prescription| {
                 let (focus, aperture) = lens_defaults(
-                    args,
+                    spec,
                     &placement,
                     &prescription,
                     framed_focus,
@@ -156,11 +156,11 @@ impl<'a> Job<'a> {
                 );
                 let entity = renderer.add_lens(&prescription, focus, aperture);
                 let mut lens = renderer.world.entity_mut(entity);
-                lens.insert(args.dispersion.0);
-                if let Some(movements) = movements(args) {
+                lens.insert(spec.dispersion);
+                if let Some(movements) = spec.movements() {
                     lens.insert(movements);
                 }
-                if let Some([x, y]) = args.focus_on {
+                if let Some([x, y]) = spec.focus_on {
                     lens.insert(FocusOnPixel { x, y });
                 }
                 renderer.set_diaphragm(entity, diaphragm.clone());
@@ -173,9 +173,9 @@ impl<'a> Job<'a> {
             })
             .collect();
 
-        let width = args.width.or(placement.hints.width).unwrap_or(512);
-        let height = args.height.or(placement.hints.height).unwrap_or(512);
-        if let Some([x, y]) = args.focus_on
+        let width = spec.width.or(placement.hints.width).unwrap_or(512);
+        let height = spec.height.or(placement.hints.height).unwrap_or(512);
+        if let Some([x, y]) = spec.focus_on
             && (x >= width || y >= height)
         {
             bail!(
@@ -186,22 +186,22 @@ impl<'a> Job<'a> {
         RunSize {
             width,
             height,
-            frames: frame_count(lenses.len(), args.focus_sweep, args.aperture_sweep)?,
-            contact_sheet: args.contact_sheet.is_some(),
+            frames: frame_count(lenses.len(), spec.focus_sweep, spec.aperture_sweep)?,
+            contact_sheet: spec.output.contact_sheet.is_some(),
         }
         .check()?;
         renderer.set_camera(world_from_camera);
-        renderer.set_sample_plan(args.spp);
-        renderer.set_film(film_diagonal, args.lens_options.pupil_sampling);
+        renderer.set_sample_plan(spec.spp);
+        renderer.set_film(film_diagonal, spec.lens.pupil_sampling);
         renderer.set_settings(RenderSettings {
             width,
             height,
-            seed: args.seed,
-            max_depth: args.max_depth,
+            seed: spec.seed,
+            max_depth: spec.max_depth,
             tile_size: 32,
         });
         Ok(Job {
-            args,
+            spec,
             formats,
             renderer,
             lenses,
@@ -222,7 +222,7 @@ impl<'a> Job<'a> {
         progress: &mut dyn Progress,
     ) -> anyhow::Result<Option<u8>> {
         let Job {
-            args,
+            spec,
             formats,
             mut renderer,
             lenses,
@@ -240,14 +240,14 @@ impl<'a> Job<'a> {
             lens_names: &names,
             focus: &focus,
             aperture: &aperture,
-            focus_sweep: args.focus_sweep,
-            focus_mode: args.lens_options.focus_mode,
-            aperture_sweep: args.aperture_sweep,
-            out: &args.out,
-            exr: args.exr.as_deref(),
+            focus_sweep: spec.focus_sweep,
+            focus_mode: spec.lens.focus_mode,
+            aperture_sweep: spec.aperture_sweep,
+            out: &spec.output.out,
+            exr: spec.output.exr.as_deref(),
         });
         let context = RunContext {
-            args,
+            spec,
             formats,
             world_from_camera,
             film_diagonal,
@@ -262,18 +262,18 @@ impl<'a> Job<'a> {
             match render_frame(&context, &mut renderer, lens, frame, progress)? {
                 Outcome::Interrupted(code) => return Ok(Some(code)),
                 Outcome::Finished(mut report, image) => {
-                    if args.shard.is_none() {
+                    if spec.output.shard.is_none() {
                         // One exposure per lens sequence, so a focus pull does not flicker.
                         let exposure = *exposures[frame.lens]
-                            .get_or_insert_with(|| choose_exposure(args, &image));
-                        if let Some(ev) = args.exposure
+                            .get_or_insert_with(|| choose_exposure(spec, &image));
+                        if let Some(ev) = spec.output.exposure
                             && !formats.out.is_float()
                             && let Some(warning) = black_picture(&image, ev)
                         {
                             eprintln!("warning: {}: {warning}", shown(&frame.out));
                             report.warnings.push(warning);
                         }
-                        write_image(&frame.out, &image, formats.out, tone(args, exposure))?;
+                        write_image(&frame.out, &image, formats.out, tone(spec, exposure))?;
                         eprintln!(
                             "wrote {} ({}×{}, {} spp, {})",
                             shown(&frame.out),
@@ -283,10 +283,10 @@ impl<'a> Job<'a> {
                             formats.out.name()
                         );
                         if let (Some(exr), Some(format)) = (&frame.exr, formats.exr) {
-                            write_image(exr, &image, format, tone(args, 1.0))?;
+                            write_image(exr, &image, format, tone(spec, 1.0))?;
                             eprintln!("wrote {} ({})", shown(exr), format.name());
                         }
-                        if args.contact_sheet.is_some() {
+                        if spec.output.contact_sheet.is_some() {
                             let pixels = image::RgbImage::from_raw(
                                 width,
                                 height,
@@ -303,14 +303,14 @@ impl<'a> Job<'a> {
                 }
             }
         }
-        if let (Some(path), Some(format)) = (&args.contact_sheet, formats.contact_sheet) {
+        if let (Some(path), Some(format)) = (&spec.output.contact_sheet, formats.contact_sheet) {
             let sheet = contact_sheet(&thumbnails);
             write_output(path, |w| {
-                encode_rgb8(w, &sheet, format, tone(args, 1.0).quality)
+                encode_rgb8(w, &sheet, format, tone(spec, 1.0).quality)
             })?;
             eprintln!("wrote {} ({} renders)", shown(path), thumbnails.len());
         }
-        if let Some(path) = &args.stats {
+        if let Some(path) = &spec.output.stats {
             let stats = stats_json(&mut renderer, &reports, start.elapsed().as_secs_f64());
             write_output(path, |w| {
                 serde_json::to_writer_pretty(&mut *w, &stats)?;
@@ -332,7 +332,7 @@ impl<'a> Job<'a> {
 
 /// Run-wide settings every frame needs.
 struct RunContext<'a> {
-    args: &'a RenderArgs,
+    spec: &'a JobSpec,
     formats: Formats,
     world_from_camera: Mat4,
     film_diagonal: f64,
@@ -345,7 +345,7 @@ struct RunContext<'a> {
 /// distance and stop hints were chosen for its own lens: with another lens they mean nothing,
 /// so that lens autofocuses and opens fully instead.
 pub fn lens_defaults(
-    args: &RenderArgs,
+    spec: &JobSpec,
     placement: &Placement,
     prescription: &Prescription,
     framed_focus: Option<f64>,
@@ -370,7 +370,7 @@ pub fn lens_defaults(
             ..placement.hints.clone()
         }
     };
-    let aperture = args.lens_options.aperture(
+    let aperture = spec.lens.aperture(
         hints
             .aperture_mm
             .map_or(ApertureSetting::Full, ApertureSetting::Diameter),
@@ -386,27 +386,19 @@ pub fn lens_defaults(
         },
         (None, None) => autofocus(renderer, world_from_camera),
     };
-    (args.lens_options.focus(fallback), aperture)
+    (spec.lens.focus(fallback), aperture)
 }
 
-pub fn choose_exposure(args: &RenderArgs, image: &Image) -> f32 {
-    args.exposure
+pub fn choose_exposure(spec: &JobSpec, image: &Image) -> f32 {
+    spec.output
+        .exposure
         .map_or_else(|| auto_exposure(&image.mean()), |ev| 2f32.powf(ev))
 }
 
 /// How the 8-bit outputs are made at `exposure` (linear scale).
-pub fn tone(args: &RenderArgs, exposure: f32) -> Tone {
+pub fn tone(spec: &JobSpec, exposure: f32) -> Tone {
     Tone {
         exposure,
-        quality: args.quality.unwrap_or(DEFAULT_JPEG_QUALITY),
+        quality: spec.output.quality.unwrap_or(DEFAULT_JPEG_QUALITY),
     }
-}
-
-/// The film movements the flags ask for; `None` when there are none.
-pub(crate) fn movements(args: &RenderArgs) -> Option<FilmMovements> {
-    let movements = FilmMovements {
-        shift_mm: args.shift.unwrap_or_default(),
-        tilt_deg: args.tilt.unwrap_or_default(),
-    };
-    (!movements.is_none()).then_some(movements)
 }

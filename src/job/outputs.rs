@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 use anyhow::bail;
 
 use super::plan::frame_count;
-use crate::cli::render::RenderArgs;
+use super::spec::JobSpec;
 use crate::film::format::{
     Accepts, ImageFormat, check_tone_options, output_format, require_extension,
 };
@@ -23,48 +23,48 @@ pub struct Formats {
 }
 
 /// Checks the numbers the flags give (counts, sizes, exposure, lens settings).
-pub fn check_values(args: &RenderArgs) -> anyhow::Result<()> {
-    args.lens_options.validate()?;
-    if let Some(movements) = super::movements(args) {
+pub fn check_values(spec: &JobSpec) -> anyhow::Result<()> {
+    spec.lens.validate()?;
+    if let Some(movements) = spec.movements() {
         movements.validate().map_err(|e| anyhow::anyhow!("--{e}"))?;
     }
-    if args.spp == 0 {
+    if spec.spp == 0 {
         bail!("--spp must be at least 1");
     }
-    if args.spp > MAX_SPP {
+    if spec.spp > MAX_SPP {
         bail!(
             "--spp must be at most {MAX_SPP} (2^24), got {}: the film sums samples in f32, which cannot take in one more sample beyond 2^24 of them",
-            args.spp
+            spec.spp
         );
     }
-    for (name, value) in [("width", args.width), ("height", args.height)] {
+    for (name, value) in [("width", spec.width), ("height", spec.height)] {
         if let Some(v) = value
             && !(1..=MAX_IMAGE_SIDE).contains(&v)
         {
             bail!("--{name} must be between 1 and {MAX_IMAGE_SIDE} pixels, got {v}");
         }
     }
-    if args.max_depth == 0 {
+    if spec.max_depth == 0 {
         bail!("--max-depth must be at least 1 (1 = direct lighting only)");
     }
-    if let Some(threads) = args.threads
+    if let Some(threads) = spec.threads
         && !(1..=MAX_THREADS).contains(&threads)
     {
         bail!(
             "--threads must be between 1 and {MAX_THREADS}, got {threads}: more threads than that only cost memory"
         );
     }
-    if let Some(quality) = args.quality
+    if let Some(quality) = spec.output.quality
         && !(1..=100).contains(&quality)
     {
         bail!("--quality must be between 1 and 100, got {quality}");
     }
-    if let Some(ev) = args.exposure
+    if let Some(ev) = spec.output.exposure
         && !ev.is_finite()
     {
         bail!("--exposure must be a finite number of stops");
     }
-    if let Some(every) = args.checkpoint_every
+    if let Some(every) = spec.output.checkpoint_every
         && !(every.is_finite() && every > 0.0)
     {
         bail!("--checkpoint-every must be a positive number of seconds");
@@ -74,10 +74,10 @@ pub fn check_values(args: &RenderArgs) -> anyhow::Result<()> {
 
 /// Checks the flags and the output paths before anything is loaded or rendered; returns the
 /// formats the outputs' names ask for.
-pub fn validate(args: &RenderArgs) -> anyhow::Result<Formats> {
-    check_values(args)?;
-    let frames = frame_count(args.lens.len(), args.focus_sweep, args.aperture_sweep)?;
-    let outputs = outputs(args);
+pub fn validate(spec: &JobSpec) -> anyhow::Result<Formats> {
+    check_values(spec)?;
+    let frames = frame_count(spec.lenses.len(), spec.focus_sweep, spec.aperture_sweep)?;
+    let outputs = outputs(spec);
     for (i, (_, a)) in outputs.iter().enumerate() {
         if outputs[..i].iter().any(|(_, b)| a == b) {
             bail!(
@@ -86,16 +86,17 @@ pub fn validate(args: &RenderArgs) -> anyhow::Result<Formats> {
             );
         }
     }
-    let inputs: Vec<&Path> = args
+    let inputs: Vec<&Path> = spec
         .scene
         .iter()
         .map(PathBuf::as_path)
-        .chain(args.lens.iter().map(Path::new))
-        .chain(args.lens_options.aperture_image.as_deref())
+        .chain(spec.lenses.iter().map(Path::new))
+        .chain(spec.lens.aperture_image.as_deref())
         .chain(
-            args.resume
+            spec.output
+                .resume
                 .as_deref()
-                .filter(|r| Some(*r) != args.checkpoint.as_deref()),
+                .filter(|r| Some(*r) != spec.output.checkpoint.as_deref()),
         )
         .collect();
     for (_, output) in &outputs {
@@ -109,8 +110,8 @@ pub fn validate(args: &RenderArgs) -> anyhow::Result<Formats> {
         }
     }
     // The files the scene refers to, from its JSON alone (checked again once it is loaded).
-    if let Some(scene_files) = args.scene.as_deref().and_then(referenced_files) {
-        refuse_overwriting_scene_files(args, &scene_files)?;
+    if let Some(scene_files) = spec.scene.as_deref().and_then(referenced_files) {
+        refuse_overwriting_scene_files(spec, &scene_files)?;
     }
     for (option, output) in &outputs {
         if !is_stdout(output) {
@@ -138,21 +139,23 @@ pub fn validate(args: &RenderArgs) -> anyhow::Result<Formats> {
         check_writable(output)?;
     }
     let formats = Formats {
-        out: output_format("--out", &args.out, Accepts::Any)?,
-        exr: args
+        out: output_format("--out", &spec.output.out, Accepts::Any)?,
+        exr: spec
+            .output
             .exr
             .as_deref()
             .map(|p| output_format("--exr", p, Accepts::Float))
             .transpose()?,
-        contact_sheet: args
+        contact_sheet: spec
+            .output
             .contact_sheet
             .as_deref()
             .map(|p| output_format("--contact-sheet", p, Accepts::EightBit))
             .transpose()?,
     };
     for (option, path) in [
-        ("--checkpoint", &args.checkpoint),
-        ("--partial", &args.partial),
+        ("--checkpoint", &spec.output.checkpoint),
+        ("--partial", &spec.output.partial),
     ] {
         if let Some(path) = path {
             require_extension(
@@ -163,19 +166,21 @@ pub fn validate(args: &RenderArgs) -> anyhow::Result<Formats> {
             )?;
         }
     }
-    if let Some(stats) = &args.stats
+    if let Some(stats) = &spec.output.stats
         && !is_stdout(stats)
     {
         require_extension("--stats", stats, "json", "JSON")?;
     }
-    if args.shard.is_none() {
+    if spec.output.shard.is_none() {
         let images: Vec<(&str, &Path, ImageFormat)> = [
-            Some(("--out", args.out.as_path(), formats.out)),
-            args.exr
+            Some(("--out", spec.output.out.as_path(), formats.out)),
+            spec.output
+                .exr
                 .as_deref()
                 .zip(formats.exr)
                 .map(|(p, f)| ("--exr", p, f)),
-            args.contact_sheet
+            spec.output
+                .contact_sheet
                 .as_deref()
                 .zip(formats.contact_sheet)
                 .map(|(p, f)| ("--contact-sheet", p, f)),
@@ -183,21 +188,25 @@ pub fn validate(args: &RenderArgs) -> anyhow::Result<Formats> {
         .into_iter()
         .flatten()
         .collect();
-        check_tone_options(&images, args.exposure.is_some(), args.quality.is_some())?;
+        check_tone_options(
+            &images,
+            spec.output.exposure.is_some(),
+            spec.output.quality.is_some(),
+        )?;
     }
     Ok(formats)
 }
 
 /// The run's output files with their options (frames of sweeps and lens runs are suffixed
 /// copies of these).
-pub(crate) fn outputs(args: &RenderArgs) -> Vec<(&'static str, &Path)> {
+pub(crate) fn outputs(spec: &JobSpec) -> Vec<(&'static str, &Path)> {
     [
-        ("--out", Some(args.out.as_path())),
-        ("--exr", args.exr.as_deref()),
-        ("--stats", args.stats.as_deref()),
-        ("--contact-sheet", args.contact_sheet.as_deref()),
-        ("--checkpoint", args.checkpoint.as_deref()),
-        ("--partial", args.partial.as_deref()),
+        ("--out", Some(spec.output.out.as_path())),
+        ("--exr", spec.output.exr.as_deref()),
+        ("--stats", spec.output.stats.as_deref()),
+        ("--contact-sheet", spec.output.contact_sheet.as_deref()),
+        ("--checkpoint", spec.output.checkpoint.as_deref()),
+        ("--partial", spec.output.partial.as_deref()),
     ]
     .into_iter()
     .filter_map(|(option, path)| Some((option, path?)))
@@ -206,10 +215,10 @@ pub(crate) fn outputs(args: &RenderArgs) -> Vec<(&'static str, &Path)> {
 
 /// Outputs must not replace the scene's buffers or textures (`--out scene.bin`).
 pub(crate) fn refuse_overwriting_scene_files(
-    args: &RenderArgs,
+    spec: &JobSpec,
     scene_files: &[PathBuf],
 ) -> anyhow::Result<()> {
-    for (_, output) in outputs(args) {
+    for (_, output) in outputs(spec) {
         if let Some(input) = scene_files.iter().find(|input| same_file(output, input)) {
             bail!(
                 "{}: the output would overwrite an input file ({}, which the scene reads); choose another output path",

@@ -1,12 +1,10 @@
 //! Setting up a render: the scene's environment, where the camera goes, what it focuses on.
 
-use std::path::Path;
-
 use anyhow::bail;
 use glam::{Mat4, Vec3};
 
-use crate::cli::render::RenderArgs;
-use crate::cli::values::parse_vec3;
+use super::spec::EnvironmentSpec;
+use super::spec::JobSpec;
 use crate::lens::Prescription;
 use crate::lens::aperture::ApertureSetting;
 use crate::lens::elements::{FocusSetting, Lens, build_geometry};
@@ -25,18 +23,16 @@ pub struct Placement {
     pub frame_bounds: bool,
 }
 
-pub fn choose_environment(
-    args: &RenderArgs,
-    renderer: &mut Renderer,
-) -> anyhow::Result<Environment> {
-    if let Some(spec) = &args.env {
-        if let Ok(rgb) = parse_vec3(spec) {
+pub fn choose_environment(spec: &JobSpec, renderer: &mut Renderer) -> anyhow::Result<Environment> {
+    match &spec.environment {
+        Some(uniform @ EnvironmentSpec::Uniform(rgb)) => {
             if rgb.min_element() < 0.0 {
-                bail!("--env {spec}: radiance must not be negative");
+                bail!("--env {uniform}: radiance must not be negative");
             }
-            return Ok(Environment::Uniform(rgb));
+            return Ok(Environment::Uniform(*rgb));
         }
-        return crate::shade::load_environment(Path::new(spec));
+        Some(EnvironmentSpec::Image(path)) => return crate::shade::load_environment(path),
+        None => {}
     }
     let has_lights = renderer
         .world
@@ -63,12 +59,12 @@ pub fn choose_environment(
     }
 }
 
-pub fn place_camera(args: &RenderArgs, renderer: &mut Renderer) -> anyhow::Result<Placement> {
-    if let (Some(from), Some(at)) = (args.look_from, args.look_at) {
+pub fn place_camera(spec: &JobSpec, renderer: &mut Renderer) -> anyhow::Result<Placement> {
+    if let (Some(from), Some(at)) = (spec.view.look_from, spec.view.look_at) {
         if (at - from).length() < 1e-6
             || (at - from)
                 .normalize()
-                .cross(args.up.normalize_or_zero())
+                .cross(spec.view.up.normalize_or_zero())
                 .length()
                 < 1e-6
         {
@@ -77,14 +73,14 @@ pub fn place_camera(args: &RenderArgs, renderer: &mut Renderer) -> anyhow::Resul
             );
         }
         return Ok(Placement {
-            world_from_camera: look_at(from, at, args.up),
+            world_from_camera: look_at(from, at, spec.view.up),
             hints: CameraHints::default(),
             default_focus_m: Some((at - from).length() as f64),
             frame_bounds: false,
         });
     }
     let cameras = renderer.scene_cameras();
-    let chosen: Option<&SceneCamera> = match &args.camera {
+    let chosen: Option<&SceneCamera> = match &spec.view.camera {
         Some(wanted) => {
             let found = cameras
                 .iter()

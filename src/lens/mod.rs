@@ -39,10 +39,13 @@ pub mod movements;
 pub mod prescription;
 pub mod pupil;
 pub mod pupil_view;
+pub mod report;
+pub mod settings;
 pub mod shape;
 pub mod system;
 pub mod trace;
 pub mod trace_batch;
+pub mod workload;
 pub mod zemax;
 
 pub use prescription::{LensFormat, Prescription, PrescriptionError, SurfaceKind, SurfaceRow};

@@ -580,8 +580,8 @@ fn passing_bounds(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::cli::bench::LensWorkload;
     use crate::lens::bundled::BUNDLED;
+    use crate::lens::workload::LensWorkload;
     use crate::sampling::Rng;
 
     /// What the camera loop's f32 sampler gives for film points (x, y), at `depth` behind the

@@ -16,12 +16,12 @@ use std::time::{Duration, Instant};
 
 use serde_json::{Map, Value, json};
 
-use crate::cli::lens::LensReport;
-use crate::cli::options::LensOptions;
 use crate::film::Image;
 use crate::film::format::{ImageFormat, Tone, encode_image};
 use crate::lens::Prescription;
 use crate::lens::diagram::draw_diagram;
+use crate::lens::report::LensReport;
+use crate::lens::settings::LensSettings;
 use crate::pipeline::{PassCancel, RenderStats};
 use session::Session;
 
@@ -53,7 +53,7 @@ pub struct Published {
     pub state: Map<String, Value>,
     pub stats: Map<String, Value>,
     /// The lens and the options its report and diagram are derived with.
-    pub lens: Option<(Arc<Prescription>, LensOptions)>,
+    pub lens: Option<(Arc<Prescription>, LensSettings)>,
 }
 
 /// The lens report (JSON, SVG) of one settings generation.
@@ -433,11 +433,18 @@ impl RenderLoop {
         state.insert("lens_info".into(), session.lens_info());
         state.insert(
             "out".into(),
-            json!(session.args().out.display().to_string()),
+            json!(session.spec().output.out.display().to_string()),
         );
         state.insert(
             "exr".into(),
-            json!(session.args().exr.as_ref().map(|p| p.display().to_string())),
+            json!(
+                session
+                    .spec()
+                    .output
+                    .exr
+                    .as_ref()
+                    .map(|p| p.display().to_string())
+            ),
         );
         state.insert("command".into(), json!(session.command_line()));
         state.insert("error".into(), json!(self.error));
@@ -468,7 +475,7 @@ impl RenderLoop {
         }
         let lens = (
             Arc::new(session.prescription().clone()),
-            session.args().lens_options.clone(),
+            session.spec().lens.clone(),
         );
         let exposure = image.as_ref().map(|i| session.exposure(i));
         let mut published = lock(&self.shared.published);

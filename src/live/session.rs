@@ -9,16 +9,16 @@ use bevy_ecs::entity::Entity;
 use serde_json::{Value, json};
 
 use super::lenses::LensLibrary;
-use super::settings::LiveSettings;
+use super::settings::{LiveSettings, SpecParser};
 use crate::accel::SceneAccel;
-use crate::cli::render::RenderArgs;
 use crate::film::Image;
 use crate::film::footprint::RunSize;
 use crate::film::format::{ImageFormat, Tone};
 use crate::film::output::{auto_exposure, write_image};
 use crate::job::frame::set_if_changed;
 use crate::job::outputs::Formats;
-use crate::job::{Job, movements, tone};
+use crate::job::spec::JobSpec;
+use crate::job::{Job, tone};
 use crate::lens::Prescription;
 use crate::lens::aperture::ApertureSetting;
 use crate::lens::camera::FilmGeometry;
@@ -34,8 +34,10 @@ pub const PREVIEW_SIDE: u32 = 128;
 pub struct Session {
     renderer: Renderer,
     settings: LiveSettings,
-    args: RenderArgs,
+    spec: JobSpec,
     library: LensLibrary,
+    /// The front end's parser of the settings (`realcam render`'s options).
+    parser: SpecParser,
     lens: Entity,
     lens_name: String,
     prescription: Prescription,
@@ -58,15 +60,21 @@ pub fn default_exr(out: &std::path::Path) -> PathBuf {
 
 impl Session {
     /// Takes over a prepared job (scene loaded, BVH built, lens spawned) for live use. `settings`
-    /// are the job's arguments; `library` the lenses a client may ask for.
+    /// are the job's arguments, which `parser` reads; `library` the lenses a client may ask for.
     pub fn new(
         job: Job,
         mut settings: LiveSettings,
+        parser: SpecParser,
         mut library: LensLibrary,
         cancel: PassCancel,
     ) -> anyhow::Result<Session> {
-        let out = job.args.out.clone();
-        let exr = job.args.exr.clone().unwrap_or_else(|| default_exr(&out));
+        let out = job.spec.output.out.clone();
+        let exr = job
+            .spec
+            .output
+            .exr
+            .clone()
+            .unwrap_or_else(|| default_exr(&out));
         let Job {
             mut renderer,
             mut lenses,
@@ -83,7 +91,7 @@ impl Session {
         renderer.set_active_lens(first.entity);
         renderer.world.insert_resource(cancel);
         // `--focus-on` is resolved once, below, into a focus the page can then change.
-        let focus_on = job.args.focus_on;
+        let focus_on = job.spec.focus_on;
         if focus_on.is_some() {
             renderer
                 .world
@@ -94,8 +102,8 @@ impl Session {
         // The starting values as the job resolved them (the scene's hints, autofocus), so the
         // state shows numbers and the command line reproduces them.
         let lens_name = job
-            .args
-            .lens
+            .spec
+            .lenses
             .first()
             .cloned()
             .unwrap_or_else(|| first.prescription.name.clone());
@@ -126,12 +134,13 @@ impl Session {
         settings.set("film_diagonal", format!("{film_diagonal}"));
         settings.set("width", width.to_string());
         settings.set("height", height.to_string());
-        let args = settings.parse().map_err(anyhow::Error::msg)?;
+        let spec = settings.parse(&parser).map_err(anyhow::Error::msg)?;
         let mut session = Session {
             renderer,
             settings,
-            args,
+            spec,
             library,
+            parser,
             lens: first.entity,
             lens_name,
             prescription: first.prescription,
@@ -142,9 +151,9 @@ impl Session {
             spp_done: 0,
             warning: None,
         };
-        let (settings, args) = (session.settings.clone(), session.args.clone());
+        let (settings, spec) = (session.settings.clone(), session.spec.clone());
         session
-            .switch(&settings, &args)
+            .switch(&settings, &spec)
             .map_err(anyhow::Error::msg)?;
         if let Some([x, y]) = focus_on {
             let focus = session
@@ -168,8 +177,8 @@ impl Session {
         &self.settings
     }
 
-    pub fn args(&self) -> &RenderArgs {
-        &self.args
+    pub fn spec(&self) -> &JobSpec {
+        &self.spec
     }
 
     pub fn library(&self) -> &LensLibrary {
@@ -190,15 +199,15 @@ impl Session {
 
     /// The render's target samples per pixel.
     pub fn spp_target(&self) -> u32 {
-        self.args.spp
+        self.spec.spp
     }
 
     /// Switches to `next`; on a refusal (a bad value, a lens that cannot focus there) keeps the
     /// current settings and says why.
     pub fn apply(&mut self, next: LiveSettings) -> Result<(), String> {
-        let args = next.parse()?;
-        crate::job::outputs::check_values(&args).map_err(|e| e.to_string())?;
-        let (width, height) = (args.width.unwrap_or(512), args.height.unwrap_or(512));
+        let spec = next.parse(&self.parser)?;
+        crate::job::outputs::check_values(&spec).map_err(|e| e.to_string())?;
+        let (width, height) = (spec.width.unwrap_or(512), spec.height.unwrap_or(512));
         RunSize {
             width,
             height,
@@ -207,11 +216,11 @@ impl Session {
         }
         .check()
         .map_err(|e| e.to_string())?;
-        let (settings, current) = (self.settings.clone(), self.args.clone());
-        match self.switch(&next, &args) {
+        let (settings, current) = (self.settings.clone(), self.spec.clone());
+        match self.switch(&next, &spec) {
             Ok(()) => {
                 self.settings = next;
-                self.args = args;
+                self.spec = spec;
                 Ok(())
             }
             Err(refusal) => {
@@ -224,27 +233,24 @@ impl Session {
         }
     }
 
-    /// Writes the lens components and resources `args` asks for, each only when it differs.
-    fn switch(&mut self, settings: &LiveSettings, args: &RenderArgs) -> Result<(), String> {
+    /// Writes the lens components and resources `spec` asks for, each only when it differs.
+    fn switch(&mut self, settings: &LiveSettings, spec: &JobSpec) -> Result<(), String> {
         let name = settings.get("lens").unwrap_or(&self.lens_name).to_string();
         let current_focus = *self
             .renderer
             .world
             .get::<FocusSetting>(self.lens)
             .ok_or("the lens has no focus")?;
-        let focus = args.lens_options.focus(current_focus);
-        let aperture = args.lens_options.aperture(ApertureSetting::Full);
-        let diaphragm = args
-            .lens_options
-            .diaphragm()
-            .map_err(|e| format!("{e:#}"))?;
+        let focus = spec.lens.focus(current_focus);
+        let aperture = spec.lens.aperture(ApertureSetting::Full);
+        let diaphragm = spec.lens.diaphragm().map_err(|e| format!("{e:#}"))?;
         if name != self.lens_name {
             let (prescription, argument) = self.library.load(&name)?;
             let entity = self.renderer.add_lens(&prescription, focus, aperture);
             self.renderer
                 .world
                 .entity_mut(entity)
-                .insert(args.dispersion.0);
+                .insert(spec.dispersion);
             self.renderer.set_active_lens(entity);
             self.renderer.world.despawn(self.lens);
             self.lens = entity;
@@ -254,19 +260,19 @@ impl Session {
         } else {
             set_if_changed(&mut self.renderer, self.lens, focus);
             set_if_changed(&mut self.renderer, self.lens, aperture);
-            set_if_changed(&mut self.renderer, self.lens, args.dispersion.0);
+            set_if_changed(&mut self.renderer, self.lens, spec.dispersion);
         }
         // The diaphragm and the film movements are the session's, whichever lens is on.
         self.renderer.set_diaphragm(self.lens, diaphragm);
-        self.renderer.set_movements(self.lens, movements(args));
-        let film_diagonal = args
-            .lens_options
+        self.renderer.set_movements(self.lens, spec.movements());
+        let film_diagonal = spec
+            .lens
             .film_diagonal
             .or(self.prescription.info.film_diagonal_mm)
             .unwrap_or(35.0);
         self.renderer
-            .set_film(film_diagonal, args.lens_options.pupil_sampling);
-        self.renderer.set_sample_plan(args.spp);
+            .set_film(film_diagonal, spec.lens.pupil_sampling);
+        self.renderer.set_sample_plan(spec.spp);
         self.renderer.update().map_err(|e| e.to_string())?;
         self.renderer
             .check_active_lens()
@@ -306,7 +312,7 @@ impl Session {
             .ok_or("no scene is loaded")?;
         let pose = world.get_resource::<CameraPose>().ok_or("no camera")?;
         let film = FilmGeometry::new(width, height, world.resource::<FilmFormat>().diagonal_mm)
-            .moved(movements(&self.args).unwrap_or_default());
+            .moved(self.spec.movements().unwrap_or_default());
         let probe = solve_focus_at(
             &geometry.system,
             &geometry.first_order,
@@ -328,8 +334,8 @@ impl Session {
         RenderSettings {
             width: width.div_ceil(scale),
             height: height.div_ceil(scale),
-            seed: self.args.seed,
-            max_depth: self.args.max_depth,
+            seed: self.spec.seed,
+            max_depth: self.spec.max_depth,
             tile_size: 32,
         }
     }
@@ -337,8 +343,8 @@ impl Session {
     /// The image's size in pixels.
     pub fn size(&self) -> (u32, u32) {
         (
-            self.args.width.unwrap_or(512),
-            self.args.height.unwrap_or(512),
+            self.spec.width.unwrap_or(512),
+            self.spec.height.unwrap_or(512),
         )
     }
 
@@ -401,7 +407,8 @@ impl Session {
 
     /// The 8-bit picture's exposure (linear scale) for `image`.
     pub fn exposure(&self, image: &Image) -> f32 {
-        self.args
+        self.spec
+            .output
             .exposure
             .map_or_else(|| auto_exposure(&image.mean()), |ev| 2f32.powf(ev))
     }
@@ -409,15 +416,15 @@ impl Session {
     /// The settings by name, defaults filled in with the values they stand for.
     pub fn settings_json(&self) -> serde_json::Map<String, Value> {
         let mut json = self.settings.to_json();
-        let args = &self.args;
-        let options = &args.lens_options;
+        let spec = &self.spec;
+        let options = &spec.lens;
         let effective = [
-            ("spp", json!(args.spp)),
-            ("seed", json!(args.seed)),
-            ("max_depth", json!(args.max_depth)),
+            ("spp", json!(spec.spp)),
+            ("seed", json!(spec.seed)),
+            ("max_depth", json!(spec.max_depth)),
             (
                 "dispersion",
-                json!(match args.dispersion.0 {
+                json!(match spec.dispersion {
                     crate::lens::elements::Dispersion::On => "on",
                     crate::lens::elements::Dispersion::Off => "off",
                 }),
@@ -473,7 +480,7 @@ impl Session {
             &self.out,
             &image,
             self.formats.out,
-            tone(&self.args, exposure),
+            tone(&self.spec, exposure),
         )
         .map_err(|e| format!("{e:#}"))?;
         let linear = self.formats.exr.unwrap_or(ImageFormat::Exr);

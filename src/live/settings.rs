@@ -3,11 +3,16 @@
 //! and the settings always have an equivalent `realcam render` command line.
 
 use std::collections::BTreeMap;
+use std::sync::Arc;
 
 use serde_json::{Map, Value, json};
 
-use crate::cli::render::RenderArgs;
-use crate::cli::{Cli, Command};
+use crate::job::spec::JobSpec;
+
+/// Reads `realcam render` arguments (without the command name) into a job spec, refusing a bad
+/// value with the command line's own message. The front end that starts a live session passes
+/// its parser in: the settings are that command line's options, which only it knows how to read.
+pub type SpecParser = Arc<dyn Fn(&[String]) -> Result<JobSpec, String> + Send + Sync>;
 
 /// Options a live session changes without reloading the scene or rebuilding its BVH, by their
 /// names in the API (`realcam render`'s long options without dashes, `-` as `_`).
@@ -147,19 +152,9 @@ impl LiveSettings {
         argv
     }
 
-    /// The arguments parsed as `realcam render` parses them.
-    pub fn parse(&self) -> Result<RenderArgs, String> {
-        let argv = ["realcam".to_string(), "render".to_string()]
-            .into_iter()
-            .chain(self.arguments());
-        match Cli::try_parse_from_args(argv) {
-            Ok(Some(Command::Render(args))) => {
-                args.lens_options.validate().map_err(|e| e.to_string())?;
-                Ok(*args)
-            }
-            Ok(_) => Err("not a render command".into()),
-            Err(message) => Err(message),
-        }
+    /// The arguments read by `parser`, as `realcam render` reads them.
+    pub fn parse(&self, parser: &SpecParser) -> Result<JobSpec, String> {
+        parser(&self.arguments())
     }
 
     /// These settings with the changes of a JSON object (`null` removes a setting; one of
@@ -297,7 +292,7 @@ mod tests {
     use super::*;
 
     #[test]
-    fn changes_parse_as_the_command_line_does() {
+    fn changes_replace_their_alternatives_and_give_the_command_line() {
         let mut settings = LiveSettings::new(vec![]);
         settings.set("lens", "dgauss.50mm");
         settings.set("focus_distance", "3");
@@ -305,37 +300,21 @@ mod tests {
             .changed(&json!({"film_distance": 40.5, "f_number": 4}))
             .unwrap();
         assert_eq!(next.get("focus_distance"), None);
-        let args = next.parse().unwrap();
-        assert_eq!(args.lens_options.film_distance, Some(40.5));
-        assert_eq!(args.lens_options.f_number, Some(4.0));
-        assert_eq!(args.lens, vec!["dgauss.50mm".to_string()]);
-        for bad in [
-            json!({"spp": -1}),
-            json!({"spp": "many"}),
-            json!({"f_number": 0}),
-            json!({"no_such": 1}),
-            json!({"lens": 3}),
-            json!([1, 2]),
-            json!({"f_number": 2, "aperture": 3}),
-            json!({"f_number": "four"}),
-            json!({"lens": "--out=/tmp/elsewhere.png"}),
-            json!({"focus_mode": "--spp"}),
-        ] {
-            let outcome = settings.changed(&bad).and_then(|s| s.parse());
-            assert!(outcome.is_err(), "{bad} was accepted");
-        }
         assert_eq!(
             next.command_line(&[]),
             "realcam render --f-number 4 --film-distance 40.5 --lens dgauss.50mm"
         );
         assert_eq!(shell_quote("it's"), "'it'\\''s'");
-        // The command line's text is accepted as well as JSON numbers.
-        let texts = settings
-            .changed(&json!({"f_number": "5.6", "focus_distance": "inf"}))
-            .unwrap();
-        let args = texts.parse().unwrap();
-        assert_eq!(args.lens_options.f_number, Some(5.6));
-        assert_eq!(args.lens_options.focus_distance, Some(f64::INFINITY));
+        for bad in [
+            json!({"no_such": 1}),
+            json!({"lens": 3}),
+            json!([1, 2]),
+            json!({"f_number": 2, "aperture": 3}),
+            json!({"lens": "--out=/tmp/elsewhere.png"}),
+            json!({"focus_mode": "--spp"}),
+        ] {
+            assert!(settings.changed(&bad).is_err(), "{bad} was accepted");
+        }
     }
 
     #[test]

@@ -1,0 +1,373 @@
+//! What a lens is, before rendering with it: first-order data, focus, pupils, field, colour
+//! and the image circle (`realcam lens`, the live lab's lens panel), derived through the same
+//! entities and systems the renderer uses.
+
+use anyhow::{Context, bail};
+use serde_json::{Value, json};
+
+use crate::glass::FRAUNHOFER_D_NM;
+use crate::lens::aperture::ApertureSetting;
+use crate::lens::chromatic::{LATERAL_FIELD, axial_colour, lateral_colour};
+use crate::lens::elements::{
+    FilmFormat, FilmPlacement, FocusSetting, LensFault, LensGeometry, activate_lens, set_diaphragm,
+    spawn_lens,
+};
+use crate::lens::field::{field_angle, field_edge};
+use crate::lens::first_order::FirstOrder;
+use crate::lens::focus::{closest_focus_mm, paraxial_focus_distance};
+use crate::lens::pupil::ExitPupil;
+use crate::lens::settings::LensSettings;
+use crate::lens::{Prescription, SurfaceKind};
+use crate::pipeline::Renderer;
+
+/// Everything `realcam lens` reports, derived through the same entities and systems the
+/// renderer uses.
+pub struct LensReport {
+    pub prescription: Prescription,
+    /// The lens with its first-order data at [`Self::wavelength_nm`].
+    pub geometry: LensGeometry,
+    pub wavelength_nm: f64,
+    pub film_distance: f64,
+    pub film_diagonal: f64,
+    pub focus: FocusSetting,
+    pub pupil: ExitPupil,
+    pub pupil_seconds: f64,
+}
+
+impl LensReport {
+    pub fn derive(
+        prescription: Prescription,
+        options: &LensSettings,
+    ) -> anyhow::Result<LensReport> {
+        options.validate()?;
+        let focus = options.focus(FocusSetting::default());
+        let film_diagonal = options
+            .film_diagonal
+            .or(prescription.info.film_diagonal_mm)
+            .unwrap_or(35.0);
+        let mut renderer = Renderer::new();
+        renderer.world.insert_resource(FilmFormat {
+            diagonal_mm: film_diagonal,
+            pupil_sampling: options.pupil_sampling,
+        });
+        let entity = spawn_lens(
+            &mut renderer.world,
+            &prescription,
+            focus,
+            options.aperture(ApertureSetting::Full),
+        );
+        set_diaphragm(&mut renderer.world, entity, options.diaphragm()?);
+        activate_lens(&mut renderer.world, entity);
+        let start = std::time::Instant::now();
+        renderer.update()?;
+        let pupil_seconds = start.elapsed().as_secs_f64();
+        let lens = renderer.world.entity(entity);
+        if let Some(fault) = lens.get::<LensFault>() {
+            bail!(fault.0.clone());
+        }
+        let geometry = lens
+            .get::<LensGeometry>()
+            .context("lens geometry was not derived")?
+            .clone();
+        let film_distance = lens
+            .get::<FilmPlacement>()
+            .context("film placement was not derived")?
+            .film_distance;
+        let pupil = lens
+            .get::<ExitPupil>()
+            .context("exit pupil was not derived")?
+            .clone();
+        for warning in &geometry.warnings {
+            eprintln!("warning: {warning}");
+        }
+        for note in &geometry.notes {
+            eprintln!("note: {note}");
+        }
+        Ok(LensReport {
+            prescription,
+            geometry,
+            wavelength_nm: FRAUNHOFER_D_NM,
+            film_distance,
+            film_diagonal,
+            focus,
+            pupil,
+            pupil_seconds,
+        })
+    }
+
+    /// The same report with first-order data at `wavelength_nm` (the film where the focus put
+    /// it at d).
+    pub fn at_wavelength(mut self, wavelength_nm: f64) -> anyhow::Result<LensReport> {
+        if !(wavelength_nm.is_finite() && (200.0..=3000.0).contains(&wavelength_nm)) {
+            bail!(
+                "--wavelength {wavelength_nm} nm is not a wavelength realcam's glass data cover (200–3000 nm)"
+            );
+        }
+        if wavelength_nm == self.wavelength_nm {
+            return Ok(self);
+        }
+        for (i, row) in self.prescription.rows.iter().enumerate() {
+            if let Some(range) = row.glass.and_then(|g| g.valid_range_nm())
+                && !range.contains(&wavelength_nm)
+            {
+                eprintln!(
+                    "warning: surface {i}'s glass {} has data for {:.0}–{:.0} nm; {wavelength_nm} nm is extrapolated",
+                    row.glass.map(|g| g.label()).unwrap_or_default(),
+                    range.start(),
+                    range.end()
+                );
+            }
+        }
+        let system = self.geometry.system.at_wavelength(wavelength_nm);
+        self.geometry.first_order = FirstOrder::compute(&system)
+            .map_err(|e| anyhow::anyhow!("at {wavelength_nm} nm: {e}"))?;
+        self.geometry.system = system;
+        self.wavelength_nm = wavelength_nm;
+        Ok(self)
+    }
+
+    /// The in-focus object distance (film plane → object, mm; ∞ at infinity focus).
+    pub fn focus_distance_mm(&self) -> f64 {
+        match self.focus {
+            FocusSetting::Distance { metres, .. } => metres * 1000.0,
+            FocusSetting::FilmDistance(mm) => {
+                let d_line = self.geometry.system.at_wavelength(FRAUNHOFER_D_NM);
+                FirstOrder::compute(&d_line).map_or(f64::INFINITY, |fo| {
+                    paraxial_focus_distance(&d_line, &fo, mm)
+                })
+            }
+        }
+    }
+
+    /// `chromatic`: axial and lateral colour and the glasses (see [`crate::lens::chromatic`]).
+    pub fn chromatic_json(&self) -> Value {
+        let system = &self.geometry.system;
+        let glasses: Vec<Value> = system
+            .rows
+            .iter()
+            .enumerate()
+            .map(|(i, row)| {
+                json!({
+                    "surface": i,
+                    "glass": row.glass.map(|g| g.label()),
+                    "n_d": row.index,
+                    "v_d": row.glass.map(|g| g.v_d()),
+                })
+            })
+            .collect();
+        json!({
+            "axial_colour_mm": axial_colour(system),
+            "lateral_colour_mm": lateral_colour(system, self.film_distance, self.film_diagonal, self.focus_distance_mm()),
+            "lateral_colour_film_height_mm": LATERAL_FIELD * self.film_diagonal / 2.0,
+            "glasses": glasses,
+        })
+    }
+
+    /// Diagonal field of view for the film diagonal, degrees (real chief rays).
+    pub fn field_of_view_degrees(&self) -> Option<f64> {
+        field_angle(
+            &self.geometry.system,
+            self.film_distance,
+            self.film_diagonal / 2.0,
+        )
+        .map(|a| 2.0 * a.to_degrees())
+    }
+
+    /// Film radius and field angle of the image circle's edge (see [`field_edge`]).
+    pub fn image_circle(&self) -> Option<(f64, f64)> {
+        field_edge(
+            &self.geometry.system,
+            self.film_distance,
+            self.film_diagonal / 2.0,
+        )
+    }
+
+    pub fn to_json(&self) -> Value {
+        let fo = &self.geometry.first_order;
+        let system = &self.geometry.system;
+        let last = system.surface_count() - 1;
+        let surfaces: Vec<Value> = system
+            .rows
+            .iter()
+            .enumerate()
+            .map(|(i, row)| {
+                let thickness = if i == last { self.film_distance } else { row.thickness };
+                json!({
+                    "radius_mm": match row.curvature() { 0.0 => Value::Null, _ => json!(row.radius) },
+                    "curvature_per_mm": row.curvature(),
+                    "thickness_mm": thickness,
+                    "index": row.index,
+                    "aperture_mm": row.aperture,
+                    "kind": row.kind(),
+                    "stop": row.stop,
+                    "conic": row.asphere.conic,
+                    "aspheric_coefficients": &row.asphere.coefficients[..row.asphere.order()],
+                    "z_mm": system.f64s.vertex_z[i],
+                })
+            })
+            .collect();
+        json!({
+            "name": self.prescription.name,
+            "source": self.prescription.source.display().to_string(),
+            "design": self.prescription.info,
+            "wavelength_nm": self.wavelength_nm,
+            "chromatic": self.chromatic_json(),
+            "format": self.prescription.format,
+            "focal_length_mm": fo.focal_length,
+            "back_focal_length_mm": fo.back_focal_length,
+            "front_focal_length_mm": fo.front_focal_z,
+            "principal_planes_mm": { "front": fo.front_principal_z, "rear": fo.rear_principal_z },
+            "entrance_pupil": fo.entrance_pupil,
+            "exit_pupil": fo.exit_pupil,
+            "f_number": fo.f_number,
+            "stop_diameter_mm": system.stop_diameter(),
+            "diaphragm": system.diaphragm.as_ref().map(|d| json!({
+                "shape": d.describe(),
+                "open_fraction": self.geometry.open_fraction,
+                "area_equivalent_f_number": self.geometry.f_number(),
+            })),
+            "total_track_mm": system.rear_z() + self.film_distance,
+            "vertex_span_mm": system.rear_z(),
+            "film_distance_mm": self.film_distance,
+            "focus_distance_m": match self.focus { FocusSetting::Distance { metres, .. } => json!(metres), FocusSetting::FilmDistance(_) => Value::Null },
+            "closest_focus_m": closest_focus_mm(system, fo) / 1000.0,
+            "film_diagonal_mm": self.film_diagonal,
+            "field_of_view_deg": self.field_of_view_degrees(),
+            "image_circle": self.image_circle().map(|(radius, angle)| json!({
+                "diameter_mm": 2.0 * radius,
+                "field_of_view_deg": 2.0 * angle.to_degrees(),
+            })),
+            "exit_pupil_bounds": {
+                "segments": self.pupil.segments.len(),
+                "rays_traced": self.pupil.rays_traced,
+            },
+            "surfaces": surfaces,
+        })
+    }
+
+    pub fn summary(&self) -> String {
+        let fo = &self.geometry.first_order;
+        let system = &self.geometry.system;
+        let mut out = format!(
+            "{}  ({}, {} layout)\n\n   #     radius  thickness    index   aperture\n",
+            self.prescription.name,
+            self.prescription.source.display(),
+            self.prescription.format.name()
+        );
+        let last = system.surface_count() - 1;
+        for (i, row) in system.rows.iter().enumerate() {
+            let radius = match row.kind() {
+                SurfaceKind::Stop => "stop".to_string(),
+                SurfaceKind::Flat => "flat".to_string(),
+                SurfaceKind::Spherical | SurfaceKind::Aspheric => format!("{:.3}", row.radius),
+            };
+            let mut notes = Vec::new();
+            if row.stop && row.kind() != SurfaceKind::Stop {
+                notes.push("stop".to_string());
+            }
+            if row.kind() == SurfaceKind::Aspheric {
+                notes.push(aspheric_note(row));
+            }
+            if let Some(glass) = row.glass {
+                notes.push(glass.label());
+            }
+            let thickness = if i == last {
+                self.film_distance
+            } else {
+                row.thickness
+            };
+            if i == last {
+                notes.push("to film".into());
+            }
+            let note = if notes.is_empty() {
+                String::new()
+            } else {
+                format!("  {}", notes.join("; "))
+            };
+            out += &format!(
+                "{i:4} {radius:>10} {thickness:>10.3} {:>8.4} {:>10.2}{note}\n",
+                row.index, row.aperture
+            );
+        }
+        let focus = match self.focus {
+            FocusSetting::Distance { metres, mode } => {
+                format!("focused at {metres} m, {mode:?} focus")
+            }
+            FocusSetting::FilmDistance(_) => "set directly".into(),
+        };
+        let fov = match self.field_of_view_degrees() {
+            Some(d) => format!("{d:.1}°"),
+            None => self.image_circle().map_or("n/a".into(), |(h, a)| {
+                format!(
+                    "corners outside the image circle (⌀ {:.1} mm, {:.1}° across); n/a",
+                    2.0 * h,
+                    2.0 * a.to_degrees()
+                )
+            }),
+        };
+        out += &format!(
+            "\nfocal length        {:10.3} mm\nback focal length   {:10.3} mm\nfront focal point   z = {:.3} mm\nprincipal planes    front z = {:.3} mm, rear z = {:.3} mm\nentrance pupil      z = {:.3} mm, diameter {:.3} mm\nexit pupil          z = {:.3} mm, diameter {:.3} mm\nf-number            f/{:.2} (stop {:.2} mm)\ntotal track         {:10.3} mm (front vertex to film)\nfilm distance       {:10.3} mm ({focus})\nclosest focus       {:10.3} m\nfield of view       {fov} diagonal on a {:.1} mm film diagonal\nexit-pupil bounds   {} segments, {} rays, {:.3} s to derive\n",
+            fo.focal_length,
+            fo.back_focal_length,
+            fo.front_focal_z,
+            fo.front_principal_z,
+            fo.rear_principal_z,
+            fo.entrance_pupil.z_mm,
+            fo.entrance_pupil.diameter_mm,
+            fo.exit_pupil.z_mm,
+            fo.exit_pupil.diameter_mm,
+            fo.f_number,
+            system.stop_diameter(),
+            system.rear_z() + self.film_distance,
+            self.film_distance,
+            closest_focus_mm(system, fo) / 1000.0,
+            self.film_diagonal,
+            self.pupil.segments.len(),
+            self.pupil.rays_traced,
+            self.pupil_seconds,
+        );
+        if let Some(diaphragm) = &system.diaphragm {
+            out += &format!(
+                "diaphragm           {}: {:.1} % of the stop's circle, the light of f/{:.2}\n",
+                diaphragm.describe(),
+                100.0 * self.geometry.open_fraction,
+                self.geometry.f_number()
+            );
+        }
+        if system.is_dispersive() {
+            let mm = |v: Option<f64>| v.map_or("n/a".to_string(), |v| format!("{v:+.4} mm"));
+            out += &format!(
+                "axial colour        {} (back focal length at F minus at C)\nlateral colour      {} (image height at F minus at C, {:.0} % of the half-diagonal)\n",
+                mm(axial_colour(system)),
+                mm(lateral_colour(
+                    system,
+                    self.film_distance,
+                    self.film_diagonal,
+                    self.focus_distance_mm()
+                )),
+                LATERAL_FIELD * 100.0
+            );
+        } else {
+            out += "colour              none: the lens file gives no glass, every wavelength sees the same indices\n";
+        }
+        if self.wavelength_nm != FRAUNHOFER_D_NM {
+            out += &format!("first-order data at {} nm\n", self.wavelength_nm);
+        }
+        out += "\nz: lens frame, mm, origin at the front vertex, +z toward the film.\n";
+        out
+    }
+}
+
+/// "asph k −1.2, A4 1.1e-5, A6 −3e-8": a surface's departure from its sphere, shortly.
+fn aspheric_note(row: &crate::lens::SurfaceRow) -> String {
+    let mut parts = vec![format!("asph k {}", row.asphere.conic)];
+    for (i, a) in row.asphere.coefficients[..row.asphere.order()]
+        .iter()
+        .enumerate()
+    {
+        if *a != 0.0 {
+            parts.push(format!("A{} {a:.4e}", 2 * i + 2));
+        }
+    }
+    parts.join(", ")
+}

@@ -1,0 +1,141 @@
+//! The lens settings of a render or a lens report: focus, stop, diaphragm, film format and
+//! where camera rays aim. Plain data: the command line (`--focus-distance`, `--f-number`, …)
+//! and the live lab fill it in; its messages name the command line's options, which are the
+//! names users know these settings by.
+
+use std::path::PathBuf;
+use std::sync::Arc;
+
+use crate::lens::LensFormat;
+use crate::lens::aperture::ApertureSetting;
+use crate::lens::diaphragm::{ApertureMask, Blades, Diaphragm};
+use crate::lens::elements::FocusSetting;
+use crate::lens::focus::FocusMode;
+use crate::lens::pupil::PupilSampling;
+
+/// Largest film distance accepted. Film distances far beyond the focal length focus near the
+/// front focal point at huge magnification; 100 m is beyond any real bellows, and keeps the
+/// f32 ray generator far from overflow.
+pub const MAX_FILM_DISTANCE_MM: f64 = 1e5;
+
+/// How a lens is set for a render (`None`: the lens's or the scene's default).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct LensSettings {
+    /// Focus on the plane this far from the film, metres (`inf` for infinity).
+    pub focus_distance: Option<f64>,
+    /// How the film distance is found for `focus_distance`.
+    pub focus_mode: FocusMode,
+    /// The film distance (rear vertex → film, mm), set directly instead of focusing.
+    pub film_distance: Option<f64>,
+    /// Aperture-stop diameter, mm.
+    pub aperture: Option<f64>,
+    /// The real f-number (EFL / entrance-pupil diameter) to open the stop to.
+    pub f_number: Option<f64>,
+    /// Film diagonal, mm.
+    pub film_diagonal: Option<f64>,
+    /// Layout of a `.dat` lens file's thickness column, when it cannot be detected.
+    pub lens_format: Option<LensFormat>,
+    /// Where camera rays aim.
+    pub pupil_sampling: PupilSampling,
+    /// Diaphragm blades (a regular N-gon stop).
+    pub blades: Option<u32>,
+    /// Angle of a blade vertex from the stop's +x, degrees.
+    pub blade_rotation: Option<f64>,
+    /// Curvature of the blades: 0 straight … 1 the stop's circle.
+    pub blade_curvature: Option<f64>,
+    /// Transmission mask image at the stop.
+    pub aperture_image: Option<PathBuf>,
+}
+
+impl LensSettings {
+    /// The focus the flags ask for, else `fallback`.
+    pub fn focus(&self, fallback: FocusSetting) -> FocusSetting {
+        match (self.film_distance, self.focus_distance) {
+            (Some(mm), _) => FocusSetting::FilmDistance(mm),
+            (None, Some(metres)) => FocusSetting::Distance {
+                metres,
+                mode: self.focus_mode,
+            },
+            (None, None) => match fallback {
+                FocusSetting::Distance { metres, .. } => FocusSetting::Distance {
+                    metres,
+                    mode: self.focus_mode,
+                },
+                other => other,
+            },
+        }
+    }
+
+    /// The aperture the flags ask for, else `fallback`.
+    pub fn aperture(&self, fallback: ApertureSetting) -> ApertureSetting {
+        match (self.aperture, self.f_number) {
+            (Some(mm), _) => ApertureSetting::Diameter(mm),
+            (None, Some(n)) => ApertureSetting::FNumber(n),
+            (None, None) => fallback,
+        }
+    }
+
+    /// The diaphragm the flags ask for (`None`: the stop's circle); reads the mask image.
+    pub fn diaphragm(&self) -> anyhow::Result<Option<Diaphragm>> {
+        let blades = self.blades_setting()?;
+        let mask = match &self.aperture_image {
+            Some(path) => {
+                let mask = ApertureMask::load(path).map_err(anyhow::Error::msg)?;
+                if mask.width != mask.height {
+                    eprintln!(
+                        "warning: --aperture-image {}: {}×{} pixels is not square; it is stretched over the stop's diameter",
+                        path.display(),
+                        mask.width,
+                        mask.height
+                    );
+                }
+                Some(Arc::new(mask))
+            }
+            None => None,
+        };
+        let diaphragm = Diaphragm { blades, mask };
+        Ok((!diaphragm.is_circular()).then_some(diaphragm))
+    }
+
+    fn blades_setting(&self) -> anyhow::Result<Option<Blades>> {
+        self.blades
+            .map(|count| {
+                Blades::new(
+                    count,
+                    self.blade_rotation.unwrap_or(0.0),
+                    self.blade_curvature.unwrap_or(0.0),
+                )
+                .map_err(anyhow::Error::msg)
+            })
+            .transpose()
+    }
+
+    pub fn validate(&self) -> anyhow::Result<()> {
+        self.blades_setting()?;
+        let positive = |name: &str, v: Option<f64>| match v {
+            Some(x) if !(x.is_finite() && x > 0.0) => Err(anyhow::anyhow!(
+                "--{name} must be a positive number, got {x}"
+            )),
+            _ => Ok(()),
+        };
+        if let Some(metres) = self.focus_distance
+            && (metres.is_nan() || metres <= 0.0)
+        {
+            anyhow::bail!(
+                "--focus-distance must be a positive number of metres or inf, got {metres}"
+            );
+        }
+        positive("film-distance", self.film_distance)?;
+        if let Some(mm) = self.film_distance
+            && mm > MAX_FILM_DISTANCE_MM
+        {
+            anyhow::bail!(
+                "--film-distance {mm} mm is beyond {MAX_FILM_DISTANCE_MM} mm (100 m): no lens focuses with its film that far back"
+            );
+        }
+        positive("aperture", self.aperture)?;
+        positive("f-number", self.f_number)?;
+        positive("film-diagonal", self.film_diagonal)?;
+        Ok(())
+    }
+}
