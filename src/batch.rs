@@ -4,8 +4,6 @@
 //! compiler can vectorise them. The same type carries rays in the lens frame (mm, see
 //! [`crate::lens`]) and in the world frame (metres, see [`crate::scene`]); each stage says which.
 
-use crate::accel::Hit;
-
 /// A batch of rays with per-ray throughput, pixel and liveness.
 #[derive(Clone, Debug, Default)]
 pub struct RayBatch {
@@ -120,6 +118,18 @@ impl RayBatch {
     pub fn alive_count(&self) -> usize {
         self.alive.iter().filter(|&&a| a).count()
     }
+}
+
+/// A ray–triangle hit: one entry of a [`HitBatch`], and what the one-ray queries of
+/// [`crate::accel::SceneAccel`] return.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Hit {
+    pub t: f32,
+    /// Triangle index in [`crate::accel::SceneAccel`] order.
+    pub triangle: u32,
+    /// Barycentric weights of vertices 1 and 2.
+    pub u: f32,
+    pub v: f32,
 }
 
 /// Closest hits of a [`RayBatch`] against the scene, one entry per ray.

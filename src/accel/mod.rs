@@ -36,7 +36,7 @@ use obvhs::ray::{Ray, RayHit};
 use obvhs::triangle::Triangle;
 use rayon::prelude::*;
 
-use crate::batch::{HitBatch, RayBatch};
+use crate::batch::{Hit, HitBatch, RayBatch};
 use crate::scene::{Bounds, MaterialLibrary, MeshInstance};
 
 use alpha_mask::AlphaMasks;
@@ -51,17 +51,6 @@ pub use traversal::Traversal;
 use triangles::{
     NO_MATERIAL, TriangleHit, TrianglePrimitive, TriangleRecord, WorldVertices, attributes,
 };
-
-/// A ray–triangle hit.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Hit {
-    pub t: f32,
-    /// Triangle index in [`SceneAccel`] order.
-    pub triangle: u32,
-    /// Barycentric weights of vertices 1 and 2.
-    pub u: f32,
-    pub v: f32,
-}
 
 /// The shading frame and attributes at a hit.
 #[derive(Clone, Copy, Debug)]

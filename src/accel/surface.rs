@@ -4,7 +4,8 @@ use glam::{Vec2, Vec3, Vec4};
 
 use super::spawn::triangle_spawn_offset;
 use super::triangles::{NO_MATERIAL, attributes};
-use super::{Hit, SceneAccel, SurfacePoint};
+use super::{SceneAccel, SurfacePoint};
+use crate::batch::Hit;
 
 impl SceneAccel {
     /// The surface at `hit`, seen along `ray_direction`.

@@ -17,6 +17,7 @@
 //! film's size: exactly with `rear-element`, within noise with the bounds, whose radial
 //! segments span the film's reach).
 
+use bevy_ecs::resource::Resource;
 use glam::Mat4;
 
 use super::dispersion::DispersionTable;
@@ -29,6 +30,19 @@ use crate::batch::RayBatch;
 use crate::sampling::sobol::owen_sobol;
 use crate::sampling::{CorrelatedMultiJitter, Rng, hash32};
 use crate::spectral::sample_wavelength;
+
+/// Where the camera stands: the rigid transform from the camera frame (see above) to the world.
+#[derive(Resource, Clone, Copy, Debug, PartialEq)]
+pub struct CameraPose(pub Mat4);
+
+/// The film's size in pixels, a resource of the render world: what the lens systems need of
+/// the render settings to place a moved film or aim a probe ray, kept here so that the lens
+/// never reads the pipeline's settings.
+#[derive(Resource, Clone, Copy, Debug, PartialEq, Eq)]
+pub struct FilmResolution {
+    pub width: u32,
+    pub height: u32,
+}
 
 /// The film's size in pixels and millimetres.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -2,10 +2,9 @@
 //! pupil, whenever the lens, its film placement, its [`FilmMovements`] or the film change.
 //!
 //! The verdict is [`check_coverage`]'s: a tilted film that reaches into the lens or leaves the
-//! image circle cannot be rendered (the lens gets a [`LensFault`] saying why, which
-//! [`Renderer::check_active_lens`](crate::pipeline::Renderer::check_active_lens) reports); a
-//! shifted frame whose corners leave the image circle renders with those corners black, and
-//! the lens carries the warning.
+//! image circle cannot be rendered (the lens gets a [`LensFault`] saying why, which the
+//! renderer's `check_active_lens` reports); a shifted frame whose corners leave the image
+//! circle renders with those corners black, and the lens carries the warning.
 
 use bevy_ecs::change_detection::DetectChanges;
 use bevy_ecs::component::Component;
@@ -14,10 +13,9 @@ use bevy_ecs::lifecycle::RemovedComponents;
 use bevy_ecs::system::{Commands, Query, Res};
 use bevy_ecs::world::Ref;
 
-use super::camera::FilmGeometry;
+use super::camera::{FilmGeometry, FilmResolution};
 use super::elements::{FilmFormat, FilmPlacement, Lens, LensFault, LensGeometry};
 use super::movements::{FilmMovements, check_coverage};
-use crate::pipeline::RenderSettings;
 
 /// What the film movements of a lens leave of its image: a component of a lens entity with
 /// [`FilmMovements`].
@@ -60,7 +58,7 @@ pub fn check_film_coverage(
     mut commands: Commands,
     lenses: CoverageQuery,
     mut unmoved: RemovedComponents<FilmMovements>,
-    settings: Res<RenderSettings>,
+    resolution: Res<FilmResolution>,
     film: Res<FilmFormat>,
 ) {
     for entity in unmoved.read() {
@@ -68,7 +66,7 @@ pub fn check_film_coverage(
             lens.remove::<FilmCoverage>();
         }
     }
-    let film_changed = settings.is_changed() || film.is_changed();
+    let film_changed = resolution.is_changed() || film.is_changed();
     for (entity, lens, geometry, placement, movements, previous) in &lenses {
         if !(film_changed
             || geometry.is_changed()
@@ -81,7 +79,7 @@ pub fn check_film_coverage(
         if movements.validate().is_err() {
             continue;
         }
-        let frame = FilmGeometry::new(settings.width, settings.height, film.diagonal_mm);
+        let frame = FilmGeometry::new(resolution.width, resolution.height, film.diagonal_mm);
         let coverage = match check_coverage(
             &geometry.system,
             placement.film_distance,

@@ -20,7 +20,7 @@ use bevy_ecs::system::{Commands, Query, Res, ResMut};
 use bevy_ecs::world::Ref;
 use glam::{Mat4, Vec3};
 
-use super::camera::FilmGeometry;
+use super::camera::{CameraPose, FilmGeometry, FilmResolution};
 use super::elements::{
     FilmFormat, FilmPlacement, Lens, LensDerivationStats, LensFault, LensGeometry,
 };
@@ -30,7 +30,6 @@ use super::movements::{FilmMovements, passing_rear_points};
 use super::system::LensSystem;
 use super::trace::{Ray, Travel, normalize, trace};
 use crate::accel::SceneAccel;
-use crate::pipeline::{CameraPose, RenderSettings};
 
 /// Focus the lens on what pixel (`x`, `y`) sees ((0, 0): the image's top-left pixel). A
 /// component of the lens entity; while present it decides the film distance, not
@@ -79,13 +78,13 @@ pub fn focus_on_pixel(
     lenses: FocusTargetQuery,
     accel: Option<Res<SceneAccel>>,
     pose: Option<Res<CameraPose>>,
-    settings: Res<RenderSettings>,
+    resolution: Res<FilmResolution>,
     film: Res<FilmFormat>,
     mut stats: ResMut<LensDerivationStats>,
 ) {
     let world_changed = accel.as_ref().is_some_and(|a| a.is_changed())
         || pose.as_ref().is_some_and(|p| p.is_changed())
-        || settings.is_changed()
+        || resolution.is_changed()
         || film.is_changed();
     for (entity, lens, geometry, target, movements) in &lenses {
         let movements_changed = movements.as_ref().is_some_and(|m| m.is_changed());
@@ -95,7 +94,7 @@ pub fn focus_on_pixel(
         let start = Instant::now();
         let solved = match (&accel, &pose) {
             (Some(accel), Some(pose)) => {
-                let film = FilmGeometry::new(settings.width, settings.height, film.diagonal_mm)
+                let film = FilmGeometry::new(resolution.width, resolution.height, film.diagonal_mm)
                     .moved(movements.as_deref().copied().unwrap_or_default());
                 solve_focus_on_pixel(
                     &geometry.system,

@@ -20,8 +20,9 @@ use glam::Vec3;
 use super::lights::{ShadowTarget, direction_and_distance};
 use super::material::{ShadingPoint, shading_point};
 use super::{ShadeStats, Shader};
+use crate::accel::SurfacePoint;
 use crate::accel::spawn::offset_along_normal;
-use crate::accel::{Hit, SurfacePoint};
+use crate::batch::Hit;
 use crate::sampling::Rng;
 
 /// Bounces after which Russian roulette may end a path.

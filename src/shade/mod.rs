@@ -28,8 +28,8 @@ mod tests;
 use glam::Vec3;
 use rayon::prelude::*;
 
-use crate::accel::{Hit, SceneAccel};
-use crate::batch::{HitBatch, RayBatch};
+use crate::accel::SceneAccel;
+use crate::batch::{Hit, HitBatch, RayBatch};
 use crate::sampling::Rng;
 use crate::scene::MaterialLibrary;
 use integrator::{Path, Step, Strategy};

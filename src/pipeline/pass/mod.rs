@@ -1,0 +1,65 @@
+//! The pass stages: GenerateRays → Trace → Shade → Weight → WriteFilm, one module each, run
+//! while a pass is pending. Each works tile by tile in parallel through [`run_on_tiles`]; rays
+//! travel between them in each tile's [`TileBatch`](super::TileBatch).
+
+mod film;
+mod rays;
+mod shade;
+mod trace;
+mod weight;
+
+use std::time::Instant;
+
+use bevy_ecs::schedule::{IntoScheduleConfigs, Schedule};
+use bevy_ecs::system::Res;
+use rayon::prelude::*;
+
+use super::Stage;
+use super::resources::{PassCancel, PassState, RenderStats};
+
+pub use film::write_film;
+pub use rays::generate_rays;
+pub use shade::shade;
+pub use trace::trace_rays;
+pub use weight::weight;
+
+/// Adds the five pass systems to `schedule`, each in its stage and only while a pass is
+/// pending.
+pub(super) fn add_systems(schedule: &mut Schedule) {
+    schedule.add_systems((
+        generate_rays
+            .in_set(Stage::GenerateRays)
+            .run_if(pass_pending),
+        trace_rays.in_set(Stage::Trace).run_if(pass_pending),
+        shade.in_set(Stage::Shade).run_if(pass_pending),
+        weight.in_set(Stage::Weight).run_if(pass_pending),
+        write_film.in_set(Stage::WriteFilm).run_if(pass_pending),
+    ));
+}
+
+/// A pass is requested and not abandoned: a cancelled pass never reaches Weight or WriteFilm.
+fn pass_pending(pass: Res<PassState>, cancel: Option<Res<PassCancel>>) -> bool {
+    pass.pending && !PassCancel::raised(cancel.as_deref())
+}
+
+/// What every pass system does around its per-tile work: runs `work` on each of `tiles` in
+/// parallel (rayon) and adds the wall time to `stage`'s in `stats`. Once `cancel` is raised
+/// the tiles not yet started are skipped; Weight and WriteFilm pass no flag, since their run
+/// condition already kept the pass for the film, which takes all of a pass or none of it.
+/// Returns the results of the tiles that ran.
+pub(super) fn run_on_tiles<T: Send, R: Send>(
+    stage: Stage,
+    tiles: impl IntoIterator<Item = T>,
+    cancel: Option<&PassCancel>,
+    stats: &mut RenderStats,
+    work: impl Fn(T) -> R + Sync + Send,
+) -> Vec<R> {
+    let start = Instant::now();
+    let tiles: Vec<T> = tiles.into_iter().collect();
+    let results = tiles
+        .into_par_iter()
+        .filter_map(|tile| (!PassCancel::raised(cancel)).then(|| work(tile)))
+        .collect();
+    stats.add_time(stage, start);
+    results
+}
