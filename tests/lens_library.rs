@@ -11,10 +11,10 @@ use support::cli::realcam_texts;
 
 use std::path::Path;
 
-use realcam::lens::bundled::{BUNDLED, BundledLens, load_lens};
 use realcam::lens::clear_aperture::widest_stop;
 use realcam::lens::field::field_angle;
 use realcam::lens::first_order::FirstOrder;
+use realcam::lens::io::bundled::{BUNDLED, BundledLens, load_lens};
 use realcam::lens::trace::{Ray, Travel, normalize, trace};
 use realcam::lens::{LensSystem, Prescription};
 

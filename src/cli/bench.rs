@@ -15,9 +15,9 @@ use serde_json::json;
 use super::values::whole;
 use crate::batch::RayBatch;
 use crate::lens::LensSystem;
-use crate::lens::bundled::{DEFAULT_LENS, load_lens};
 use crate::lens::first_order::FirstOrder;
 use crate::lens::focus::paraxial_film_distance;
+use crate::lens::io::bundled::{DEFAULT_LENS, load_lens};
 use crate::lens::pupil::{ExitPupil, PupilSampling};
 use crate::lens::trace::{Ray, Travel, trace};
 use crate::lens::trace_batch::{DEFAULT_KERNEL, Isa, Kernel, trace_batch_on};
@@ -510,7 +510,7 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<ExitCode> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::lens::bundled::BUNDLED;
+    use crate::lens::io::bundled::BUNDLED;
 
     fn quick_args() -> BenchArgs {
         BenchArgs {

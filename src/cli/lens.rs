@@ -15,17 +15,17 @@ use crate::film::format::{Accepts, DEFAULT_JPEG_QUALITY, ImageFormat, encode_rgb
 use crate::film::output::{check_not_terminal, check_writable, same_file, shown, write_output};
 use crate::glass::FRAUNHOFER_D_NM;
 use crate::lens::aperture::ApertureSetting;
-use crate::lens::bundled::load_lens;
 use crate::lens::chromatic::{LATERAL_FIELD, axial_colour, lateral_colour};
 use crate::lens::diagram::draw_diagram;
 use crate::lens::elements::{
     FilmFormat, FilmPlacement, FocusSetting, LensFault, LensGeometry, activate_lens, set_diaphragm,
     spawn_lens,
 };
-use crate::lens::export::export_text;
 use crate::lens::field::{field_angle, field_edge};
 use crate::lens::first_order::FirstOrder;
 use crate::lens::focus::{closest_focus_mm, paraxial_focus_distance};
+use crate::lens::io::bundled::load_lens;
+use crate::lens::io::export::export_text;
 use crate::lens::pupil::ExitPupil;
 use crate::lens::pupil_view::PupilViews;
 use crate::lens::trace::{Ray, Travel, normalize, trace};

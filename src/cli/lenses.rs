@@ -11,9 +11,9 @@ use anyhow::{Context, bail};
 use clap::Args;
 use serde::Serialize;
 
-use crate::lens::bundled::{BUNDLED, BundledLens};
 use crate::lens::field::{field_angle, field_edge};
 use crate::lens::first_order::FirstOrder;
+use crate::lens::io::bundled::{BUNDLED, BundledLens};
 use crate::lens::{LensSystem, SurfaceKind};
 
 /// Diagonal of the 35 mm still frame (36 × 24 mm), on which `realcam lenses` gives every

@@ -1,36 +1,22 @@
-//! Lens prescription files: parsing, layout detection and validation.
+//! The lens as data: a [`Prescription`] of [`SurfaceRow`]s, front (scene side) to back (film
+//! side), and its validation (undefined sags, surfaces crossing inside their clear apertures).
 //!
-//! A prescription is a table of rows `radius thickness index aperture-diameter` (mm), front
-//! (scene side) to back (film side). See [`crate::lens`] for the sign conventions. Two layouts
-//! of the second column exist in the wild and both load:
-//!
-//! * **thickness-after** (pbrt-v3/v4): the distance from this surface to the next one; the last
-//!   row holds 0, a placeholder for the film distance that focusing computes.
-//! * **gap-before** (Kolb et al. 1995, the 100 mm designs): the distance from the previous
-//!   surface to this one; the first row holds 0.
-//!
-//! Whatever the file's layout, a [`Prescription`] stores thickness-after rows, with the last
-//! thickness 0 (the film distance is not part of the lens).
+//! Rows are thickness-after: each row's thickness is the distance to the next surface, the last
+//! one's 0 (the film distance is not part of the lens). See [`crate::lens`] for the sign
+//! conventions. Reading and writing files is [`crate::lens::io`]'s, which builds prescriptions
+//! through [`Prescription::from_rows`]; nothing here knows a file format.
 
 use std::fmt;
-use std::io::Read;
 use std::path::{Path, PathBuf};
 
-use super::dat_file::parse_dat;
 use super::info::LensInfo;
-use super::lens_file::read_lens_file;
 use super::shape::{Asphere, Profile};
-use super::zemax::{MAX_ZEMAX_BYTES, looks_like_zemax, read_zemax};
 use crate::glass::Glass;
 
 /// Radii at or beyond this magnitude (mm) are flat surfaces: a sphere that large has a sag
 /// below 1e-8 mm over any real clear aperture, and treating it as a plane keeps f32 tracing
 /// free of catastrophic cancellation.
 pub const FLAT_RADIUS_MM: f64 = 1e8;
-
-/// Prescription files larger than this are refused before reading: the largest real lens
-/// prescriptions have a few dozen rows.
-pub const MAX_FILE_BYTES: u64 = 1 << 20;
 
 /// Thicknesses and apertures beyond this (100 m) are refused: no real lens comes near, and it
 /// catches files in the wrong unit and values whose sums would overflow.
@@ -221,62 +207,6 @@ impl fmt::Display for PrescriptionError {
 }
 
 impl Prescription {
-    /// Reads and validates a prescription file; `format` overrides layout detection.
-    pub fn load(
-        path: &Path,
-        format: Option<LensFormat>,
-    ) -> Result<Prescription, PrescriptionError> {
-        let error = |message: String| PrescriptionError {
-            file: path.to_path_buf(),
-            line: None,
-            message,
-        };
-        let cannot_read = |e: std::io::Error| error(format!("cannot read lens file: {e}"));
-        let file = std::fs::File::open(path).map_err(cannot_read)?;
-        if file.metadata().map_err(cannot_read)?.is_dir() {
-            return Err(error("is a directory, not a lens file".into()));
-        }
-        // Read through a limit rather than trusting the size: a device such as /dev/zero
-        // reports 0 bytes and never ends.
-        let mut bytes = Vec::new();
-        file.take(MAX_ZEMAX_BYTES + 1)
-            .read_to_end(&mut bytes)
-            .map_err(cannot_read)?;
-        // Zemax files (often UTF-16, whatever their name) have their own decoding and limit.
-        if extension(path) == "zmx" || looks_like_zemax(&bytes) {
-            if bytes.len() as u64 > MAX_ZEMAX_BYTES {
-                return Err(error(format!(
-                    "is more than {MAX_ZEMAX_BYTES} bytes: too large for a Zemax lens file"
-                )));
-            }
-            return read_zemax(&bytes, path);
-        }
-        if bytes.len() as u64 > MAX_FILE_BYTES {
-            return Err(error(format!(
-                "is more than {MAX_FILE_BYTES} bytes; a lens file is a small text table (a .dat of rows 'radius thickness index aperture', a realcam .toml or a Zemax .zmx)"
-            )));
-        }
-        let text = String::from_utf8(bytes).map_err(|_| {
-            error("is not a text file (invalid UTF-8); expected a .dat table of rows 'radius thickness index aperture', a realcam .toml or a Zemax .zmx".into())
-        })?;
-        Prescription::parse(&text, path, format)
-    }
-
-    /// Parses lens-file text; `source` names it in errors, gives the lens its name, and by its
-    /// extension picks the format (`.toml`: realcam's own, `.zmx`: Zemax, else rows of a
-    /// pbrt/Kolb `.dat` table, whose layout `format` overrides).
-    pub fn parse(
-        text: &str,
-        source: &Path,
-        format: Option<LensFormat>,
-    ) -> Result<Prescription, PrescriptionError> {
-        match extension(source).as_str() {
-            "toml" => read_lens_file(text, source),
-            "zmx" => read_zemax(text.as_bytes(), source),
-            _ => parse_dat(text, source, format),
-        }
-    }
-
     /// A prescription from rows already in thickness-after form (edited lens entities),
     /// validated as a file would be.
     pub fn from_rows(
@@ -491,176 +421,9 @@ fn undefined_sag(row: &SurfaceRow) -> Option<String> {
     ))
 }
 
-/// A path's extension, lower case ("" when it has none).
-pub fn extension(path: &Path) -> String {
-    path.extension()
-        .map(|e| e.to_string_lossy().to_ascii_lowercase())
-        .unwrap_or_default()
-}
-
-/// A text as it may be shown in a message: at most 60 characters, control characters escaped
-/// (binary garbage must not scramble the user's terminal).
-pub fn shorten(s: &str) -> String {
-    const MAX: usize = 60;
-    let shown: String = s.chars().take(MAX).flat_map(|c| c.escape_debug()).collect();
-    if s.chars().count() <= MAX {
-        shown
-    } else {
-        format!("{shown}…")
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    fn parse(text: &str) -> Result<Prescription, PrescriptionError> {
-        Prescription::parse(text, Path::new("test.dat"), None)
-    }
-
-    const SIMPLE_AFTER: &str = "# comment\n50 5 1.5 20\n0 5 0 10\n-50 0 1 20\n";
-
-    #[test]
-    fn thickness_after_layout() {
-        let p = parse(SIMPLE_AFTER).unwrap();
-        assert_eq!(p.format, LensFormat::ThicknessAfter);
-        assert_eq!(p.rows.len(), 3);
-        assert_eq!(p.rows[0].thickness, 5.0);
-        assert_eq!(p.rows[1].index, 1.0);
-        assert_eq!(p.stop_index(), 1);
-        assert_eq!(p.vertex_span(), 10.0);
-    }
-
-    #[test]
-    fn gap_before_layout_gives_same_rows() {
-        let before = "50 0 1.5 20\r\n0\t5 0 10  # stop \"quoted\r\n-50 5 1 20";
-        let a = parse(SIMPLE_AFTER).unwrap();
-        let b = parse(before).unwrap();
-        assert_eq!(b.format, LensFormat::GapBefore);
-        let strip = |p: &Prescription| {
-            p.rows
-                .iter()
-                .map(|r| (r.radius, r.thickness, r.index, r.aperture))
-                .collect::<Vec<_>>()
-        };
-        assert_eq!(strip(&a), strip(&b));
-    }
-
-    #[test]
-    fn infinite_radius_is_flat() {
-        let p = parse("inf 5 1.5 20\n0 5 0 10\n-50 0 1 20\n").unwrap();
-        assert_eq!(p.rows[0].kind(), SurfaceKind::Flat);
-        assert_eq!(p.rows[0].curvature(), 0.0);
-        let p = parse("1e12 5 1.5 20\n0 5 0 10\n-50 0 1 20\n").unwrap();
-        assert_eq!(p.rows[0].kind(), SurfaceKind::Flat);
-    }
-
-    #[test]
-    fn ambiguous_layout_asks_for_override() {
-        let e = parse("50 5 1.5 20\n0 5 0 10\n-50 3 1 20\n").unwrap_err();
-        assert!(e.to_string().contains("--lens-format"), "{e}");
-        let p = Prescription::parse(
-            "50 5 1.5 20\n0 5 0 10\n-50 3 1 20\n",
-            Path::new("x.dat"),
-            Some(LensFormat::ThicknessAfter),
-        )
-        .unwrap();
-        assert_eq!(p.rows[2].thickness, 0.0);
-    }
-
-    #[test]
-    fn bad_files_name_file_and_line() {
-        let cases: &[(&str, &str, Option<usize>)] = &[
-            ("", "no surfaces", None),
-            ("# only a comment\n", "no surfaces", None),
-            ("50 5 1.5 20\n-50 0 1 20\n", "no aperture stop", None),
-            (
-                "50 5 1.5 20\n0 5 0 10\n0 5 0 10\n-50 0 1 20\n",
-                "second aperture stop",
-                Some(3),
-            ),
-            (
-                "50 5 1.5\n0 5 0 10\n-50 0 1 20\n",
-                "expected 4 columns",
-                Some(1),
-            ),
-            (
-                "50 5 glass 20\n0 5 0 10\n-50 0 1 20\n",
-                "index 'glass' is not a number",
-                Some(1),
-            ),
-            (
-                "50 5 1.5 nan\n0 5 0 10\n-50 0 1 20\n",
-                "aperture 'nan'",
-                Some(1),
-            ),
-            (
-                "50 inf 1.5 20\n0 5 0 10\n-50 0 1 20\n",
-                "thickness 'inf'",
-                Some(1),
-            ),
-            (
-                "50 5 1.5 -20\n0 5 0 10\n-50 0 1 20\n",
-                "must be positive",
-                Some(1),
-            ),
-            (
-                "50 5 1.5 0\n0 5 0 10\n-50 0 1 20\n",
-                "must be positive",
-                Some(1),
-            ),
-            (
-                "50 -5 1.5 20\n0 5 0 10\n-50 0 1 20\n",
-                "negative thickness",
-                Some(1),
-            ),
-            ("50 5 0.5 20\n0 5 0 10\n-50 0 1 20\n", "below 1", Some(1)),
-            (
-                "50 5 1.5 20\n0 5 0 10\n-50 0 1 2e5\n",
-                "more than 100 m",
-                Some(3),
-            ),
-            (
-                "50 5 1.5 20\n0 1e300 0 10\n-50 0 1 20\n",
-                "more than 100 m",
-                Some(2),
-            ),
-            (
-                "50 5 1.5 1e-4\n0 5 0 10\n-50 0 1 20\n",
-                "below a micrometre",
-                Some(1),
-            ),
-            (
-                "50 5 11 20\n0 5 0 10\n-50 0 1 20\n",
-                "not a real material",
-                Some(1),
-            ),
-            (
-                "5 5 1.5 20\n0 5 0 10\n-50 0 1 20\n",
-                "wider than the sphere",
-                Some(1),
-            ),
-            (
-                "20 0.5 1.5 20\n-20 5 1 20\n0 0 0 10\n-50 0 1 20\n",
-                "crosses the one before it",
-                Some(2),
-            ),
-            (
-                "50 5 1.5 20\n-50 0 0 10\n0 0 0 10",
-                "cannot be the last surface",
-                Some(3),
-            ),
-        ];
-        for (text, expect, line) in cases {
-            let e =
-                Prescription::parse(text, Path::new("bad.dat"), Some(LensFormat::ThicknessAfter))
-                    .unwrap_err();
-            let shown = e.to_string();
-            assert!(shown.contains(expect), "{text:?}: {shown}");
-            assert!(shown.starts_with("bad.dat"), "{shown}");
-            assert_eq!(e.line, *line, "{text:?}: {shown}");
-        }
-    }
 
     #[test]
     fn sag_matches_sphere_geometry() {

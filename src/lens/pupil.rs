@@ -581,7 +581,7 @@ fn passing_bounds(
 mod tests {
     use super::*;
     use crate::cli::bench::LensWorkload;
-    use crate::lens::bundled::BUNDLED;
+    use crate::lens::io::bundled::BUNDLED;
     use crate::sampling::Rng;
 
     /// What the camera loop's f32 sampler gives for film points (x, y), at `depth` behind the

@@ -688,7 +688,7 @@ mod tests {
     use crate::sampling::Rng;
 
     fn bundled(name: &str) -> LensSystem {
-        let p = crate::lens::bundled::load_lens(name, None).unwrap();
+        let p = crate::lens::io::bundled::load_lens(name, None).unwrap();
         LensSystem::new(&p.rows, None)
     }
 
@@ -701,7 +701,7 @@ mod tests {
             "US00583336-2-scaled.zmx",
         ];
         let data = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/zmx");
-        crate::lens::bundled::BUNDLED
+        crate::lens::io::bundled::BUNDLED
             .iter()
             .map(|b| (b.name.to_string(), bundled(b.name)))
             .chain(zemax.iter().map(|file| {

@@ -30,10 +30,10 @@ use std::path::Path;
 
 use serde::Deserialize;
 
-use super::info::LensInfo;
-use super::prescription::{LensFormat, Prescription, PrescriptionError, SurfaceRow};
-use super::shape::{ASPHERIC_TERMS, Asphere};
 use crate::glass::{FRAUNHOFER_D_NM, Glass, catalogue};
+use crate::lens::info::LensInfo;
+use crate::lens::prescription::{LensFormat, Prescription, PrescriptionError, SurfaceRow};
+use crate::lens::shape::{ASPHERIC_TERMS, Asphere};
 
 /// The file's top level: the lens's name, [`LensInfo`]'s fields, and the surfaces.
 #[derive(Deserialize)]
@@ -49,7 +49,7 @@ struct LensFile {
     f_number: Option<f64>,
     film_diagonal_mm: Option<f64>,
     notes: Option<String>,
-    surfaces: Vec<toml::Spanned<SurfaceEntry>>,
+    surfaces: Vec<::toml::Spanned<SurfaceEntry>>,
 }
 
 #[derive(Deserialize)]
@@ -92,7 +92,7 @@ pub fn read_lens_file(text: &str, source: &Path) -> Result<Prescription, Prescri
         line,
         message,
     };
-    let file: LensFile = toml::from_str(text).map_err(|e| {
+    let file: LensFile = ::toml::from_str(text).map_err(|e| {
         let line = e
             .span()
             .map(|s| text[..s.start.min(text.len())].lines().count().max(1));

@@ -4,9 +4,10 @@
 use std::fmt::Write;
 use std::path::Path;
 
-use super::lens_file::write_lens_file;
-use super::prescription::{Prescription, SurfaceKind, extension};
+use super::extension;
+use super::toml::write_lens_file;
 use crate::glass::Glass;
+use crate::lens::prescription::{Prescription, SurfaceKind};
 
 /// The text of `prescription` in the format `path`'s extension names.
 pub fn export_text(prescription: &Prescription, path: &Path) -> Result<String, String> {

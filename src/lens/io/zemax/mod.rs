@@ -18,11 +18,11 @@
 use std::collections::BTreeMap;
 use std::path::Path;
 
-use super::clear_aperture::{self, FieldPoint};
-use super::info::LensInfo;
-use super::prescription::{LensFormat, Prescription, PrescriptionError, SurfaceRow};
-use super::shape::{ASPHERIC_TERMS, Asphere};
 use crate::glass::{FRAUNHOFER_D_NM, Glass, catalogue};
+use crate::lens::clear_aperture::{self, FieldPoint};
+use crate::lens::info::LensInfo;
+use crate::lens::prescription::{LensFormat, Prescription, PrescriptionError, SurfaceRow};
+use crate::lens::shape::{ASPHERIC_TERMS, Asphere};
 
 /// Zemax files larger than this are refused before reading (real ones, merit functions and
 /// tolerances included, are well below; UTF-16 doubles them).
