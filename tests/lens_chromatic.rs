@@ -138,7 +138,12 @@ fn lenses_without_glass_render_what_they_did_before() {
         .unwrap()
         .rows
         .iter()
-        .map(|r| format!("{} {} {} {}\n", r.radius, r.thickness, r.index, r.aperture))
+        .map(|r| {
+            format!(
+                "{} {} {} {}\n",
+                r.base.radius, r.base.thickness, r.base.index, r.base.aperture
+            )
+        })
         .collect();
     let lens = dir.path().join("dgauss-without-glass.dat");
     std::fs::write(&lens, glass_free).unwrap();

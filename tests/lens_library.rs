@@ -373,8 +373,8 @@ fn rudolph_double_gauss_is_its_zemax_file() {
     assert_eq!(library.rows.len() + 1, direct.rows.len());
     for (a, b) in library.rows.iter().zip(&direct.rows[1..]) {
         assert!((a.curvature() - b.curvature()).abs() < 1e-12);
-        assert!((a.index - b.index).abs() < 1e-12);
-        assert_eq!(a.stop, b.stop);
+        assert!((a.base.index - b.base.index).abs() < 1e-12);
+        assert_eq!(a.base.stop, b.base.stop);
     }
 }
 

@@ -198,7 +198,7 @@ impl LensReport {
                 json!({
                     "surface": i,
                     "glass": row.glass.map(|g| g.label()),
-                    "n_d": row.index,
+                    "n_d": row.base.index,
                     "v_d": row.glass.map(|g| g.v_d()),
                 })
             })
@@ -239,15 +239,15 @@ impl LensReport {
             .iter()
             .enumerate()
             .map(|(i, row)| {
-                let thickness = if i == last { self.film_distance } else { row.thickness };
+                let thickness = if i == last { self.film_distance } else { row.base.thickness };
                 json!({
-                    "radius_mm": match row.curvature() { 0.0 => Value::Null, _ => json!(row.radius) },
+                    "radius_mm": match row.curvature() { 0.0 => Value::Null, _ => json!(row.base.radius) },
                     "curvature_per_mm": row.curvature(),
                     "thickness_mm": thickness,
-                    "index": row.index,
-                    "aperture_mm": row.aperture,
+                    "index": row.base.index,
+                    "aperture_mm": row.base.aperture,
                     "kind": row.kind(),
-                    "stop": row.stop,
+                    "stop": row.base.stop,
                     "conic": row.asphere.conic,
                     "aspheric_coefficients": &row.asphere.coefficients[..row.asphere.order()],
                     "z_mm": system.f64s.vertex_z[i],
@@ -307,10 +307,10 @@ impl LensReport {
             let radius = match row.kind() {
                 SurfaceKind::Stop => "stop".to_string(),
                 SurfaceKind::Flat => "flat".to_string(),
-                SurfaceKind::Spherical | SurfaceKind::Aspheric => format!("{:.3}", row.radius),
+                SurfaceKind::Spherical | SurfaceKind::Aspheric => format!("{:.3}", row.base.radius),
             };
             let mut notes = Vec::new();
-            if row.stop && row.kind() != SurfaceKind::Stop {
+            if row.base.stop && row.kind() != SurfaceKind::Stop {
                 notes.push("stop".to_string());
             }
             if row.kind() == SurfaceKind::Aspheric {
@@ -322,7 +322,7 @@ impl LensReport {
             let thickness = if i == last {
                 self.film_distance
             } else {
-                row.thickness
+                row.base.thickness
             };
             if i == last {
                 notes.push("to film".into());
@@ -334,7 +334,7 @@ impl LensReport {
             };
             out += &format!(
                 "{i:4} {radius:>10} {thickness:>10.3} {:>8.4} {:>10.2}{note}\n",
-                row.index, row.aperture
+                row.base.index, row.base.aperture
             );
         }
         let focus = match self.focus {

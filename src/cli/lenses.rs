@@ -107,7 +107,11 @@ impl LensEntry {
             nominal_f_number: info.f_number,
             full_frame: coverage(FULL_FRAME_DIAGONAL_MM),
             design_format: info.film_diagonal_mm.map(coverage),
-            elements: prescription.rows.iter().filter(|r| r.index != 1.0).count(),
+            elements: prescription
+                .rows
+                .iter()
+                .filter(|r| r.base.index != 1.0)
+                .count(),
             aspheric_surfaces: prescription
                 .rows
                 .iter()

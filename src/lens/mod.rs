@@ -41,6 +41,8 @@ pub mod system;
 pub mod trace;
 pub mod trace_batch;
 
-pub use prescription::{LensFormat, Prescription, PrescriptionError, SurfaceKind, SurfaceRow};
+pub use prescription::{
+    LensFormat, Prescription, PrescriptionError, SurfaceBase, SurfaceKind, SurfaceRow,
+};
 pub use shape::Asphere;
 pub use system::{LensSystem, SurfaceArrays};

@@ -75,15 +75,18 @@ pub enum SurfaceKind {
     Aspheric,
 }
 
-/// One normalised row: thickness is the distance to the next surface (the last row's is 0).
+/// What every surface has, whatever its shape and glass: the part of a [`SurfaceRow`] that a
+/// lens entity's [`LensSurface`](super::elements::LensSurface) carries (the asphere and glass
+/// are components of their own there, so each can be added, changed or taken away alone).
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct SurfaceRow {
+pub struct SurfaceBase {
     /// Signed radius of curvature of the (base) surface at its vertex, mm; > 0 when the centre
     /// lies on the film side. Infinite for flat surfaces; 0 (flat) for a `.dat` file's stop.
     pub radius: f64,
+    /// Distance to the next surface's vertex, mm (the last row's is 0).
     pub thickness: f64,
     /// Refractive index of the medium after the surface, toward the film (1 for air, the
-    /// stop's 0 included).
+    /// stop's 0 included; n_d with a glass).
     pub index: f64,
     /// Clear aperture diameter, mm.
     pub aperture: f64,
@@ -93,10 +96,17 @@ pub struct SurfaceRow {
     /// which `--aperture` and `--f-number` set. Usually a flat surface of its own; a lens file
     /// may also put the stop on a refracting surface.
     pub stop: bool,
+}
+
+/// One normalised row: thickness is the distance to the next surface (the last row's is 0).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SurfaceRow {
+    /// Radius, thickness, index, clear aperture, source line and stop.
+    pub base: SurfaceBase,
     /// Conic constant and polynomial terms ([`Asphere::NONE`] for a sphere or a plane).
     pub asphere: Asphere,
     /// The glass of the medium after the surface, when the file names one: it gives the
-    /// dispersion around `index` (see [`SurfaceRow::index_at`]). `None`: a fixed index.
+    /// dispersion around `base.index` (see [`SurfaceRow::index_at`]). `None`: a fixed index.
     pub glass: Option<Glass>,
 }
 
@@ -104,12 +114,14 @@ impl SurfaceRow {
     /// A spherical (or flat, or with radius 0 the stop's) row as a `.dat` file gives it.
     pub fn new(radius: f64, thickness: f64, index: f64, aperture: f64) -> SurfaceRow {
         SurfaceRow {
-            radius,
-            thickness,
-            index,
-            aperture,
-            line: 0,
-            stop: radius == 0.0,
+            base: SurfaceBase {
+                radius,
+                thickness,
+                index,
+                aperture,
+                line: 0,
+                stop: radius == 0.0,
+            },
             asphere: Asphere::NONE,
             glass: None,
         }
@@ -121,7 +133,7 @@ impl SurfaceRow {
             SurfaceKind::Aspheric
         } else if curvature != 0.0 {
             SurfaceKind::Spherical
-        } else if self.stop {
+        } else if self.base.stop {
             SurfaceKind::Stop
         } else {
             SurfaceKind::Flat
@@ -130,30 +142,30 @@ impl SurfaceRow {
 
     /// Curvature 1/R of the base surface at the vertex (0 for flat surfaces and a bare stop).
     pub fn curvature(&self) -> f64 {
-        if self.radius == 0.0 || self.radius.abs() >= FLAT_RADIUS_MM {
+        if self.base.radius == 0.0 || self.base.radius.abs() >= FLAT_RADIUS_MM {
             0.0
         } else {
-            1.0 / self.radius
+            1.0 / self.base.radius
         }
     }
 
     pub fn is_stop(&self) -> bool {
-        self.stop
+        self.base.stop
     }
 
     /// The same surface for tracing at the rows' own indices: equal but for the source line and
     /// the glass's dispersion (a copy of a lens file with other comments, or without its glass
     /// column, focuses where the original does).
     pub fn same_optics(&self, other: &SurfaceRow) -> bool {
-        SurfaceRow {
-            line: 0,
+        let optics = |row: &SurfaceRow| SurfaceRow {
+            base: SurfaceBase {
+                line: 0,
+                ..row.base
+            },
             glass: None,
-            ..*self
-        } == SurfaceRow {
-            line: 0,
-            glass: None,
-            ..*other
-        }
+            ..*row
+        };
+        optics(self) == optics(other)
     }
 
     /// The surface's shape, in f64.
@@ -167,9 +179,10 @@ impl SurfaceRow {
     pub fn index_at(&self, wavelength_nm: f64) -> f64 {
         match self.glass {
             Some(glass) => {
-                self.index + glass.index(wavelength_nm) - glass.index(crate::glass::FRAUNHOFER_D_NM)
+                self.base.index + glass.index(wavelength_nm)
+                    - glass.index(crate::glass::FRAUNHOFER_D_NM)
             }
-            None => self.index,
+            None => self.base.index,
         }
     }
 }
@@ -243,7 +256,7 @@ impl Prescription {
     pub fn vertex_span(&self) -> f64 {
         self.rows[..self.rows.len() - 1]
             .iter()
-            .map(|r| r.thickness)
+            .map(|r| r.base.thickness)
             .sum()
     }
 
@@ -264,71 +277,71 @@ impl Prescription {
             1 => {}
             _ => {
                 return Err(error(
-                    stops[1].line,
+                    stops[1].base.line,
                     format!(
                         "a second aperture stop (radius 0; the first is on line {}): a lens has exactly one",
-                        stops[0].line
+                        stops[0].base.line
                     ),
                 ));
             }
         }
         let last = self.rows.len() - 1;
         for row in &self.rows {
-            if row.aperture <= 0.0 {
+            if row.base.aperture <= 0.0 {
                 return Err(error(
-                    row.line,
-                    format!("aperture diameter {} must be positive", row.aperture),
+                    row.base.line,
+                    format!("aperture diameter {} must be positive", row.base.aperture),
                 ));
             }
-            if row.thickness < 0.0 {
+            if row.base.thickness < 0.0 {
                 return Err(error(
-                    row.line,
-                    format!("negative thickness {} mm", row.thickness),
+                    row.base.line,
+                    format!("negative thickness {} mm", row.base.thickness),
                 ));
             }
-            if row.index < 1.0 {
+            if row.base.index < 1.0 {
                 return Err(error(
-                    row.line,
+                    row.base.line,
                     format!(
                         "refractive index {} is below 1 (use 1 or 0 for air)",
-                        row.index
+                        row.base.index
                     ),
                 ));
             }
-            if row.aperture > MAX_LENGTH_MM || row.thickness > MAX_LENGTH_MM {
+            if row.base.aperture > MAX_LENGTH_MM || row.base.thickness > MAX_LENGTH_MM {
                 return Err(error(
-                    row.line,
+                    row.base.line,
                     format!(
                         "aperture {} mm or thickness {} mm is more than 100 m; lens files are in millimetres",
-                        row.aperture, row.thickness
+                        row.base.aperture, row.base.thickness
                     ),
                 ));
             }
-            if row.aperture < MIN_APERTURE_MM {
+            if row.base.aperture < MIN_APERTURE_MM {
                 return Err(error(
-                    row.line,
+                    row.base.line,
                     format!(
                         "aperture diameter {} mm is below a micrometre; lens files are in millimetres",
-                        row.aperture
+                        row.base.aperture
                     ),
                 ));
             }
-            if row.index > MAX_INDEX {
+            if row.base.index > MAX_INDEX {
                 return Err(error(
-                    row.line,
+                    row.base.line,
                     format!(
                         "refractive index {} is not a real material (glasses lie between 1.4 and 2.1; the limit is {MAX_INDEX})",
-                        row.index
+                        row.base.index
                     ),
                 ));
             }
             if let Some(message) = undefined_sag(row) {
-                return Err(error(row.line, message));
+                return Err(error(row.base.line, message));
             }
         }
         if self.rows[last].is_stop() {
             return Err(error(
-                self.rows[last].line,
+                self.rows[last].base.line,
                 "the aperture stop cannot be the last surface: the rear element must be glass"
                     .into(),
             ));
@@ -344,17 +357,17 @@ impl Prescription {
         const TOLERANCE_MM: f64 = 1e-6;
         for pair in self.rows.windows(2) {
             let (front, back) = (&pair[0], &pair[1]);
-            let semi = front.aperture.min(back.aperture) / 2.0;
+            let semi = front.base.aperture.min(back.base.aperture) / 2.0;
             for k in 0..=SAMPLES {
                 let h = semi * k as f64 / SAMPLES as f64;
-                let gap = front.thickness + sag(back, h) - sag(front, h);
+                let gap = front.base.thickness + sag(back, h) - sag(front, h);
                 if gap < -TOLERANCE_MM {
                     return Err(PrescriptionError {
                         file: self.source.clone(),
-                        line: Some(back.line).filter(|&l| l > 0),
+                        line: Some(back.base.line).filter(|&l| l > 0),
                         message: format!(
                             "this surface crosses the one before it {h:.3} mm from the axis, inside their clear apertures (the {} between them would be {gap:.4} mm thick there): check the thicknesses and clear apertures{}",
-                            if front.index > 1.0 {
+                            if front.base.index > 1.0 {
                                 "glass"
                             } else {
                                 "air gap"
@@ -390,7 +403,7 @@ pub fn sag(row: &SurfaceRow, h: f64) -> f64 {
 /// Why a row's surface is not defined over its whole clear aperture, if it is not: the conic
 /// part needs 1 − (1+k)·c²·r² ≥ 0, and the polynomial must stay finite.
 fn undefined_sag(row: &SurfaceRow) -> Option<String> {
-    let semi = row.aperture / 2.0;
+    let semi = row.base.aperture / 2.0;
     let profile = row.profile();
     let defined = (0..=64).all(|k| {
         let h = semi * k as f64 / 64.0;
@@ -404,7 +417,7 @@ fn undefined_sag(row: &SurfaceRow) -> Option<String> {
     if row.kind() == SurfaceKind::Spherical {
         return Some(format!(
             "clear aperture {} mm is wider than the sphere of radius {} mm allows",
-            row.aperture, row.radius
+            row.base.aperture, row.base.radius
         ));
     }
     let rim = if kappa * c * c > 0.0 {
@@ -417,7 +430,7 @@ fn undefined_sag(row: &SurfaceRow) -> Option<String> {
     };
     Some(format!(
         "the surface's sag is undefined inside its clear aperture (semi-diameter {semi} mm): 1 − (1+k)·c²·r² < 0 with radius {} mm and conic {}{rim}",
-        row.radius, row.asphere.conic
+        row.base.radius, row.asphere.conic
     ))
 }
 

@@ -172,12 +172,10 @@ fn normalise(
             None => None,
             Some(column) => Some(glass_column(column, index, line, source, &mut warnings)?),
         };
-        rows.push(SurfaceRow {
-            index,
-            line,
-            glass,
-            ..SurfaceRow::new(radius, thickness, index, aperture)
-        });
+        let mut row = SurfaceRow::new(radius, thickness, index, aperture);
+        row.base.line = line;
+        row.glass = glass;
+        rows.push(row);
     }
     Ok((rows, warnings))
 }
@@ -236,8 +234,8 @@ mod tests {
         let p = parse(SIMPLE_AFTER).unwrap();
         assert_eq!(p.format, LensFormat::ThicknessAfter);
         assert_eq!(p.rows.len(), 3);
-        assert_eq!(p.rows[0].thickness, 5.0);
-        assert_eq!(p.rows[1].index, 1.0);
+        assert_eq!(p.rows[0].base.thickness, 5.0);
+        assert_eq!(p.rows[1].base.index, 1.0);
         assert_eq!(p.stop_index(), 1);
         assert_eq!(p.vertex_span(), 10.0);
     }
@@ -251,7 +249,14 @@ mod tests {
         let strip = |p: &Prescription| {
             p.rows
                 .iter()
-                .map(|r| (r.radius, r.thickness, r.index, r.aperture))
+                .map(|r| {
+                    (
+                        r.base.radius,
+                        r.base.thickness,
+                        r.base.index,
+                        r.base.aperture,
+                    )
+                })
                 .collect::<Vec<_>>()
         };
         assert_eq!(strip(&a), strip(&b));
@@ -276,7 +281,7 @@ mod tests {
             Some(LensFormat::ThicknessAfter),
         )
         .unwrap();
-        assert_eq!(p.rows[2].thickness, 0.0);
+        assert_eq!(p.rows[2].base.thickness, 0.0);
     }
 
     #[test]

@@ -50,7 +50,7 @@ pub fn write_dat(prescription: &Prescription) -> Result<String, String> {
                 row.asphere.order()
             ));
         }
-        if row.stop && row.curvature() != 0.0 {
+        if row.base.stop && row.curvature() != 0.0 {
             return Err(format!(
                 "the stop is on a curved surface (surface {n}): a pbrt .dat table's stop is a plane of its own; export to .toml instead"
             ));
@@ -58,7 +58,7 @@ pub fn write_dat(prescription: &Prescription) -> Result<String, String> {
         let radius = match row.kind() {
             SurfaceKind::Stop => "0".to_string(),
             SurfaceKind::Flat => "inf".to_string(),
-            _ => format!("{:?}", row.radius),
+            _ => format!("{:?}", row.base.radius),
         };
         let glass = match row.glass {
             None => String::new(),
@@ -77,7 +77,7 @@ pub fn write_dat(prescription: &Prescription) -> Result<String, String> {
         let _ = writeln!(
             out,
             "{radius}  {:?}  {:?}  {:?}{glass}",
-            row.thickness, row.index, row.aperture
+            row.base.thickness, row.base.index, row.base.aperture
         );
     }
     Ok(out)

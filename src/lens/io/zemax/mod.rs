@@ -21,7 +21,9 @@ use std::path::Path;
 use crate::glass::{FRAUNHOFER_D_NM, Glass, catalogue};
 use crate::lens::clear_aperture::{self, FieldPoint};
 use crate::lens::info::LensInfo;
-use crate::lens::prescription::{LensFormat, Prescription, PrescriptionError, SurfaceRow};
+use crate::lens::prescription::{
+    LensFormat, Prescription, PrescriptionError, SurfaceBase, SurfaceRow,
+};
 use crate::lens::shape::{ASPHERIC_TERMS, Asphere};
 
 /// Zemax files larger than this are refused before reading (real ones, merit functions and
@@ -578,22 +580,24 @@ fn convert(
         };
         missing_aperture.push(semi.is_none());
         rows.push(SurfaceRow {
-            radius,
-            thickness,
-            index,
-            aperture: semi.map_or(0.0, |d| 2.0 * d * scale),
-            line: s.line,
-            stop: s.stop,
+            base: SurfaceBase {
+                radius,
+                thickness,
+                index,
+                aperture: semi.map_or(0.0, |d| 2.0 * d * scale),
+                line: s.line,
+                stop: s.stop,
+            },
             asphere: asphere.scaled(scale),
             glass,
         });
     }
     // Zemax's default stop is surface 1.
-    if !rows.iter().any(|r| r.stop) {
-        rows[0].stop = true;
+    if !rows.iter().any(|r| r.base.stop) {
+        rows[0].base.stop = true;
     }
-    let stop = rows.iter().position(|r| r.stop).unwrap_or(0);
-    if rows.iter().filter(|r| r.stop).count() > 1 {
+    let stop = rows.iter().position(|r| r.base.stop).unwrap_or(0);
+    if rows.iter().filter(|r| r.base.stop).count() > 1 {
         return Err(error(None, "more than one surface is marked STOP".into()));
     }
     let image = &surfaces[surfaces.len() - 1];
@@ -613,7 +617,7 @@ fn convert(
     // Then the clear apertures the file leaves open are found from the rays the design's fields
     // send through that stop.
     let name_of = |s: &ZemaxSurface| format!("SURF {}", s.number);
-    let stop_diam = (!missing_aperture[stop]).then_some(rows[stop].aperture);
+    let stop_diam = (!missing_aperture[stop]).then_some(rows[stop].base.aperture);
     let sized = if let Some(epd) = system
         .entrance_pupil_diameter
         .filter(|_| !system.floating_stop)
@@ -641,7 +645,7 @@ fn convert(
                 format!("{}: cannot size the stop: {why}", name_of(&lens[stop])),
             )
         })?;
-        rows[stop].aperture = diameter;
+        rows[stop].base.aperture = diameter;
         missing_aperture[stop] = false;
     }
     if missing_aperture.iter().any(|&m| m) {
