@@ -14,6 +14,10 @@
 //! represent (mirrors, coordinate breaks, tilted or decentred surfaces and apertures,
 //! non-rotationally-symmetric or diffractive surfaces, multi-configuration zooms, unknown glass
 //! names) is refused, naming the file, the `SURF` number and what it is: never misread.
+//!
+//! Three steps, a module each: `decode` (bytes to text; numbers and units), `parse` (the
+//! keyword lines into the system and its `SURF` blocks, in file units) and `convert` (the
+//! refusals, then the rows in millimetres, the stop and clear apertures, validation).
 
 mod convert;
 mod decode;
