@@ -7,9 +7,9 @@
 use glam::{Mat4, Vec3};
 use realcam::film::Image;
 use realcam::lens::aperture::ApertureSetting;
-use realcam::lens::bundled::load_lens;
 use realcam::lens::elements::{Dispersion, FocusSetting};
 use realcam::lens::focus::FocusMode;
+use realcam::lens::io::bundled::load_lens;
 use realcam::lens::pupil::PupilSampling;
 use realcam::pipeline::{RenderSettings, Renderer, SceneSource};
 use realcam::scene::look_at;

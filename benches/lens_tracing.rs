@@ -9,8 +9,8 @@
 use divan::{Bencher, black_box};
 use glam::Mat4;
 use realcam::batch::RayBatch;
-use realcam::lens::bundled::BUNDLED;
 use realcam::lens::camera::{CameraRays, FilmGeometry, LensCamera};
+use realcam::lens::io::bundled::BUNDLED;
 use realcam::lens::pupil::{ExitPupil, PupilSampling};
 use realcam::lens::trace_batch::{Isa, Kernel};
 use realcam::lens::workload::LensWorkload;

@@ -22,25 +22,25 @@ fn main() -> anyhow::Result<()> {
     let lens = Prescription::load(std::path::Path::new(&path), None)?;
     let rows = &lens.rows;
     for (i, row) in rows.iter().enumerate() {
-        if row.index <= 1.0 {
+        if row.base.index <= 1.0 {
             println!(
                 "{:>10} {:>8} {:>7} {:>7}",
-                row.radius, row.thickness, row.index, row.aperture
+                row.base.radius, row.base.thickness, row.base.index, row.base.aperture
             );
             continue;
         }
         let next = &rows[i + 1];
         // Thin-lens power of the element between this surface and the next.
-        let power = (row.index - 1.0) * (row.curvature() - next.curvature());
+        let power = (row.base.index - 1.0) * (row.curvature() - next.curvature());
         let within: Vec<_> = catalogue()
             .iter()
-            .filter(|(_, g)| (g.n_d - row.index).abs() <= 5e-4)
+            .filter(|(_, g)| (g.n_d - row.base.index).abs() <= 5e-4)
             .collect();
         let maker = realcam::glass::Maker::ALL
             .into_iter()
             .find(|m| within.iter().any(|(_, g)| g.maker == *m))
             .ok_or_else(|| {
-                anyhow::anyhow!("no catalogue glass within 0.0005 of n_d {}", row.index)
+                anyhow::anyhow!("no catalogue glass within 0.0005 of n_d {}", row.base.index)
             })?;
         let candidates: Vec<_> = within
             .into_iter()
@@ -66,7 +66,7 @@ fn main() -> anyhow::Result<()> {
             .expect("the maker has candidates");
         eprintln!(
             "surface {i}: n {} {} element → {} (n_d {}, V_d {})",
-            row.index,
+            row.base.index,
             if power > 0.0 { "positive" } else { "negative" },
             Glass::Catalogue(id).label(),
             glass.n_d,
@@ -74,10 +74,10 @@ fn main() -> anyhow::Result<()> {
         );
         println!(
             "{:>10} {:>8} {:>7} {:>7}  {}:{}",
-            row.radius,
-            row.thickness,
-            row.index,
-            row.aperture,
+            row.base.radius,
+            row.base.thickness,
+            row.base.index,
+            row.base.aperture,
             glass.maker.name().to_ascii_uppercase(),
             glass.name
         );

@@ -20,3 +20,4 @@ pub mod scene;
 pub mod server;
 pub mod shade;
 pub mod spectral;
+pub mod units;

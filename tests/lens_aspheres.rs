@@ -79,7 +79,7 @@ fn paraxial_data_see_only_the_vertex_curvature() {
     // With A₂ = 1e-3 mm⁻¹ the first surface's vertex curvature is 1/30 + 2e-3.
     aspheric[0].asphere.coefficients[0] = 1e-3;
     let mut equivalent = base.clone();
-    equivalent[0].radius = 1.0 / (1.0 / 30.0 + 2e-3);
+    equivalent[0].base.radius = 1.0 / (1.0 / 30.0 + 2e-3);
     let a2 = LensSystem::new(&aspheric, None);
     let a2_fo = FirstOrder::compute(&a2).unwrap();
     let eq_fo = FirstOrder::compute(&LensSystem::new(&equivalent, None)).unwrap();

@@ -13,12 +13,12 @@ use realcam::film::Image;
 use realcam::glass::{FRAUNHOFER_F_NM, Glass, catalogue};
 use realcam::lens::aiming::ObjectSource;
 use realcam::lens::aperture::ApertureSetting;
-use realcam::lens::bundled::load_lens;
 use realcam::lens::camera::FilmGeometry;
 use realcam::lens::chromatic::axial_colour;
 use realcam::lens::elements::{FilmPlacement, FocusSetting, LensGeometry};
 use realcam::lens::first_order::FirstOrder;
 use realcam::lens::focus::FocusMode;
+use realcam::lens::io::bundled::load_lens;
 use realcam::lens::pupil::PupilSampling;
 use realcam::lens::trace::{Travel, trace_with};
 use realcam::lens::{LensSystem, Prescription, SurfaceRow};
@@ -138,7 +138,12 @@ fn lenses_without_glass_render_what_they_did_before() {
         .unwrap()
         .rows
         .iter()
-        .map(|r| format!("{} {} {} {}\n", r.radius, r.thickness, r.index, r.aperture))
+        .map(|r| {
+            format!(
+                "{} {} {} {}\n",
+                r.base.radius, r.base.thickness, r.base.index, r.base.aperture
+            )
+        })
         .collect();
     let lens = dir.path().join("dgauss-without-glass.dat");
     std::fs::write(&lens, glass_free).unwrap();

@@ -3,13 +3,13 @@
 
 use realcam::lens::Asphere;
 use realcam::lens::aperture::ApertureSetting;
-use realcam::lens::bundled::load_lens;
 use realcam::lens::chromatic::axial_colour;
 use realcam::lens::elements::{
     FilmFormat, FilmPlacement, FocusSetting, LensDerivationStats, LensFault, LensGeometry,
     LensSurface, SurfaceAsphere, SurfaceGlass, activate_lens, spawn_lens,
 };
 use realcam::lens::focus::FocusMode;
+use realcam::lens::io::bundled::load_lens;
 use realcam::lens::pupil::ExitPupil;
 use realcam::pipeline::Renderer;
 

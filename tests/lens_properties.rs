@@ -5,9 +5,9 @@ use std::path::Path;
 
 use proptest::prelude::*;
 use realcam::batch::RayBatch;
-use realcam::lens::bundled::{BUNDLED, load_lens};
 use realcam::lens::first_order::FirstOrder;
 use realcam::lens::focus::paraxial_film_distance;
+use realcam::lens::io::bundled::{BUNDLED, load_lens};
 use realcam::lens::pupil::{ExitPupil, PupilSampling};
 use realcam::lens::trace::{Ray, Travel, normalize, trace};
 use realcam::lens::trace_batch::{Kernel, trace_batch_with};

@@ -157,10 +157,10 @@ fn zemax_glasses_resolve_to_the_same_indices() {
             let row = &p.rows[glass["after_surface"].as_u64().unwrap() as usize - 1];
             let theirs = f(&glass["n_d_587.5618"]);
             assert!(
-                (row.index - theirs).abs() < 1e-6,
+                (row.base.index - theirs).abs() < 1e-6,
                 "{id} {}: n_d {} vs {theirs}",
                 glass["name"],
-                row.index
+                row.base.index
             );
         }
     }
@@ -205,17 +205,16 @@ fn aspheric_designs_trace_as_the_independent_program_does() {
                         *a = f(v);
                     }
                 }
-                SurfaceRow {
-                    stop: number == stop,
-                    asphere,
-                    // No clipping: the reference's rays pass the design's apertures.
-                    ..SurfaceRow::new(
-                        if c == 0.0 { f64::INFINITY } else { 1.0 / c },
-                        s["thickness_after"].as_f64().unwrap_or(0.0),
-                        index_after(number),
-                        f64::INFINITY,
-                    )
-                }
+                // No clipping: the reference's rays pass the design's apertures.
+                let mut row = SurfaceRow::new(
+                    if c == 0.0 { f64::INFINITY } else { 1.0 / c },
+                    s["thickness_after"].as_f64().unwrap_or(0.0),
+                    index_after(number),
+                    f64::INFINITY,
+                );
+                row.base.stop = number == stop;
+                row.asphere = asphere;
+                row
             })
             .collect();
         let mut system = LensSystem::new(&rows, None);
@@ -225,9 +224,9 @@ fn aspheric_designs_trace_as_the_independent_program_does() {
         let stop_diameter = epd * system.stop_diameter() / fo.entrance_pupil.diameter_mm;
         assert!(stop_diameter.is_finite() || system.stop_diameter().is_infinite());
         let mut sized = rows.clone();
-        sized[system.stop].aperture = 1.0;
+        sized[system.stop].base.aperture = 1.0;
         let unit = FirstOrder::compute(&LensSystem::new(&sized, None)).unwrap();
-        sized[system.stop].aperture = epd / unit.entrance_pupil.diameter_mm;
+        sized[system.stop].base.aperture = epd / unit.entrance_pupil.diameter_mm;
         system = LensSystem::new(&sized, None);
         assert_paraxial(id, &system, lens, 1e-9);
         // Strong aspheres in f64: a Newton root to 1e-10 mm along the ray.
@@ -318,7 +317,14 @@ fn encodings_and_line_endings_read_the_same() {
         let p = Prescription::load(&path, None).unwrap_or_else(|e| panic!("{name}: {e}"));
         let strip = |rows: &[SurfaceRow]| -> Vec<(f64, f64, f64, f64)> {
             rows.iter()
-                .map(|r| (r.radius, r.thickness, r.index, r.aperture))
+                .map(|r| {
+                    (
+                        r.base.radius,
+                        r.base.thickness,
+                        r.base.index,
+                        r.base.aperture,
+                    )
+                })
                 .collect()
         };
         assert_eq!(strip(&p.rows), strip(&expected), "{name}");
@@ -366,13 +372,13 @@ fn units_convert_to_millimetres() {
         for (a, b) in p.rows.iter().zip(&expected.rows) {
             let close = |x: f64, y: f64| (x - y).abs() <= 1e-9 * y.abs().max(1.0) || x == y;
             assert!(
-                close(a.radius, b.radius),
+                close(a.base.radius, b.base.radius),
                 "{unit}: radius {} vs {}",
-                a.radius,
-                b.radius
+                a.base.radius,
+                b.base.radius
             );
-            assert!(close(a.thickness, b.thickness), "{unit}");
-            assert!(close(a.aperture, b.aperture), "{unit}");
+            assert!(close(a.base.thickness, b.base.thickness), "{unit}");
+            assert!(close(a.base.aperture, b.base.aperture), "{unit}");
             for (x, y) in a.asphere.coefficients.iter().zip(&b.asphere.coefficients) {
                 assert!((x - y).abs() <= 1e-12 * y.abs(), "{unit}: {x} vs {y}");
             }

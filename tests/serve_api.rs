@@ -114,7 +114,7 @@ fn every_endpoint_answers_over_loopback() {
 
     let lenses = served.get("/api/lenses").json();
     let list = lenses["lenses"].as_array().unwrap();
-    assert!(list.len() >= realcam::lens::bundled::BUNDLED.len());
+    assert!(list.len() >= realcam::lens::io::bundled::BUNDLED.len());
     assert!(
         list.iter()
             .any(|l| l["name"] == "wide.22mm" && l["origin"] == "bundled")
@@ -312,10 +312,10 @@ fn lens_names_follow_the_path_rules() {
     let root = tempfile::tempdir().unwrap();
     let lenses = root.path().join("lenses");
     std::fs::create_dir_all(lenses.join("primes")).unwrap();
-    let dgauss = realcam::lens::bundled::find_bundled("dgauss.50mm")
+    let dgauss = realcam::lens::io::bundled::find_bundled("dgauss.50mm")
         .unwrap()
         .text;
-    let wide = realcam::lens::bundled::find_bundled("wide.22mm")
+    let wide = realcam::lens::io::bundled::find_bundled("wide.22mm")
         .unwrap()
         .text;
     std::fs::write(lenses.join("mine.dat"), dgauss).unwrap();

@@ -14,7 +14,7 @@ use serde_json::json;
 
 use super::values::whole;
 use crate::batch::RayBatch;
-use crate::lens::bundled::DEFAULT_LENS;
+use crate::lens::io::bundled::DEFAULT_LENS;
 use crate::lens::trace::Ray;
 use crate::lens::trace_batch::{DEFAULT_KERNEL, Isa, Kernel};
 use crate::lens::workload::LensWorkload;
@@ -396,7 +396,7 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<ExitCode> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::lens::bundled::BUNDLED;
+    use crate::lens::io::bundled::BUNDLED;
 
     fn quick_args() -> BenchArgs {
         BenchArgs {

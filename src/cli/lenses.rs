@@ -11,9 +11,9 @@ use anyhow::{Context, bail};
 use clap::Args;
 use serde::Serialize;
 
-use crate::lens::bundled::{BUNDLED, BundledLens};
 use crate::lens::field::{field_angle, field_edge};
 use crate::lens::first_order::FirstOrder;
+use crate::lens::io::bundled::{BUNDLED, BundledLens};
 use crate::lens::{LensSystem, SurfaceKind};
 
 /// Diagonal of the 35 mm still frame (36 × 24 mm), on which `realcam lenses` gives every
@@ -107,7 +107,11 @@ impl LensEntry {
             nominal_f_number: info.f_number,
             full_frame: coverage(FULL_FRAME_DIAGONAL_MM),
             design_format: info.film_diagonal_mm.map(coverage),
-            elements: prescription.rows.iter().filter(|r| r.index != 1.0).count(),
+            elements: prescription
+                .rows
+                .iter()
+                .filter(|r| r.base.index != 1.0)
+                .count(),
             aspheric_surfaces: prescription
                 .rows
                 .iter()

@@ -18,6 +18,9 @@ use bevy_ecs::component::Component;
 /// 16384² film's sums still fit comfortably in memory (3 GiB).
 pub const MAX_IMAGE_SIDE: u32 = 16_384;
 
+/// Image width and height when neither the user nor the scene's camera gives one.
+pub const DEFAULT_IMAGE_SIDE: u32 = 512;
+
 /// The most samples per pixel realcam renders: 2²⁴. The film keeps per-pixel sums in f32,
 /// whose 24-bit significand cannot take in one more sample of similar size beyond 2²⁴ of
 /// them — further samples would be lost, not averaged in.

@@ -302,7 +302,14 @@ fn settings_fingerprint(
         .prescription
         .rows
         .iter()
-        .map(|r| [r.radius, r.thickness, r.index, r.aperture])
+        .map(|r| {
+            [
+                r.base.radius,
+                r.base.thickness,
+                r.base.index,
+                r.base.aperture,
+            ]
+        })
         .collect();
     let mut fingerprint = json!({
         "scene": spec.scene.as_ref().map_or(DEFAULT_SCENE_PATH.to_string(), |p| p.display().to_string()),
@@ -325,11 +332,11 @@ fn settings_fingerprint(
     let surfaces = &lens.prescription.rows;
     if surfaces
         .iter()
-        .any(|r| r.asphere != crate::lens::Asphere::NONE || r.stop != (r.radius == 0.0))
+        .any(|r| r.asphere != crate::lens::Asphere::NONE || r.base.stop != (r.base.radius == 0.0))
     {
         fingerprint["lens_shapes"] = surfaces
             .iter()
-            .map(|r| json!({ "stop": r.stop, "conic": r.asphere.conic, "aspheric": r.asphere.coefficients }))
+            .map(|r| json!({ "stop": r.base.stop, "conic": r.asphere.conic, "aspheric": r.asphere.coefficients }))
             .collect();
     }
     if surfaces.iter().any(|r| r.glass.is_some()) {

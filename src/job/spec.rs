@@ -16,9 +16,6 @@ use crate::lens::elements::Dispersion;
 use crate::lens::movements::FilmMovements;
 use crate::lens::settings::LensSettings;
 
-/// Image width and height when neither the job nor the scene's camera gives one.
-pub const DEFAULT_IMAGE_SIDE: u32 = 512;
-
 /// A render job's whole request.
 #[derive(Clone, Debug)]
 pub struct JobSpec {
@@ -35,7 +32,7 @@ pub struct JobSpec {
     pub environment: Option<EnvironmentSpec>,
     /// Samples per pixel.
     pub spp: u32,
-    /// Image size in pixels; `None`: the scene camera's, else [`DEFAULT_IMAGE_SIDE`].
+    /// Image size in pixels; `None`: the scene camera's, else [`DEFAULT_IMAGE_SIDE`](crate::film::DEFAULT_IMAGE_SIDE).
     pub width: Option<u32>,
     pub height: Option<u32>,
     /// The seed of every sample sequence.

@@ -48,7 +48,7 @@ fn system_with(rows: &[SurfaceRow], unlimited: &[bool], open_stop: bool) -> Lens
 /// First-order data with the stop at a unit diameter (what scales with it, scales linearly).
 fn unit_stop_first_order(rows: &[SurfaceRow], stop: usize) -> Result<FirstOrder, String> {
     let mut rows = rows.to_vec();
-    rows[stop].aperture = 1.0;
+    rows[stop].base.aperture = 1.0;
     FirstOrder::compute(&LensSystem::new(&rows, None)).map_err(|e| e.to_string())
 }
 
@@ -94,7 +94,7 @@ pub fn widest_stop(rows: &[SurfaceRow], stop: usize, unknown: &[bool]) -> Result
         .ok()?;
         at_stop
     };
-    let front = rows[0].aperture / 2.0;
+    let front = rows[0].base.aperture / 2.0;
     let mut hi = if front > 0.0 { front } else { 1e3 };
     let mut lo = 0.0;
     if stop_height(hi).is_some() {
@@ -174,7 +174,7 @@ pub fn fill_missing(
             if heights[i] <= 0.0 {
                 return Err((i, "no ray of the design's fields reaches it".into()));
             }
-            row.aperture = 2.0 * heights[i];
+            row.base.aperture = 2.0 * heights[i];
         }
     }
     Ok(())

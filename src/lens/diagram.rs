@@ -48,7 +48,7 @@ pub fn draw_diagram(
     let max_aperture = system
         .rows
         .iter()
-        .map(|r| r.aperture / 2.0)
+        .map(|r| r.base.aperture / 2.0)
         .fold(0.0, f64::max);
     let y_max = max_aperture.max(film_diagonal / 2.0) * 1.15;
     let lead = (0.3 * film_z).max(max_aperture);
@@ -78,11 +78,11 @@ pub fn draw_diagram(
         let (front, back) = (&system.rows[i], &system.rows[i + 1]);
         let mut points = Vec::new();
         for k in 0..=24 {
-            let h = -front.aperture / 2.0 + front.aperture * k as f64 / 24.0;
+            let h = -front.base.aperture / 2.0 + front.base.aperture * k as f64 / 24.0;
             points.push(view.point(s.vertex_z[i] + sag(front, h), h));
         }
         for k in 0..=24 {
-            let h = back.aperture / 2.0 - back.aperture * k as f64 / 24.0;
+            let h = back.base.aperture / 2.0 - back.base.aperture * k as f64 / 24.0;
             points.push(view.point(s.vertex_z[i + 1] + sag(back, h), h));
         }
         let _ = writeln!(
@@ -94,7 +94,7 @@ pub fn draw_diagram(
     // Bare surfaces (air on both sides never happens in practice, but draw every profile).
     for (i, row) in system.rows.iter().enumerate() {
         if row.is_stop() {
-            let a = row.aperture / 2.0;
+            let a = row.base.aperture / 2.0;
             let outer = max_aperture * 1.08;
             let x = view.x(s.vertex_z[i]);
             for (y0, y1) in [(a, outer), (-a, -outer)] {
@@ -109,7 +109,7 @@ pub fn draw_diagram(
         }
         let points: Vec<String> = (0..=24)
             .map(|k| {
-                let h = -row.aperture / 2.0 + row.aperture * k as f64 / 24.0;
+                let h = -row.base.aperture / 2.0 + row.base.aperture * k as f64 / 24.0;
                 view.point(s.vertex_z[i] + sag(row, h), h)
             })
             .collect();

@@ -39,7 +39,7 @@ use super::first_order::FirstOrder;
 use super::focus::{FocusMode, best_film_distance, paraxial_film_distance};
 use super::focus_probe::{FocusOnPixel, FocusProbe};
 use super::movements::FilmMovements;
-use super::prescription::{LensFormat, Prescription, SurfaceRow};
+use super::prescription::{LensFormat, Prescription, SurfaceBase, SurfaceRow};
 use super::pupil::{ExitPupil, PupilSampling};
 use super::shape::Asphere;
 use super::system::LensSystem;
@@ -61,36 +61,6 @@ pub struct LensSurface {
     pub base: SurfaceBase,
 }
 
-/// What every surface has (the prescription row less its asphere and glass, which are the
-/// [`SurfaceAsphere`] and [`SurfaceGlass`] components, so each can be added, changed or taken
-/// away on its own). The fields mean what [`SurfaceRow`]'s do.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct SurfaceBase {
-    /// Signed vertex radius of curvature, mm (> 0: centre toward the film; ∞ flat).
-    pub radius: f64,
-    pub thickness: f64,
-    /// Refractive index of the medium after the surface (n_d with a glass).
-    pub index: f64,
-    /// Clear aperture diameter, mm.
-    pub aperture: f64,
-    /// 1-based line in the source file (0 for rows made in code).
-    pub line: usize,
-    pub stop: bool,
-}
-
-impl SurfaceBase {
-    pub fn of(row: &SurfaceRow) -> SurfaceBase {
-        SurfaceBase {
-            radius: row.radius,
-            thickness: row.thickness,
-            index: row.index,
-            aperture: row.aperture,
-            line: row.line,
-            stop: row.stop,
-        }
-    }
-}
-
 /// The conic and polynomial terms of an aspheric surface: a component of its [`LensSurface`]
 /// entity (absent: a sphere, or a plane).
 #[derive(Component, Clone, Copy, Debug, PartialEq)]
@@ -109,21 +79,8 @@ impl LensSurface {
         asphere: Option<&SurfaceAsphere>,
         glass: Option<&SurfaceGlass>,
     ) -> SurfaceRow {
-        let SurfaceBase {
-            radius,
-            thickness,
-            index,
-            aperture,
-            line,
-            stop,
-        } = self.base;
         SurfaceRow {
-            radius,
-            thickness,
-            index,
-            aperture,
-            line,
-            stop,
+            base: self.base,
             asphere: asphere.map_or(Asphere::NONE, |a| a.0),
             glass: glass.map(|g| g.0),
         }
@@ -278,7 +235,7 @@ pub fn spawn_lens(
         for (order, row) in prescription.rows.iter().enumerate() {
             let mut surface = children.spawn(LensSurface {
                 order,
-                base: SurfaceBase::of(row),
+                base: row.base,
             });
             if row.asphere != Asphere::NONE {
                 surface.insert(SurfaceAsphere(row.asphere));

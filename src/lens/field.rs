@@ -71,8 +71,8 @@ pub fn field_edge(system: &LensSystem, film_distance: f64, film_radius: f64) -> 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::lens::bundled::load_lens;
     use crate::lens::first_order::FirstOrder;
+    use crate::lens::io::bundled::load_lens;
 
     #[test]
     fn small_fields_follow_the_paraxial_focal_length() {

@@ -18,27 +18,25 @@
 
 pub mod aiming;
 pub mod aperture;
-pub mod bundled;
 pub mod camera;
 pub mod chromatic;
 pub mod clear_aperture;
 pub mod coverage;
-pub mod dat_file;
 pub mod diagram;
 pub mod diaphragm;
 pub mod dispersion;
 pub mod elements;
-pub mod export;
 pub mod field;
 pub mod first_order;
 pub mod focus;
 pub mod focus_probe;
 pub mod info;
-pub mod lens_file;
+pub mod io;
 pub mod movements;
 pub mod prescription;
 pub mod pupil;
 pub mod pupil_view;
+pub mod ray;
 pub mod report;
 pub mod settings;
 pub mod shape;
@@ -46,8 +44,9 @@ pub mod system;
 pub mod trace;
 pub mod trace_batch;
 pub mod workload;
-pub mod zemax;
 
-pub use prescription::{LensFormat, Prescription, PrescriptionError, SurfaceKind, SurfaceRow};
+pub use prescription::{
+    LensFormat, Prescription, PrescriptionError, SurfaceBase, SurfaceKind, SurfaceRow,
+};
 pub use shape::Asphere;
 pub use system::{LensSystem, SurfaceArrays};

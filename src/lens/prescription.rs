@@ -1,40 +1,23 @@
-//! Lens prescription files: parsing, layout detection and validation.
+//! The lens as data: a [`Prescription`] of [`SurfaceRow`]s, front (scene side) to back (film
+//! side), and its validation (undefined sags, surfaces crossing inside their clear apertures).
 //!
-//! A prescription is a table of rows `radius thickness index aperture-diameter` (mm), front
-//! (scene side) to back (film side). See [`crate::lens`] for the sign conventions. Two layouts
-//! of the second column exist in the wild and both load:
-//!
-//! * **thickness-after** (pbrt-v3/v4): the distance from this surface to the next one; the last
-//!   row holds 0, a placeholder for the film distance that focusing computes.
-//! * **gap-before** (Kolb et al. 1995, the 100 mm designs): the distance from the previous
-//!   surface to this one; the first row holds 0.
-//!
-//! Whatever the file's layout, a [`Prescription`] stores thickness-after rows, with the last
-//! thickness 0 (the film distance is not part of the lens).
+//! Rows are thickness-after: each row's thickness is the distance to the next surface, the last
+//! one's 0 (the film distance is not part of the lens). See [`crate::lens`] for the sign
+//! conventions. Reading and writing files is [`crate::lens::io`]'s, which builds prescriptions
+//! through [`Prescription::from_rows`]; nothing here knows a file format.
 
 use std::fmt;
-use std::io::Read;
 use std::path::{Path, PathBuf};
 
-use super::dat_file::parse_dat;
 use super::info::LensInfo;
-use super::lens_file::read_lens_file;
 use super::shape::{Asphere, Profile};
-use super::zemax::{MAX_ZEMAX_BYTES, looks_like_zemax, read_zemax};
 use crate::glass::Glass;
+use crate::units::MAX_LENGTH_MM;
 
 /// Radii at or beyond this magnitude (mm) are flat surfaces: a sphere that large has a sag
 /// below 1e-8 mm over any real clear aperture, and treating it as a plane keeps f32 tracing
 /// free of catastrophic cancellation.
 pub const FLAT_RADIUS_MM: f64 = 1e8;
-
-/// Prescription files larger than this are refused before reading: the largest real lens
-/// prescriptions have a few dozen rows.
-pub const MAX_FILE_BYTES: u64 = 1 << 20;
-
-/// Thicknesses and apertures beyond this (100 m) are refused: no real lens comes near, and it
-/// catches files in the wrong unit and values whose sums would overflow.
-pub const MAX_LENGTH_MM: f64 = 1e5;
 
 /// Apertures below a micrometre (under the wavelength of light) are refused.
 pub const MIN_APERTURE_MM: f64 = 1e-3;
@@ -89,15 +72,18 @@ pub enum SurfaceKind {
     Aspheric,
 }
 
-/// One normalised row: thickness is the distance to the next surface (the last row's is 0).
+/// What every surface has, whatever its shape and glass: the part of a [`SurfaceRow`] that a
+/// lens entity's [`LensSurface`](super::elements::LensSurface) carries (the asphere and glass
+/// are components of their own there, so each can be added, changed or taken away alone).
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct SurfaceRow {
+pub struct SurfaceBase {
     /// Signed radius of curvature of the (base) surface at its vertex, mm; > 0 when the centre
     /// lies on the film side. Infinite for flat surfaces; 0 (flat) for a `.dat` file's stop.
     pub radius: f64,
+    /// Distance to the next surface's vertex, mm (the last row's is 0).
     pub thickness: f64,
     /// Refractive index of the medium after the surface, toward the film (1 for air, the
-    /// stop's 0 included).
+    /// stop's 0 included; n_d with a glass).
     pub index: f64,
     /// Clear aperture diameter, mm.
     pub aperture: f64,
@@ -107,10 +93,17 @@ pub struct SurfaceRow {
     /// which `--aperture` and `--f-number` set. Usually a flat surface of its own; a lens file
     /// may also put the stop on a refracting surface.
     pub stop: bool,
+}
+
+/// One normalised row: thickness is the distance to the next surface (the last row's is 0).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SurfaceRow {
+    /// Radius, thickness, index, clear aperture, source line and stop.
+    pub base: SurfaceBase,
     /// Conic constant and polynomial terms ([`Asphere::NONE`] for a sphere or a plane).
     pub asphere: Asphere,
     /// The glass of the medium after the surface, when the file names one: it gives the
-    /// dispersion around `index` (see [`SurfaceRow::index_at`]). `None`: a fixed index.
+    /// dispersion around `base.index` (see [`SurfaceRow::index_at`]). `None`: a fixed index.
     pub glass: Option<Glass>,
 }
 
@@ -118,12 +111,14 @@ impl SurfaceRow {
     /// A spherical (or flat, or with radius 0 the stop's) row as a `.dat` file gives it.
     pub fn new(radius: f64, thickness: f64, index: f64, aperture: f64) -> SurfaceRow {
         SurfaceRow {
-            radius,
-            thickness,
-            index,
-            aperture,
-            line: 0,
-            stop: radius == 0.0,
+            base: SurfaceBase {
+                radius,
+                thickness,
+                index,
+                aperture,
+                line: 0,
+                stop: radius == 0.0,
+            },
             asphere: Asphere::NONE,
             glass: None,
         }
@@ -135,7 +130,7 @@ impl SurfaceRow {
             SurfaceKind::Aspheric
         } else if curvature != 0.0 {
             SurfaceKind::Spherical
-        } else if self.stop {
+        } else if self.base.stop {
             SurfaceKind::Stop
         } else {
             SurfaceKind::Flat
@@ -144,30 +139,30 @@ impl SurfaceRow {
 
     /// Curvature 1/R of the base surface at the vertex (0 for flat surfaces and a bare stop).
     pub fn curvature(&self) -> f64 {
-        if self.radius == 0.0 || self.radius.abs() >= FLAT_RADIUS_MM {
+        if self.base.radius == 0.0 || self.base.radius.abs() >= FLAT_RADIUS_MM {
             0.0
         } else {
-            1.0 / self.radius
+            1.0 / self.base.radius
         }
     }
 
     pub fn is_stop(&self) -> bool {
-        self.stop
+        self.base.stop
     }
 
     /// The same surface for tracing at the rows' own indices: equal but for the source line and
     /// the glass's dispersion (a copy of a lens file with other comments, or without its glass
     /// column, focuses where the original does).
     pub fn same_optics(&self, other: &SurfaceRow) -> bool {
-        SurfaceRow {
-            line: 0,
+        let optics = |row: &SurfaceRow| SurfaceRow {
+            base: SurfaceBase {
+                line: 0,
+                ..row.base
+            },
             glass: None,
-            ..*self
-        } == SurfaceRow {
-            line: 0,
-            glass: None,
-            ..*other
-        }
+            ..*row
+        };
+        optics(self) == optics(other)
     }
 
     /// The surface's shape, in f64.
@@ -181,9 +176,10 @@ impl SurfaceRow {
     pub fn index_at(&self, wavelength_nm: f64) -> f64 {
         match self.glass {
             Some(glass) => {
-                self.index + glass.index(wavelength_nm) - glass.index(crate::glass::FRAUNHOFER_D_NM)
+                self.base.index + glass.index(wavelength_nm)
+                    - glass.index(crate::glass::FRAUNHOFER_D_NM)
             }
-            None => self.index,
+            None => self.base.index,
         }
     }
 }
@@ -221,62 +217,6 @@ impl fmt::Display for PrescriptionError {
 }
 
 impl Prescription {
-    /// Reads and validates a prescription file; `format` overrides layout detection.
-    pub fn load(
-        path: &Path,
-        format: Option<LensFormat>,
-    ) -> Result<Prescription, PrescriptionError> {
-        let error = |message: String| PrescriptionError {
-            file: path.to_path_buf(),
-            line: None,
-            message,
-        };
-        let cannot_read = |e: std::io::Error| error(format!("cannot read lens file: {e}"));
-        let file = std::fs::File::open(path).map_err(cannot_read)?;
-        if file.metadata().map_err(cannot_read)?.is_dir() {
-            return Err(error("is a directory, not a lens file".into()));
-        }
-        // Read through a limit rather than trusting the size: a device such as /dev/zero
-        // reports 0 bytes and never ends.
-        let mut bytes = Vec::new();
-        file.take(MAX_ZEMAX_BYTES + 1)
-            .read_to_end(&mut bytes)
-            .map_err(cannot_read)?;
-        // Zemax files (often UTF-16, whatever their name) have their own decoding and limit.
-        if extension(path) == "zmx" || looks_like_zemax(&bytes) {
-            if bytes.len() as u64 > MAX_ZEMAX_BYTES {
-                return Err(error(format!(
-                    "is more than {MAX_ZEMAX_BYTES} bytes: too large for a Zemax lens file"
-                )));
-            }
-            return read_zemax(&bytes, path);
-        }
-        if bytes.len() as u64 > MAX_FILE_BYTES {
-            return Err(error(format!(
-                "is more than {MAX_FILE_BYTES} bytes; a lens file is a small text table (a .dat of rows 'radius thickness index aperture', a realcam .toml or a Zemax .zmx)"
-            )));
-        }
-        let text = String::from_utf8(bytes).map_err(|_| {
-            error("is not a text file (invalid UTF-8); expected a .dat table of rows 'radius thickness index aperture', a realcam .toml or a Zemax .zmx".into())
-        })?;
-        Prescription::parse(&text, path, format)
-    }
-
-    /// Parses lens-file text; `source` names it in errors, gives the lens its name, and by its
-    /// extension picks the format (`.toml`: realcam's own, `.zmx`: Zemax, else rows of a
-    /// pbrt/Kolb `.dat` table, whose layout `format` overrides).
-    pub fn parse(
-        text: &str,
-        source: &Path,
-        format: Option<LensFormat>,
-    ) -> Result<Prescription, PrescriptionError> {
-        match extension(source).as_str() {
-            "toml" => read_lens_file(text, source),
-            "zmx" => read_zemax(text.as_bytes(), source),
-            _ => parse_dat(text, source, format),
-        }
-    }
-
     /// A prescription from rows already in thickness-after form (edited lens entities),
     /// validated as a file would be.
     pub fn from_rows(
@@ -313,7 +253,7 @@ impl Prescription {
     pub fn vertex_span(&self) -> f64 {
         self.rows[..self.rows.len() - 1]
             .iter()
-            .map(|r| r.thickness)
+            .map(|r| r.base.thickness)
             .sum()
     }
 
@@ -334,71 +274,71 @@ impl Prescription {
             1 => {}
             _ => {
                 return Err(error(
-                    stops[1].line,
+                    stops[1].base.line,
                     format!(
                         "a second aperture stop (radius 0; the first is on line {}): a lens has exactly one",
-                        stops[0].line
+                        stops[0].base.line
                     ),
                 ));
             }
         }
         let last = self.rows.len() - 1;
         for row in &self.rows {
-            if row.aperture <= 0.0 {
+            if row.base.aperture <= 0.0 {
                 return Err(error(
-                    row.line,
-                    format!("aperture diameter {} must be positive", row.aperture),
+                    row.base.line,
+                    format!("aperture diameter {} must be positive", row.base.aperture),
                 ));
             }
-            if row.thickness < 0.0 {
+            if row.base.thickness < 0.0 {
                 return Err(error(
-                    row.line,
-                    format!("negative thickness {} mm", row.thickness),
+                    row.base.line,
+                    format!("negative thickness {} mm", row.base.thickness),
                 ));
             }
-            if row.index < 1.0 {
+            if row.base.index < 1.0 {
                 return Err(error(
-                    row.line,
+                    row.base.line,
                     format!(
                         "refractive index {} is below 1 (use 1 or 0 for air)",
-                        row.index
+                        row.base.index
                     ),
                 ));
             }
-            if row.aperture > MAX_LENGTH_MM || row.thickness > MAX_LENGTH_MM {
+            if row.base.aperture > MAX_LENGTH_MM || row.base.thickness > MAX_LENGTH_MM {
                 return Err(error(
-                    row.line,
+                    row.base.line,
                     format!(
                         "aperture {} mm or thickness {} mm is more than 100 m; lens files are in millimetres",
-                        row.aperture, row.thickness
+                        row.base.aperture, row.base.thickness
                     ),
                 ));
             }
-            if row.aperture < MIN_APERTURE_MM {
+            if row.base.aperture < MIN_APERTURE_MM {
                 return Err(error(
-                    row.line,
+                    row.base.line,
                     format!(
                         "aperture diameter {} mm is below a micrometre; lens files are in millimetres",
-                        row.aperture
+                        row.base.aperture
                     ),
                 ));
             }
-            if row.index > MAX_INDEX {
+            if row.base.index > MAX_INDEX {
                 return Err(error(
-                    row.line,
+                    row.base.line,
                     format!(
                         "refractive index {} is not a real material (glasses lie between 1.4 and 2.1; the limit is {MAX_INDEX})",
-                        row.index
+                        row.base.index
                     ),
                 ));
             }
             if let Some(message) = undefined_sag(row) {
-                return Err(error(row.line, message));
+                return Err(error(row.base.line, message));
             }
         }
         if self.rows[last].is_stop() {
             return Err(error(
-                self.rows[last].line,
+                self.rows[last].base.line,
                 "the aperture stop cannot be the last surface: the rear element must be glass"
                     .into(),
             ));
@@ -414,17 +354,17 @@ impl Prescription {
         const TOLERANCE_MM: f64 = 1e-6;
         for pair in self.rows.windows(2) {
             let (front, back) = (&pair[0], &pair[1]);
-            let semi = front.aperture.min(back.aperture) / 2.0;
+            let semi = front.base.aperture.min(back.base.aperture) / 2.0;
             for k in 0..=SAMPLES {
                 let h = semi * k as f64 / SAMPLES as f64;
-                let gap = front.thickness + sag(back, h) - sag(front, h);
+                let gap = front.base.thickness + sag(back, h) - sag(front, h);
                 if gap < -TOLERANCE_MM {
                     return Err(PrescriptionError {
                         file: self.source.clone(),
-                        line: Some(back.line).filter(|&l| l > 0),
+                        line: Some(back.base.line).filter(|&l| l > 0),
                         message: format!(
                             "this surface crosses the one before it {h:.3} mm from the axis, inside their clear apertures (the {} between them would be {gap:.4} mm thick there): check the thicknesses and clear apertures{}",
-                            if front.index > 1.0 {
+                            if front.base.index > 1.0 {
                                 "glass"
                             } else {
                                 "air gap"
@@ -460,7 +400,7 @@ pub fn sag(row: &SurfaceRow, h: f64) -> f64 {
 /// Why a row's surface is not defined over its whole clear aperture, if it is not: the conic
 /// part needs 1 − (1+k)·c²·r² ≥ 0, and the polynomial must stay finite.
 fn undefined_sag(row: &SurfaceRow) -> Option<String> {
-    let semi = row.aperture / 2.0;
+    let semi = row.base.aperture / 2.0;
     let profile = row.profile();
     let defined = (0..=64).all(|k| {
         let h = semi * k as f64 / 64.0;
@@ -474,7 +414,7 @@ fn undefined_sag(row: &SurfaceRow) -> Option<String> {
     if row.kind() == SurfaceKind::Spherical {
         return Some(format!(
             "clear aperture {} mm is wider than the sphere of radius {} mm allows",
-            row.aperture, row.radius
+            row.base.aperture, row.base.radius
         ));
     }
     let rim = if kappa * c * c > 0.0 {
@@ -487,180 +427,13 @@ fn undefined_sag(row: &SurfaceRow) -> Option<String> {
     };
     Some(format!(
         "the surface's sag is undefined inside its clear aperture (semi-diameter {semi} mm): 1 − (1+k)·c²·r² < 0 with radius {} mm and conic {}{rim}",
-        row.radius, row.asphere.conic
+        row.base.radius, row.asphere.conic
     ))
-}
-
-/// A path's extension, lower case ("" when it has none).
-pub fn extension(path: &Path) -> String {
-    path.extension()
-        .map(|e| e.to_string_lossy().to_ascii_lowercase())
-        .unwrap_or_default()
-}
-
-/// A text as it may be shown in a message: at most 60 characters, control characters escaped
-/// (binary garbage must not scramble the user's terminal).
-pub fn shorten(s: &str) -> String {
-    const MAX: usize = 60;
-    let shown: String = s.chars().take(MAX).flat_map(|c| c.escape_debug()).collect();
-    if s.chars().count() <= MAX {
-        shown
-    } else {
-        format!("{shown}…")
-    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    fn parse(text: &str) -> Result<Prescription, PrescriptionError> {
-        Prescription::parse(text, Path::new("test.dat"), None)
-    }
-
-    const SIMPLE_AFTER: &str = "# comment\n50 5 1.5 20\n0 5 0 10\n-50 0 1 20\n";
-
-    #[test]
-    fn thickness_after_layout() {
-        let p = parse(SIMPLE_AFTER).unwrap();
-        assert_eq!(p.format, LensFormat::ThicknessAfter);
-        assert_eq!(p.rows.len(), 3);
-        assert_eq!(p.rows[0].thickness, 5.0);
-        assert_eq!(p.rows[1].index, 1.0);
-        assert_eq!(p.stop_index(), 1);
-        assert_eq!(p.vertex_span(), 10.0);
-    }
-
-    #[test]
-    fn gap_before_layout_gives_same_rows() {
-        let before = "50 0 1.5 20\r\n0\t5 0 10  # stop \"quoted\r\n-50 5 1 20";
-        let a = parse(SIMPLE_AFTER).unwrap();
-        let b = parse(before).unwrap();
-        assert_eq!(b.format, LensFormat::GapBefore);
-        let strip = |p: &Prescription| {
-            p.rows
-                .iter()
-                .map(|r| (r.radius, r.thickness, r.index, r.aperture))
-                .collect::<Vec<_>>()
-        };
-        assert_eq!(strip(&a), strip(&b));
-    }
-
-    #[test]
-    fn infinite_radius_is_flat() {
-        let p = parse("inf 5 1.5 20\n0 5 0 10\n-50 0 1 20\n").unwrap();
-        assert_eq!(p.rows[0].kind(), SurfaceKind::Flat);
-        assert_eq!(p.rows[0].curvature(), 0.0);
-        let p = parse("1e12 5 1.5 20\n0 5 0 10\n-50 0 1 20\n").unwrap();
-        assert_eq!(p.rows[0].kind(), SurfaceKind::Flat);
-    }
-
-    #[test]
-    fn ambiguous_layout_asks_for_override() {
-        let e = parse("50 5 1.5 20\n0 5 0 10\n-50 3 1 20\n").unwrap_err();
-        assert!(e.to_string().contains("--lens-format"), "{e}");
-        let p = Prescription::parse(
-            "50 5 1.5 20\n0 5 0 10\n-50 3 1 20\n",
-            Path::new("x.dat"),
-            Some(LensFormat::ThicknessAfter),
-        )
-        .unwrap();
-        assert_eq!(p.rows[2].thickness, 0.0);
-    }
-
-    #[test]
-    fn bad_files_name_file_and_line() {
-        let cases: &[(&str, &str, Option<usize>)] = &[
-            ("", "no surfaces", None),
-            ("# only a comment\n", "no surfaces", None),
-            ("50 5 1.5 20\n-50 0 1 20\n", "no aperture stop", None),
-            (
-                "50 5 1.5 20\n0 5 0 10\n0 5 0 10\n-50 0 1 20\n",
-                "second aperture stop",
-                Some(3),
-            ),
-            (
-                "50 5 1.5\n0 5 0 10\n-50 0 1 20\n",
-                "expected 4 columns",
-                Some(1),
-            ),
-            (
-                "50 5 glass 20\n0 5 0 10\n-50 0 1 20\n",
-                "index 'glass' is not a number",
-                Some(1),
-            ),
-            (
-                "50 5 1.5 nan\n0 5 0 10\n-50 0 1 20\n",
-                "aperture 'nan'",
-                Some(1),
-            ),
-            (
-                "50 inf 1.5 20\n0 5 0 10\n-50 0 1 20\n",
-                "thickness 'inf'",
-                Some(1),
-            ),
-            (
-                "50 5 1.5 -20\n0 5 0 10\n-50 0 1 20\n",
-                "must be positive",
-                Some(1),
-            ),
-            (
-                "50 5 1.5 0\n0 5 0 10\n-50 0 1 20\n",
-                "must be positive",
-                Some(1),
-            ),
-            (
-                "50 -5 1.5 20\n0 5 0 10\n-50 0 1 20\n",
-                "negative thickness",
-                Some(1),
-            ),
-            ("50 5 0.5 20\n0 5 0 10\n-50 0 1 20\n", "below 1", Some(1)),
-            (
-                "50 5 1.5 20\n0 5 0 10\n-50 0 1 2e5\n",
-                "more than 100 m",
-                Some(3),
-            ),
-            (
-                "50 5 1.5 20\n0 1e300 0 10\n-50 0 1 20\n",
-                "more than 100 m",
-                Some(2),
-            ),
-            (
-                "50 5 1.5 1e-4\n0 5 0 10\n-50 0 1 20\n",
-                "below a micrometre",
-                Some(1),
-            ),
-            (
-                "50 5 11 20\n0 5 0 10\n-50 0 1 20\n",
-                "not a real material",
-                Some(1),
-            ),
-            (
-                "5 5 1.5 20\n0 5 0 10\n-50 0 1 20\n",
-                "wider than the sphere",
-                Some(1),
-            ),
-            (
-                "20 0.5 1.5 20\n-20 5 1 20\n0 0 0 10\n-50 0 1 20\n",
-                "crosses the one before it",
-                Some(2),
-            ),
-            (
-                "50 5 1.5 20\n-50 0 0 10\n0 0 0 10",
-                "cannot be the last surface",
-                Some(3),
-            ),
-        ];
-        for (text, expect, line) in cases {
-            let e =
-                Prescription::parse(text, Path::new("bad.dat"), Some(LensFormat::ThicknessAfter))
-                    .unwrap_err();
-            let shown = e.to_string();
-            assert!(shown.contains(expect), "{text:?}: {shown}");
-            assert!(shown.starts_with("bad.dat"), "{shown}");
-            assert_eq!(e.line, *line, "{text:?}: {shown}");
-        }
-    }
 
     #[test]
     fn sag_matches_sphere_geometry() {

@@ -580,7 +580,7 @@ fn passing_bounds(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::lens::bundled::BUNDLED;
+    use crate::lens::io::bundled::BUNDLED;
     use crate::lens::workload::LensWorkload;
     use crate::sampling::Rng;
 

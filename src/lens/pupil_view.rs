@@ -164,9 +164,9 @@ impl PupilViews {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::lens::bundled::load_lens;
     use crate::lens::diaphragm::{Blades, Diaphragm};
     use crate::lens::first_order::FirstOrder;
+    use crate::lens::io::bundled::load_lens;
     use crate::lens::pupil::PupilSampling;
 
     /// On axis the view of a lens stopped down (so the stop alone limits it) is the stop's

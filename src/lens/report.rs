@@ -3,14 +3,18 @@
 //! entities and systems the renderer uses.
 
 use anyhow::{Context, bail};
+use bevy_ecs::schedule::Schedule;
+use bevy_ecs::world::World;
 use serde_json::{Value, json};
 
+use crate::film::DEFAULT_IMAGE_SIDE;
 use crate::glass::FRAUNHOFER_D_NM;
 use crate::lens::aperture::ApertureSetting;
+use crate::lens::camera::FilmResolution;
 use crate::lens::chromatic::{LATERAL_FIELD, axial_colour, lateral_colour};
 use crate::lens::elements::{
-    FilmFormat, FilmPlacement, FocusSetting, LensFault, LensGeometry, activate_lens, set_diaphragm,
-    spawn_lens,
+    FilmFormat, FilmPlacement, FocusSetting, LensDerivationStats, LensFault, LensGeometry,
+    activate_lens, add_lens_systems, set_diaphragm, spawn_lens,
 };
 use crate::lens::field::{field_angle, field_edge};
 use crate::lens::first_order::FirstOrder;
@@ -18,7 +22,6 @@ use crate::lens::focus::{closest_focus_mm, paraxial_focus_distance};
 use crate::lens::pupil::ExitPupil;
 use crate::lens::settings::LensSettings;
 use crate::lens::{Prescription, SurfaceKind};
-use crate::pipeline::Renderer;
 
 /// Everything `realcam lens` reports, derived through the same entities and systems the
 /// renderer uses.
@@ -45,23 +48,31 @@ impl LensReport {
             .film_diagonal
             .or(prescription.info.film_diagonal_mm)
             .unwrap_or(35.0);
-        let mut renderer = Renderer::new();
-        renderer.world.insert_resource(FilmFormat {
+        // The lens's own derivation systems on a world of its own: the report needs no scene.
+        let mut world = World::new();
+        world.init_resource::<LensDerivationStats>();
+        world.insert_resource(FilmResolution {
+            width: DEFAULT_IMAGE_SIDE,
+            height: DEFAULT_IMAGE_SIDE,
+        });
+        world.insert_resource(FilmFormat {
             diagonal_mm: film_diagonal,
             pupil_sampling: options.pupil_sampling,
         });
+        let mut derivation = Schedule::default();
+        add_lens_systems(&mut derivation);
         let entity = spawn_lens(
-            &mut renderer.world,
+            &mut world,
             &prescription,
             focus,
             options.aperture(ApertureSetting::Full),
         );
-        set_diaphragm(&mut renderer.world, entity, options.diaphragm()?);
-        activate_lens(&mut renderer.world, entity);
+        set_diaphragm(&mut world, entity, options.diaphragm()?);
+        activate_lens(&mut world, entity);
         let start = std::time::Instant::now();
-        renderer.update()?;
+        derivation.run(&mut world);
         let pupil_seconds = start.elapsed().as_secs_f64();
-        let lens = renderer.world.entity(entity);
+        let lens = world.entity(entity);
         if let Some(fault) = lens.get::<LensFault>() {
             bail!(fault.0.clone());
         }
@@ -150,7 +161,7 @@ impl LensReport {
                 json!({
                     "surface": i,
                     "glass": row.glass.map(|g| g.label()),
-                    "n_d": row.index,
+                    "n_d": row.base.index,
                     "v_d": row.glass.map(|g| g.v_d()),
                 })
             })
@@ -191,15 +202,15 @@ impl LensReport {
             .iter()
             .enumerate()
             .map(|(i, row)| {
-                let thickness = if i == last { self.film_distance } else { row.thickness };
+                let thickness = if i == last { self.film_distance } else { row.base.thickness };
                 json!({
-                    "radius_mm": match row.curvature() { 0.0 => Value::Null, _ => json!(row.radius) },
+                    "radius_mm": match row.curvature() { 0.0 => Value::Null, _ => json!(row.base.radius) },
                     "curvature_per_mm": row.curvature(),
                     "thickness_mm": thickness,
-                    "index": row.index,
-                    "aperture_mm": row.aperture,
+                    "index": row.base.index,
+                    "aperture_mm": row.base.aperture,
                     "kind": row.kind(),
-                    "stop": row.stop,
+                    "stop": row.base.stop,
                     "conic": row.asphere.conic,
                     "aspheric_coefficients": &row.asphere.coefficients[..row.asphere.order()],
                     "z_mm": system.f64s.vertex_z[i],
@@ -259,10 +270,10 @@ impl LensReport {
             let radius = match row.kind() {
                 SurfaceKind::Stop => "stop".to_string(),
                 SurfaceKind::Flat => "flat".to_string(),
-                SurfaceKind::Spherical | SurfaceKind::Aspheric => format!("{:.3}", row.radius),
+                SurfaceKind::Spherical | SurfaceKind::Aspheric => format!("{:.3}", row.base.radius),
             };
             let mut notes = Vec::new();
-            if row.stop && row.kind() != SurfaceKind::Stop {
+            if row.base.stop && row.kind() != SurfaceKind::Stop {
                 notes.push("stop".to_string());
             }
             if row.kind() == SurfaceKind::Aspheric {
@@ -274,7 +285,7 @@ impl LensReport {
             let thickness = if i == last {
                 self.film_distance
             } else {
-                row.thickness
+                row.base.thickness
             };
             if i == last {
                 notes.push("to film".into());
@@ -286,7 +297,7 @@ impl LensReport {
             };
             out += &format!(
                 "{i:4} {radius:>10} {thickness:>10.3} {:>8.4} {:>10.2}{note}\n",
-                row.index, row.aperture
+                row.base.index, row.base.aperture
             );
         }
         let focus = match self.focus {

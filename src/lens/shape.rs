@@ -22,7 +22,7 @@
 
 use num_traits::Float;
 
-use super::trace::{Ray, normalize};
+use super::ray::{Ray, normalize};
 
 /// Number of polynomial terms A₂ … A₁₆.
 pub const ASPHERIC_TERMS: usize = 8;

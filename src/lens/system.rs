@@ -118,10 +118,10 @@ impl<T: Copy> SurfaceArrays<T> {
             arrays.polynomial.push(row.asphere.has_polynomial());
             arrays
                 .semi_aperture_sq
-                .push(convert((row.aperture / 2.0).powi(2)));
+                .push(convert((row.base.aperture / 2.0).powi(2)));
             arrays.index_front.push(convert(index_before));
             arrays.index_back.push(convert(index(row)));
-            z += row.thickness;
+            z += row.base.thickness;
             index_before = index(row);
         }
         arrays
@@ -150,12 +150,12 @@ impl LensSystem {
     /// aperture when given (the caller clamps it to the row's maximum).
     pub fn new(rows: &[SurfaceRow], stop_diameter: Option<f64>) -> LensSystem {
         let mut rows = rows.to_vec();
-        let stop = rows.iter().position(|r| r.stop).unwrap_or(0);
+        let stop = rows.iter().position(|r| r.base.stop).unwrap_or(0);
         if let Some(d) = stop_diameter {
-            rows[stop].aperture = d;
+            rows[stop].base.aperture = d;
         }
-        let f64s = SurfaceArrays::from_rows(&rows, |v| v, |r| r.index);
-        let f32s = SurfaceArrays::from_rows(&rows, |v| v as f32, |r| r.index);
+        let f64s = SurfaceArrays::from_rows(&rows, |v| v, |r| r.base.index);
+        let f32s = SurfaceArrays::from_rows(&rows, |v| v as f32, |r| r.base.index);
         let dispersion = DispersionTable::new(&rows).map(Arc::new);
         LensSystem {
             rows,
@@ -176,7 +176,7 @@ impl LensSystem {
             Arc::new(StopClip::new(
                 d,
                 self.stop,
-                self.rows[self.stop].aperture / 2.0,
+                self.rows[self.stop].base.aperture / 2.0,
             ))
         });
         self.f64s.stop_clip = clip.clone();
@@ -225,15 +225,15 @@ impl LensSystem {
 
     /// Clear semi-aperture of the rear element, mm.
     pub fn rear_semi_aperture(&self) -> f64 {
-        self.rows.last().map_or(0.0, |r| r.aperture / 2.0)
+        self.rows.last().map_or(0.0, |r| r.base.aperture / 2.0)
     }
 
     /// Clear semi-aperture of the front element, mm.
     pub fn front_semi_aperture(&self) -> f64 {
-        self.rows.first().map_or(0.0, |r| r.aperture / 2.0)
+        self.rows.first().map_or(0.0, |r| r.base.aperture / 2.0)
     }
 
     pub fn stop_diameter(&self) -> f64 {
-        self.rows[self.stop].aperture
+        self.rows[self.stop].base.aperture
     }
 }

@@ -7,14 +7,8 @@
 
 use num_traits::Float;
 
+pub use super::ray::{Ray, add, dot, normalize, scale};
 use super::system::SurfaceArrays;
-
-/// A ray in the lens frame; `direction` is a unit vector.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Ray<T> {
-    pub origin: [T; 3],
-    pub direction: [T; 3],
-}
 
 /// Which way a ray travels through the lens.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -158,27 +152,6 @@ pub fn refract<T: Float>(direction: [T; 3], normal: [T; 3], eta: T) -> Option<[T
         scale(direction, eta),
         scale(n, eta * cos_i - cos_t),
     )))
-}
-
-pub fn dot<T: Float>(a: [T; 3], b: [T; 3]) -> T {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
-pub fn add<T: Float>(a: [T; 3], b: [T; 3]) -> [T; 3] {
-    [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
-}
-
-pub fn scale<T: Float>(a: [T; 3], s: T) -> [T; 3] {
-    [a[0] * s, a[1] * s, a[2] * s]
-}
-
-pub fn normalize<T: Float>(a: [T; 3]) -> [T; 3] {
-    let length = dot(a, a).sqrt();
-    if length > T::zero() {
-        scale(a, length.recip())
-    } else {
-        a
-    }
 }
 
 #[cfg(test)]

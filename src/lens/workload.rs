@@ -5,9 +5,9 @@ use anyhow::{Context, bail};
 
 use crate::batch::RayBatch;
 use crate::lens::LensSystem;
-use crate::lens::bundled::load_lens;
 use crate::lens::first_order::FirstOrder;
 use crate::lens::focus::paraxial_film_distance;
+use crate::lens::io::bundled::load_lens;
 use crate::lens::pupil::{ExitPupil, PupilSampling};
 use crate::lens::trace::{Ray, Travel, trace};
 use crate::lens::trace_batch::{Isa, Kernel, trace_batch_on};

@@ -6,7 +6,7 @@
 use std::path::{Component, Path, PathBuf};
 
 use crate::lens::Prescription;
-use crate::lens::bundled::BUNDLED;
+use crate::lens::io::bundled::BUNDLED;
 use crate::lens::prescription::LensFormat;
 
 /// Where a lens of the library comes from.
@@ -110,7 +110,7 @@ impl LensLibrary {
             return Err("a lens name must be 1 to 512 characters".into());
         }
         if self.command_line.iter().any(|given| given == name) {
-            return crate::lens::bundled::load_lens(name, self.format)
+            return crate::lens::io::bundled::load_lens(name, self.format)
                 .map(|p| (p, name.to_string()))
                 .map_err(|e| e.to_string());
         }
@@ -189,7 +189,7 @@ fn list_lens_files(root: &Path, dir: &Path, depth: usize, found: &mut Vec<String
             }
         } else if LENS_EXTENSIONS
             .iter()
-            .any(|e| crate::lens::prescription::extension(&path) == *e)
+            .any(|e| crate::lens::io::extension(&path) == *e)
             && let Ok(relative) = path.strip_prefix(root)
         {
             let parts: Vec<String> = relative

@@ -12,6 +12,7 @@ use bevy_ecs::resource::Resource;
 
 use super::Stage;
 use crate::batch::HitBatch;
+use crate::film::DEFAULT_IMAGE_SIDE;
 use crate::lens::camera::{CameraRays, FilmResolution};
 use crate::scene::Bounds;
 use crate::shade::{Environment, RadianceBatch, ShadeStats};
@@ -36,8 +37,8 @@ pub struct RenderSettings {
 impl Default for RenderSettings {
     fn default() -> Self {
         RenderSettings {
-            width: 512,
-            height: 512,
+            width: DEFAULT_IMAGE_SIDE,
+            height: DEFAULT_IMAGE_SIDE,
             seed: 0,
             max_depth: 8,
             tile_size: 32,

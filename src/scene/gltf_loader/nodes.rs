@@ -9,8 +9,8 @@ use serde::Deserialize;
 
 use super::{MAX_NODE_DEPTH, MAX_NODE_VISITS};
 use crate::film::MAX_IMAGE_SIDE;
-use crate::lens::prescription::MAX_LENGTH_MM;
 use crate::scene::{CameraHints, PunctualLight, SceneCamera};
+use crate::units::MAX_LENGTH_MM;
 
 /// A mesh placed by a node.
 pub(super) struct MeshPlacement {

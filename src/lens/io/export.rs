@@ -4,9 +4,10 @@
 use std::fmt::Write;
 use std::path::Path;
 
-use super::lens_file::write_lens_file;
-use super::prescription::{Prescription, SurfaceKind, extension};
+use super::extension;
+use super::toml::write_lens_file;
 use crate::glass::Glass;
+use crate::lens::prescription::{Prescription, SurfaceKind};
 
 /// The text of `prescription` in the format `path`'s extension names.
 pub fn export_text(prescription: &Prescription, path: &Path) -> Result<String, String> {
@@ -49,7 +50,7 @@ pub fn write_dat(prescription: &Prescription) -> Result<String, String> {
                 row.asphere.order()
             ));
         }
-        if row.stop && row.curvature() != 0.0 {
+        if row.base.stop && row.curvature() != 0.0 {
             return Err(format!(
                 "the stop is on a curved surface (surface {n}): a pbrt .dat table's stop is a plane of its own; export to .toml instead"
             ));
@@ -57,7 +58,7 @@ pub fn write_dat(prescription: &Prescription) -> Result<String, String> {
         let radius = match row.kind() {
             SurfaceKind::Stop => "0".to_string(),
             SurfaceKind::Flat => "inf".to_string(),
-            _ => format!("{:?}", row.radius),
+            _ => format!("{:?}", row.base.radius),
         };
         let glass = match row.glass {
             None => String::new(),
@@ -76,7 +77,7 @@ pub fn write_dat(prescription: &Prescription) -> Result<String, String> {
         let _ = writeln!(
             out,
             "{radius}  {:?}  {:?}  {:?}{glass}",
-            row.thickness, row.index, row.aperture
+            row.base.thickness, row.base.index, row.base.aperture
         );
     }
     Ok(out)

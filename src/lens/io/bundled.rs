@@ -4,7 +4,7 @@
 
 use std::path::{Path, PathBuf};
 
-use super::prescription::{LensFormat, Prescription, PrescriptionError};
+use crate::lens::prescription::{LensFormat, Prescription, PrescriptionError};
 
 /// A lens built into the binary.
 #[derive(Clone, Copy, Debug)]
@@ -37,7 +37,7 @@ macro_rules! bundled {
         &[$(BundledLens {
             name: $name,
             file: $file,
-            text: include_str!(concat!("../../lenses/", $file)),
+            text: include_str!(concat!("../../../lenses/", $file)),
         }),*]
     };
 }

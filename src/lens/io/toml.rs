@@ -30,10 +30,12 @@ use std::path::Path;
 
 use serde::Deserialize;
 
-use super::info::LensInfo;
-use super::prescription::{LensFormat, Prescription, PrescriptionError, SurfaceRow};
-use super::shape::{ASPHERIC_TERMS, Asphere};
 use crate::glass::{FRAUNHOFER_D_NM, Glass, catalogue};
+use crate::lens::info::LensInfo;
+use crate::lens::prescription::{
+    LensFormat, Prescription, PrescriptionError, SurfaceBase, SurfaceRow,
+};
+use crate::lens::shape::{ASPHERIC_TERMS, Asphere};
 
 /// The file's top level: the lens's name, [`LensInfo`]'s fields, and the surfaces.
 #[derive(Deserialize)]
@@ -49,7 +51,7 @@ struct LensFile {
     f_number: Option<f64>,
     film_diagonal_mm: Option<f64>,
     notes: Option<String>,
-    surfaces: Vec<toml::Spanned<SurfaceEntry>>,
+    surfaces: Vec<::toml::Spanned<SurfaceEntry>>,
 }
 
 #[derive(Deserialize)]
@@ -92,7 +94,7 @@ pub fn read_lens_file(text: &str, source: &Path) -> Result<Prescription, Prescri
         line,
         message,
     };
-    let file: LensFile = toml::from_str(text).map_err(|e| {
+    let file: LensFile = ::toml::from_str(text).map_err(|e| {
         let line = e
             .span()
             .map(|s| text[..s.start.min(text.len())].lines().count().max(1));
@@ -181,19 +183,21 @@ pub fn read_lens_file(text: &str, source: &Path) -> Result<Prescription, Prescri
             film_distance = entry.thickness.filter(|t| *t > 0.0);
         }
         rows.push(SurfaceRow {
-            radius,
-            thickness: if i == last { 0.0 } else { thickness },
-            index,
-            aperture: entry.diameter,
-            line,
-            stop: entry.stop,
+            base: SurfaceBase {
+                radius,
+                thickness: if i == last { 0.0 } else { thickness },
+                index,
+                aperture: entry.diameter,
+                line,
+                stop: entry.stop,
+            },
             asphere,
             glass,
         });
     }
     let name = file.name.clone().unwrap_or_else(|| stem(source));
     // Validation locates problems by line: name the surface too.
-    let lines: Vec<usize> = rows.iter().map(|r| r.line).collect();
+    let lines: Vec<usize> = rows.iter().map(|r| r.base.line).collect();
     let mut prescription = Prescription::from_rows(&name, source, LensFormat::ThicknessAfter, rows)
         .map_err(|e| match lines.iter().position(|&l| Some(l) == e.line) {
             Some(i) => PrescriptionError {
@@ -298,20 +302,20 @@ pub fn write_lens_file(prescription: &Prescription) -> String {
     let last = prescription.rows.len() - 1;
     for (i, row) in prescription.rows.iter().enumerate() {
         let mut fields = Vec::new();
-        let bare_stop = row.stop && row.curvature() == 0.0 && !row.asphere.is_aspheric(0.0);
+        let bare_stop = row.base.stop && row.curvature() == 0.0 && !row.asphere.is_aspheric(0.0);
         if !bare_stop {
             fields.push(match row.curvature() {
                 0.0 => "radius = \"inf\"".to_string(),
-                _ => format!("radius = {}", num(row.radius)),
+                _ => format!("radius = {}", num(row.base.radius)),
             });
         }
-        if row.stop {
+        if row.base.stop {
             fields.push("stop = true".into());
         }
         let thickness = if i == last {
             info.film_distance_mm
         } else {
-            Some(row.thickness)
+            Some(row.base.thickness)
         };
         if let Some(t) = thickness {
             fields.push(format!("thickness = {}", num(t)));
@@ -328,12 +332,12 @@ pub fn write_lens_file(prescription: &Prescription) -> String {
                     num(v_d)
                 ));
             }
-            None if row.index != 1.0 => {
-                fields.push(format!("glass = {{ n = {} }}", num(row.index)))
+            None if row.base.index != 1.0 => {
+                fields.push(format!("glass = {{ n = {} }}", num(row.base.index)))
             }
             None => {}
         }
-        fields.push(format!("diameter = {}", num(row.aperture)));
+        fields.push(format!("diameter = {}", num(row.base.aperture)));
         if row.asphere.conic != 0.0 {
             fields.push(format!("conic = {}", num(row.asphere.conic)));
         }

@@ -19,8 +19,9 @@
 
 use std::path::Path;
 
-use super::prescription::{LensFormat, Prescription, PrescriptionError, SurfaceRow, shorten};
+use super::shorten;
 use crate::glass::{Glass, catalogue};
+use crate::lens::prescription::{LensFormat, Prescription, PrescriptionError, SurfaceRow};
 
 /// How far a named glass's catalogue n_d may be from the row's index before realcam warns.
 pub const GLASS_ND_TOLERANCE: f64 = 0.002;
@@ -171,12 +172,10 @@ fn normalise(
             None => None,
             Some(column) => Some(glass_column(column, index, line, source, &mut warnings)?),
         };
-        rows.push(SurfaceRow {
-            index,
-            line,
-            glass,
-            ..SurfaceRow::new(radius, thickness, index, aperture)
-        });
+        let mut row = SurfaceRow::new(radius, thickness, index, aperture);
+        row.base.line = line;
+        row.glass = glass;
+        rows.push(row);
     }
     Ok((rows, warnings))
 }
@@ -216,4 +215,166 @@ fn glass_column(
         ));
     }
     Ok(glass)
+}
+
+#[cfg(test)]
+mod tests {
+    use std::path::Path;
+
+    use crate::lens::prescription::{LensFormat, Prescription, PrescriptionError, SurfaceKind};
+
+    fn parse(text: &str) -> Result<Prescription, PrescriptionError> {
+        Prescription::parse(text, Path::new("test.dat"), None)
+    }
+
+    const SIMPLE_AFTER: &str = "# comment\n50 5 1.5 20\n0 5 0 10\n-50 0 1 20\n";
+
+    #[test]
+    fn thickness_after_layout() {
+        let p = parse(SIMPLE_AFTER).unwrap();
+        assert_eq!(p.format, LensFormat::ThicknessAfter);
+        assert_eq!(p.rows.len(), 3);
+        assert_eq!(p.rows[0].base.thickness, 5.0);
+        assert_eq!(p.rows[1].base.index, 1.0);
+        assert_eq!(p.stop_index(), 1);
+        assert_eq!(p.vertex_span(), 10.0);
+    }
+
+    #[test]
+    fn gap_before_layout_gives_same_rows() {
+        let before = "50 0 1.5 20\r\n0\t5 0 10  # stop \"quoted\r\n-50 5 1 20";
+        let a = parse(SIMPLE_AFTER).unwrap();
+        let b = parse(before).unwrap();
+        assert_eq!(b.format, LensFormat::GapBefore);
+        let strip = |p: &Prescription| {
+            p.rows
+                .iter()
+                .map(|r| {
+                    (
+                        r.base.radius,
+                        r.base.thickness,
+                        r.base.index,
+                        r.base.aperture,
+                    )
+                })
+                .collect::<Vec<_>>()
+        };
+        assert_eq!(strip(&a), strip(&b));
+    }
+
+    #[test]
+    fn infinite_radius_is_flat() {
+        let p = parse("inf 5 1.5 20\n0 5 0 10\n-50 0 1 20\n").unwrap();
+        assert_eq!(p.rows[0].kind(), SurfaceKind::Flat);
+        assert_eq!(p.rows[0].curvature(), 0.0);
+        let p = parse("1e12 5 1.5 20\n0 5 0 10\n-50 0 1 20\n").unwrap();
+        assert_eq!(p.rows[0].kind(), SurfaceKind::Flat);
+    }
+
+    #[test]
+    fn ambiguous_layout_asks_for_override() {
+        let e = parse("50 5 1.5 20\n0 5 0 10\n-50 3 1 20\n").unwrap_err();
+        assert!(e.to_string().contains("--lens-format"), "{e}");
+        let p = Prescription::parse(
+            "50 5 1.5 20\n0 5 0 10\n-50 3 1 20\n",
+            Path::new("x.dat"),
+            Some(LensFormat::ThicknessAfter),
+        )
+        .unwrap();
+        assert_eq!(p.rows[2].base.thickness, 0.0);
+    }
+
+    #[test]
+    fn bad_files_name_file_and_line() {
+        let cases: &[(&str, &str, Option<usize>)] = &[
+            ("", "no surfaces", None),
+            ("# only a comment\n", "no surfaces", None),
+            ("50 5 1.5 20\n-50 0 1 20\n", "no aperture stop", None),
+            (
+                "50 5 1.5 20\n0 5 0 10\n0 5 0 10\n-50 0 1 20\n",
+                "second aperture stop",
+                Some(3),
+            ),
+            (
+                "50 5 1.5\n0 5 0 10\n-50 0 1 20\n",
+                "expected 4 columns",
+                Some(1),
+            ),
+            (
+                "50 5 glass 20\n0 5 0 10\n-50 0 1 20\n",
+                "index 'glass' is not a number",
+                Some(1),
+            ),
+            (
+                "50 5 1.5 nan\n0 5 0 10\n-50 0 1 20\n",
+                "aperture 'nan'",
+                Some(1),
+            ),
+            (
+                "50 inf 1.5 20\n0 5 0 10\n-50 0 1 20\n",
+                "thickness 'inf'",
+                Some(1),
+            ),
+            (
+                "50 5 1.5 -20\n0 5 0 10\n-50 0 1 20\n",
+                "must be positive",
+                Some(1),
+            ),
+            (
+                "50 5 1.5 0\n0 5 0 10\n-50 0 1 20\n",
+                "must be positive",
+                Some(1),
+            ),
+            (
+                "50 -5 1.5 20\n0 5 0 10\n-50 0 1 20\n",
+                "negative thickness",
+                Some(1),
+            ),
+            ("50 5 0.5 20\n0 5 0 10\n-50 0 1 20\n", "below 1", Some(1)),
+            (
+                "50 5 1.5 20\n0 5 0 10\n-50 0 1 2e5\n",
+                "more than 100 m",
+                Some(3),
+            ),
+            (
+                "50 5 1.5 20\n0 1e300 0 10\n-50 0 1 20\n",
+                "more than 100 m",
+                Some(2),
+            ),
+            (
+                "50 5 1.5 1e-4\n0 5 0 10\n-50 0 1 20\n",
+                "below a micrometre",
+                Some(1),
+            ),
+            (
+                "50 5 11 20\n0 5 0 10\n-50 0 1 20\n",
+                "not a real material",
+                Some(1),
+            ),
+            (
+                "5 5 1.5 20\n0 5 0 10\n-50 0 1 20\n",
+                "wider than the sphere",
+                Some(1),
+            ),
+            (
+                "20 0.5 1.5 20\n-20 5 1 20\n0 0 0 10\n-50 0 1 20\n",
+                "crosses the one before it",
+                Some(2),
+            ),
+            (
+                "50 5 1.5 20\n-50 0 0 10\n0 0 0 10",
+                "cannot be the last surface",
+                Some(3),
+            ),
+        ];
+        for (text, expect, line) in cases {
+            let e =
+                Prescription::parse(text, Path::new("bad.dat"), Some(LensFormat::ThicknessAfter))
+                    .unwrap_err();
+            let shown = e.to_string();
+            assert!(shown.contains(expect), "{text:?}: {shown}");
+            assert!(shown.starts_with("bad.dat"), "{shown}");
+            assert_eq!(e.line, *line, "{text:?}: {shown}");
+        }
+    }
 }

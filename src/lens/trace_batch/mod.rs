@@ -1,0 +1,317 @@
+//! Exact ray tracing through the lens for a whole batch at once (structure of arrays, f32).
+//!
+//! The surface step (`refract::refract_at`) is written once, generically over the lane type,
+//! and run by two kernels that give bit-identical rays:
+//!
+//! * [`Kernel::AutoVectorised`] (`plain.rs`): a plain loop over one `f32` ray at a time,
+//!   surface by surface over a block of rays, left to the compiler's auto-vectoriser;
+//! * [`Kernel::Simd`] (`simd.rs`): explicit 8-lane `wide::f32x8`, the block copied once into
+//!   8-lane arrays (alive as lane masks) and every surface run over them.
+//!
+//! This file holds the API and the plan both kernels run (the surfaces in travel order, the
+//! spectral index ratios, the diaphragm's step); `tests.rs` checks both against the per-ray
+//! reference.
+//!
+//! Rays go through in blocks of [`BLOCK`] so a block's state stays in L1 while all surfaces run
+//! over it, and a block stops early once none of its rays is alive. On x86-64 both kernels are
+//! also compiled for AVX2 and AVX-512 and the widest the CPU has is chosen at run time ([`Isa`]),
+//! so a portable build still runs the plain loop 8 or 16 lanes wide; the explicit kernel's
+//! `wide` types use AVX only when the whole build targets it (see BENCHMARKS.md).
+
+mod clip;
+mod lanes;
+mod plain;
+mod refract;
+mod simd;
+#[cfg(test)]
+mod tests;
+
+use self::plain::trace_plain;
+use self::refract::SurfaceConstants;
+use self::simd::trace_simd;
+use super::diaphragm::StopClip;
+use super::dispersion::DispersionTable;
+use super::system::SurfaceArrays;
+use super::trace::Travel;
+use crate::batch::RayBatch;
+
+/// Which implementation of the batch kernel to run.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Kernel {
+    /// Explicit 8-lane SIMD (`wide::f32x8`: AVX where the build targets it, SSE pairs otherwise).
+    Simd,
+    /// A plain loop left to the compiler's auto-vectoriser.
+    AutoVectorised,
+}
+
+/// Rays traced together through all surfaces: their state (6 × 256 f32 and the flags, ~6 KiB;
+/// 7 KiB as 8-lane masks) stays well inside L1.
+pub const BLOCK: usize = 256;
+
+/// Traces every alive ray of `rays` (lens frame, mm, unit directions) through all surfaces in
+/// the order of `travel`, in place: survivors end on the last surface crossed with their
+/// refracted direction; blocked rays get `alive = false` and keep the state they had when
+/// blocked. A diaphragm at the stop ([`SurfaceArrays::stop_clip`]) blocks the rays its blades
+/// stop, and multiplies the throughput (`tr`, `tg`, `tb`) of those crossing a mask by its grey
+/// level there.
+pub fn trace_batch(surfaces: &SurfaceArrays<f32>, rays: &mut RayBatch, travel: Travel) {
+    trace_batch_with(surfaces, rays, travel, DEFAULT_KERNEL)
+}
+
+/// The kernel [`trace_batch`] runs: the faster one where the build does not target AVX (the
+/// plain loop gets 8 or 16 lanes from run-time dispatch, `wide` stays at 2 × 4; see
+/// BENCHMARKS.md).
+pub const DEFAULT_KERNEL: Kernel = Kernel::AutoVectorised;
+
+/// [`trace_batch`] with a chosen kernel (for benchmarks and cross-checks), on the widest
+/// instruction set this CPU has.
+pub fn trace_batch_with(
+    surfaces: &SurfaceArrays<f32>,
+    rays: &mut RayBatch,
+    travel: Travel,
+    kernel: Kernel,
+) {
+    trace_batch_on(surfaces, rays, travel, kernel, Isa::detect())
+}
+
+/// The instruction sets the kernels are compiled for, narrowest first. All give bit-identical
+/// rays: they differ only in how many lanes one instruction works on.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+pub enum Isa {
+    /// What the build targets (x86-64: SSE2, 4 lanes; AArch64: NEON).
+    Baseline,
+    /// x86-64 AVX2: 8 lanes.
+    Avx2,
+    /// x86-64 AVX-512 (F, VL, BW, DQ): 16 lanes.
+    Avx512,
+}
+
+impl Isa {
+    /// The widest instruction set this CPU supports.
+    pub fn detect() -> Isa {
+        #[cfg(target_arch = "x86_64")]
+        {
+            use std::arch::is_x86_feature_detected as has;
+            if has!("avx512f") && has!("avx512vl") && has!("avx512bw") && has!("avx512dq") {
+                return Isa::Avx512;
+            }
+            if has!("avx2") {
+                return Isa::Avx2;
+            }
+        }
+        Isa::Baseline
+    }
+
+    /// Every instruction set this CPU supports, narrowest first.
+    pub fn available() -> Vec<Isa> {
+        [Isa::Baseline, Isa::Avx2, Isa::Avx512]
+            .into_iter()
+            .filter(|&isa| isa <= Isa::detect())
+            .collect()
+    }
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Isa::Baseline => "baseline",
+            Isa::Avx2 => "avx2",
+            Isa::Avx512 => "avx512",
+        }
+    }
+}
+
+/// [`trace_batch_with`] compiled for `isa` (capped at what this CPU supports), to compare
+/// instruction sets.
+pub fn trace_batch_on(
+    surfaces: &SurfaceArrays<f32>,
+    rays: &mut RayBatch,
+    travel: Travel,
+    kernel: Kernel,
+    isa: Isa,
+) {
+    run(surfaces, None, rays, travel, kernel, isa)
+}
+
+/// Each ray at its own wavelength: the rays' wavelengths (nm, one per ray of `rays`), and the
+/// lens's indices over wavelength.
+#[derive(Clone, Copy, Debug)]
+pub struct Wavelengths<'a> {
+    pub table: &'a DispersionTable,
+    pub nm: &'a [f32],
+}
+
+/// [`trace_batch`] with every ray refracted at its own wavelength (`surfaces` gives the shapes
+/// and apertures; the indices come from `wavelengths.table`).
+pub fn trace_batch_spectral(
+    surfaces: &SurfaceArrays<f32>,
+    wavelengths: Wavelengths,
+    rays: &mut RayBatch,
+    travel: Travel,
+) {
+    trace_batch_spectral_on(
+        surfaces,
+        wavelengths,
+        rays,
+        travel,
+        DEFAULT_KERNEL,
+        Isa::detect(),
+    )
+}
+
+/// [`trace_batch_spectral`] with a chosen kernel and instruction set.
+pub fn trace_batch_spectral_on(
+    surfaces: &SurfaceArrays<f32>,
+    wavelengths: Wavelengths,
+    rays: &mut RayBatch,
+    travel: Travel,
+    kernel: Kernel,
+    isa: Isa,
+) {
+    assert_eq!(wavelengths.nm.len(), rays.len(), "one wavelength per ray");
+    assert_eq!(wavelengths.table.surface_count(), surfaces.len());
+    run(surfaces, Some(wavelengths), rays, travel, kernel, isa)
+}
+
+fn run(
+    surfaces: &SurfaceArrays<f32>,
+    wavelengths: Option<Wavelengths>,
+    rays: &mut RayBatch,
+    travel: Travel,
+    kernel: Kernel,
+    isa: Isa,
+) {
+    if travel == Travel::SceneToFilm {
+        advance_to_front(surfaces, rays);
+    }
+    let n = surfaces.len();
+    let plan = Plan {
+        surfaces: SurfaceConstants::in_travel_order(surfaces, travel),
+        spectral: wavelengths.map(|w| (w, travel)),
+        clip: surfaces.stop_clip.as_deref().map(|clip| {
+            let step = match travel {
+                Travel::SceneToFilm => clip.surface,
+                Travel::FilmToScene => n - 1 - clip.surface,
+            };
+            (step, clip)
+        }),
+    };
+    match isa.min(Isa::detect()) {
+        Isa::Baseline => run_kernel(kernel, &plan, rays),
+        // SAFETY (both): `Isa::detect` found the instructions on this CPU.
+        #[cfg(target_arch = "x86_64")]
+        Isa::Avx2 => unsafe { run_kernel_avx2(kernel, &plan, rays) },
+        #[cfg(target_arch = "x86_64")]
+        Isa::Avx512 => unsafe { run_kernel_avx512(kernel, &plan, rays) },
+        #[cfg(not(target_arch = "x86_64"))]
+        _ => unreachable!("Isa::detect finds only the baseline here"),
+    }
+}
+
+/// What the kernels run: the surfaces in the order of travel, for a spectral batch the rays'
+/// wavelengths, and the diaphragm with the step (in travel order) of the stop it sits at.
+struct Plan<'a> {
+    surfaces: Vec<SurfaceConstants<f32>>,
+    spectral: Option<(Wavelengths<'a>, Travel)>,
+    clip: Option<(usize, &'a StopClip)>,
+}
+
+impl Plan<'_> {
+    /// For a spectral batch, fills `etas` with every lane's index ratio at every surface of the
+    /// block `start..start + n` (surface-major, [`BLOCK`] lanes per surface); returns whether it
+    /// did.
+    #[inline(always)]
+    fn block_etas(&self, start: usize, n: usize, etas: &mut [f32]) -> bool {
+        let Some((wavelengths, travel)) = self.spectral else {
+            return false;
+        };
+        let table = wavelengths.table;
+        let count = self.surfaces.len();
+        let mut cell = [0usize; BLOCK];
+        let mut fraction = [0.0f32; BLOCK];
+        for lane in 0..n {
+            (cell[lane], fraction[lane]) = table.position(wavelengths.nm[start + lane]);
+        }
+        // Each medium's index is looked up once per ray: the index after one surface is the
+        // index before the next.
+        let index_after =
+            |surface: usize, lane: usize| table.index_after(surface, (cell[lane], fraction[lane]));
+        let mut carried = [1.0f32; BLOCK];
+        match travel {
+            Travel::SceneToFilm => {
+                for step in 0..count {
+                    let eta = &mut etas[step * BLOCK..step * BLOCK + n];
+                    for lane in 0..n {
+                        let after = index_after(step, lane);
+                        eta[lane] = carried[lane] / after;
+                        carried[lane] = after;
+                    }
+                }
+            }
+            Travel::FilmToScene => {
+                for (lane, index) in carried[..n].iter_mut().enumerate() {
+                    *index = index_after(count - 1, lane);
+                }
+                for step in 0..count {
+                    let surface = count - 1 - step;
+                    let eta = &mut etas[step * BLOCK..step * BLOCK + n];
+                    for lane in 0..n {
+                        let before = if surface == 0 {
+                            1.0
+                        } else {
+                            index_after(surface - 1, lane)
+                        };
+                        eta[lane] = carried[lane] / before;
+                        carried[lane] = before;
+                    }
+                }
+            }
+        }
+        true
+    }
+}
+
+/// Moves rays that start far in front of the lens along themselves to just in front of it.
+///
+/// The line is the same, but the quadratic for the first surface is then solved with numbers of
+/// the lens's size: from 1 m away, f32 loses ~0.01 mm in the hit point on a small lens (the
+/// discriminant cancels two terms of ~(distance/radius)²). Camera rays start at the film and
+/// never need this.
+fn advance_to_front(surfaces: &SurfaceArrays<f32>, rays: &mut RayBatch) {
+    let Some(&first_z) = surfaces.vertex_z.first() else {
+        return;
+    };
+    // In front of every point of the front surface: its sag is at most its semi-aperture.
+    let plane = first_z - surfaces.semi_aperture_sq[0].sqrt().min(1e4) - 1.0;
+    for i in 0..rays.len() {
+        let (oz, dz) = (rays.oz[i], rays.dz[i]);
+        if rays.alive[i] && oz < plane && dz > 0.0 {
+            let t = (plane - oz) / dz;
+            rays.ox[i] += t * rays.dx[i];
+            rays.oy[i] += t * rays.dy[i];
+            rays.oz[i] = plane;
+        }
+    }
+}
+
+#[inline(always)]
+fn run_kernel(kernel: Kernel, plan: &Plan, rays: &mut RayBatch) {
+    match kernel {
+        Kernel::Simd => trace_simd(plan, rays),
+        Kernel::AutoVectorised => trace_plain(plan, rays),
+    }
+}
+
+/// The kernels compiled again for AVX2: the plain loop vectorises 8 lanes wide. (`wide`'s
+/// types keep the layout chosen when the crate was compiled: 2 × 128-bit unless the whole
+/// build targets AVX.)
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn run_kernel_avx2(kernel: Kernel, plan: &Plan, rays: &mut RayBatch) {
+    run_kernel(kernel, plan, rays)
+}
+
+/// The kernels compiled again for AVX-512: the plain loop vectorises 16 lanes wide.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx512vl,avx512bw,avx512dq")]
+fn run_kernel_avx512(kernel: Kernel, plan: &Plan, rays: &mut RayBatch) {
+    run_kernel(kernel, plan, rays)
+}

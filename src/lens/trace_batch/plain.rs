@@ -1,0 +1,196 @@
+//! The auto-vectorised kernel ([`Kernel::AutoVectorised`](super::Kernel::AutoVectorised)): a
+//! plain loop over one `f32` ray at a time, surface by surface over a block of rays, left to
+//! the compiler's vectoriser (8 or 16 lanes wide in the AVX2 and AVX-512 copies).
+
+use super::clip::clip_plain;
+use super::refract::{
+    CONIC, LaneRay, NEWTON_STEPS, Newton, POLYNOMIAL, SPHERE, SurfaceConstants,
+    normalise_direction, refract_at, refract_from_hit,
+};
+use super::{BLOCK, Plan};
+use crate::batch::RayBatch;
+
+/// The auto-vectorised kernel: in place on the batch's arrays, block by block.
+#[inline(always)]
+pub(super) fn trace_plain(plan: &Plan, rays: &mut RayBatch) {
+    let len = rays.len();
+    let mut etas = vec![
+        0.0f32;
+        if plan.spectral.is_some() {
+            plan.surfaces.len() * BLOCK
+        } else {
+            0
+        }
+    ];
+    let mut start = 0;
+    while start < len {
+        let end = (start + BLOCK).min(len);
+        let n = end - start;
+        let spectral = plan.block_etas(start, n, &mut etas);
+        let ox = &mut rays.ox[start..end];
+        let oy = &mut rays.oy[start..end];
+        let oz = &mut rays.oz[start..end];
+        let dx = &mut rays.dx[start..end];
+        let dy = &mut rays.dy[start..end];
+        let dz = &mut rays.dz[start..end];
+        let alive = &mut rays.alive[start..end];
+        for (step, surface) in plan.surfaces.iter().enumerate() {
+            let lanes = Lanes {
+                ox: &mut *ox,
+                oy: &mut *oy,
+                oz: &mut *oz,
+                dx: &mut *dx,
+                dy: &mut *dy,
+                dz: &mut *dz,
+                alive: &mut *alive,
+            };
+            // The shape (and whether indices vary per ray) picks the kernel once per surface and
+            // block, never per ray.
+            let any_alive = if spectral {
+                let eta = &etas[step * BLOCK..step * BLOCK + n];
+                match surface.shape {
+                    SPHERE => plain_surface::<SPHERE, true>(surface, lanes, eta),
+                    CONIC => plain_surface::<CONIC, true>(surface, lanes, eta),
+                    _ => plain_surface::<POLYNOMIAL, true>(surface, lanes, eta),
+                }
+            } else {
+                match surface.shape {
+                    SPHERE => plain_surface::<SPHERE, false>(surface, lanes, &[]),
+                    CONIC => plain_surface::<CONIC, false>(surface, lanes, &[]),
+                    _ => plain_surface::<POLYNOMIAL, false>(surface, lanes, &[]),
+                }
+            };
+            if let Some((clip_step, clip)) = plan.clip
+                && clip_step == step
+            {
+                let throughput = [
+                    &mut rays.tr[start..end],
+                    &mut rays.tg[start..end],
+                    &mut rays.tb[start..end],
+                ];
+                clip_plain(clip, ox, oy, alive, throughput);
+            }
+            if !any_alive {
+                break;
+            }
+        }
+        for i in 0..n {
+            let mut ray = LaneRay {
+                origin: [ox[i], oy[i], oz[i]],
+                direction: [dx[i], dy[i], dz[i]],
+            };
+            normalise_direction(&mut ray, alive[i]);
+            [dx[i], dy[i], dz[i]] = ray.direction;
+        }
+        start = end;
+    }
+}
+
+/// One block's rays, structure of arrays.
+struct Lanes<'a> {
+    ox: &'a mut [f32],
+    oy: &'a mut [f32],
+    oz: &'a mut [f32],
+    dx: &'a mut [f32],
+    dy: &'a mut [f32],
+    dz: &'a mut [f32],
+    alive: &'a mut [bool],
+}
+
+/// One surface over a block of rays in the plain kernel (each ray's index ratio from `etas`
+/// when `SPECTRAL`); returns whether any ray is alive.
+#[inline(always)]
+fn plain_surface<const SHAPE: u8, const SPECTRAL: bool>(
+    surface: &SurfaceConstants<f32>,
+    lanes: Lanes,
+    etas: &[f32],
+) -> bool {
+    if SHAPE == POLYNOMIAL {
+        return plain_polynomial_surface::<SPECTRAL>(surface, lanes, etas);
+    }
+    let n = lanes.alive.len();
+    let (ox, oy, oz) = (&mut lanes.ox[..n], &mut lanes.oy[..n], &mut lanes.oz[..n]);
+    let (dx, dy, dz) = (&mut lanes.dx[..n], &mut lanes.dy[..n], &mut lanes.dz[..n]);
+    let alive = &mut lanes.alive[..n];
+    let etas = if SPECTRAL { &etas[..n] } else { etas };
+    let mut any_alive = false;
+    for i in 0..n {
+        let mut ray = LaneRay {
+            origin: [ox[i], oy[i], oz[i]],
+            direction: [dx[i], dy[i], dz[i]],
+        };
+        let eta = if SPECTRAL { etas[i] } else { surface.eta };
+        let survives = refract_at::<f32, SHAPE>(surface, &mut ray, alive[i], eta);
+        [ox[i], oy[i], oz[i]] = ray.origin;
+        [dx[i], dy[i], dz[i]] = ray.direction;
+        alive[i] = survives;
+        any_alive |= survives;
+    }
+    any_alive
+}
+
+/// [`plain_surface`] for a polynomial asphere: the Newton iterations run as steps over the whole
+/// block (each step a plain loop over the rays, which vectorises; a ray's own iteration loop,
+/// with its data-dependent exit, would not), until no ray is still searching. Bit-identical to
+/// [`refract_at`] ray by ray: each ray sees the same operations in the same order.
+#[inline(always)]
+fn plain_polynomial_surface<const SPECTRAL: bool>(
+    surface: &SurfaceConstants<f32>,
+    lanes: Lanes,
+    etas: &[f32],
+) -> bool {
+    let n = lanes.alive.len();
+    let (ox, oy, oz) = (&mut lanes.ox[..n], &mut lanes.oy[..n], &mut lanes.oz[..n]);
+    let (dx, dy, dz) = (&mut lanes.dx[..n], &mut lanes.dy[..n], &mut lanes.dz[..n]);
+    let alive = &mut lanes.alive[..n];
+    let ray_at = |i: usize| LaneRay {
+        origin: [ox[i], oy[i], oz[i]],
+        direction: [dx[i], dy[i], dz[i]],
+    };
+    // The iteration state as arrays (structure of arrays, so the step loop vectorises).
+    let mut t = [0.0f32; BLOCK];
+    let mut searching = [false; BLOCK];
+    let mut converged = [false; BLOCK];
+    let (t, searching, converged) = (&mut t[..n], &mut searching[..n], &mut converged[..n]);
+    for i in 0..n {
+        let start = Newton::start(surface, &ray_at(i), alive[i]);
+        (t[i], searching[i], converged[i]) = (start.t, start.searching, start.converged);
+    }
+    for _ in 0..NEWTON_STEPS {
+        let mut any_searching = false;
+        for i in 0..n {
+            let mut state = Newton {
+                t: t[i],
+                searching: searching[i],
+                converged: converged[i],
+            };
+            state.step(surface, &ray_at(i));
+            (t[i], searching[i], converged[i]) = (state.t, state.searching, state.converged);
+            any_searching |= state.searching;
+        }
+        if !any_searching {
+            break;
+        }
+    }
+    let mut any_alive = false;
+    for i in 0..n {
+        let mut ray = LaneRay {
+            origin: [ox[i], oy[i], oz[i]],
+            direction: [dx[i], dy[i], dz[i]],
+        };
+        let eta = if SPECTRAL { etas[i] } else { surface.eta };
+        let (t, hit) = Newton {
+            t: t[i],
+            searching: searching[i],
+            converged: converged[i],
+        }
+        .hit();
+        let survives =
+            refract_from_hit::<f32, POLYNOMIAL>(surface, &mut ray, alive[i], eta, t, hit);
+        [ox[i], oy[i], oz[i]] = ray.origin;
+        [dx[i], dy[i], dz[i]] = ray.direction;
+        alive[i] = survives;
+        any_alive |= survives;
+    }
+    any_alive
+}
