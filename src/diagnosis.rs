@@ -136,7 +136,7 @@ fn cause(stats: &RenderStats, lighting: &SceneLighting, max_depth: u32) -> Strin
     if s.light_samples > 0 && s.light_samples_reached == 0 && s.emitter_hits == 0 {
         let mut text = if s.light_samples_behind >= s.light_samples_blocked {
             format!(
-                "the scene's lights do not reach the surfaces in view: {} of light samples came from behind the surface they were to light (the surfaces in view are lit from the back)",
+                "the scene's lights do not reach the surfaces in view: {} of light samples came from behind the surface they were to light (the surfaces in view are lit from the back: the camera may be inside a closed model)",
                 percent(s.light_samples_behind, s.light_samples)
             )
         } else {
@@ -184,6 +184,31 @@ pub fn black_picture(image: &Image, ev: f32) -> Option<String> {
     Some(format!(
         "the 8-bit image is black at --exposure {ev}: the film holds light, but its brightest pixel stays below one 8-bit step; the automatic exposure (no --exposure) would be {automatic:+.1} EV"
     ))
+}
+
+/// The warning for an 8-bit picture that comes out white at exposure `ev` (stops): nearly
+/// every pixel (99 %) clips to 255 in all three channels, so the picture shows nothing of the
+/// scene; `None` otherwise.
+pub fn white_picture(image: &Image, ev: f32) -> Option<String> {
+    let means = image.mean();
+    let exposure = 2f32.powf(ev);
+    // An 8-bit value rounds to 255 from half a step below it.
+    let clips = |c: f32| linear_to_srgb(c * exposure) * 255.0 >= 254.5;
+    let clipped = means.iter().filter(|p| p.iter().all(|&c| clips(c))).count();
+    if means.is_empty() || (clipped as f64) < 0.99 * means.len() as f64 {
+        return None;
+    }
+    let automatic = auto_exposure(&means).log2();
+    Some(format!(
+        "the 8-bit image is white at --exposure {ev}: {} of its pixels clip to white; the automatic exposure (no --exposure) would be {automatic:+.1} EV",
+        percent(clipped as u64, means.len() as u64)
+    ))
+}
+
+/// The warning for an 8-bit picture at exposure `ev` (stops) that shows nothing: all black
+/// ([`black_picture`]) or all white ([`white_picture`]).
+pub fn exposure_warning(image: &Image, ev: f32) -> Option<String> {
+    black_picture(image, ev).or_else(|| white_picture(image, ev))
 }
 
 #[cfg(test)]
@@ -258,6 +283,7 @@ mod tests {
         assert!(
             warning.contains("the scene's lights do not reach the surfaces in view")
                 && warning.contains("100 % of light samples came from behind")
+                && warning.contains("the camera may be inside a closed model")
                 && warning.contains("; 33 % of camera rays missed the scene"),
             "{warning}"
         );
@@ -315,5 +341,12 @@ mod tests {
             "{warning}"
         );
         assert_eq!(black_picture(&image(0, 10), -20.0), None, "a black film");
+        // 0.5 of linear light at +30 EV is 5e8: every channel of every pixel clips.
+        let white = exposure_warning(&film, 30.0).unwrap();
+        assert!(white.contains("white at --exposure 30"), "{white}");
+        assert!(white.contains("100 % of its pixels"), "{white}");
+        assert_eq!(exposure_warning(&film, 0.0), None);
+        // Half the pixels unlit: the picture is not white.
+        assert_eq!(white_picture(&image(5, 10), 30.0), None);
     }
 }

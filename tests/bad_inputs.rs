@@ -562,6 +562,11 @@ fn impossible_flags_are_refused_before_rendering() {
         (&["--env", "-1,0,0"], 1, "radiance must not be negative"),
         (&["--env", "no-such-sky.exr"], 1, "no-such-sky.exr"),
         (
+            &["--env", "1,1"],
+            1,
+            "--env 1,1: neither a sky R,G,B (three numbers) nor an image file that exists",
+        ),
+        (
             &["--checkpoint-every", "-5"],
             1,
             "--checkpoint-every must be a positive number",

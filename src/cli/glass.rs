@@ -195,7 +195,7 @@ fn near_text(
         let g = catalogue().get(*id);
         writeln!(
             out,
-            "{distance:>9.2}  {:<24} {:>9} {:>10}  {}",
+            "{distance:>9.2}  {:<24} {:>9.5} {:>10.2}  {}",
             g.label(),
             g.n_d,
             g.v_d,
@@ -238,7 +238,7 @@ fn list_text(glasses: &[&CatalogueGlass]) -> String {
     for g in glasses {
         writeln!(
             out,
-            "{:<16} {:<7} {:>9} {:>10}  {:<11} {}",
+            "{:<16} {:<7} {:>9.5} {:>10.2}  {:<11} {}",
             g.name,
             g.maker.name(),
             g.n_d,
@@ -323,7 +323,7 @@ fn glass_report(name: &str, wavelengths: &[f64], json: bool) -> anyhow::Result<S
     };
     writeln!(
         out,
-        "  n_d {}, V_d {} ({published}); the formula gives n_d {n_d_formula:.6}, V_d {v_d_formula:.3}",
+        "  n_d {:.5}, V_d {:.2} ({published}); the formula gives n_d {n_d_formula:.6}, V_d {v_d_formula:.3}",
         g.n_d, g.v_d
     )
     .unwrap();
@@ -358,7 +358,7 @@ fn glass_report(name: &str, wavelengths: &[f64], json: bool) -> anyhow::Result<S
     if !others.is_empty() {
         let listed: Vec<String> = others
             .iter()
-            .map(|o| format!("{} (n_d {}, V_d {})", o.maker, o.n_d, o.v_d))
+            .map(|o| format!("{} (n_d {:.5}, V_d {:.2})", o.maker, o.n_d, o.v_d))
             .collect();
         writeln!(
             out,

@@ -162,6 +162,21 @@ mod tests {
             let outcome = settings.changed(&bad).and_then(|s| s.parse(&parser));
             assert!(outcome.is_err(), "{bad} was accepted");
         }
+        // A JSON number beyond a whole-number setting's range is refused for its range (as the
+        // live session checks a change), not as "not a whole number".
+        let huge = settings
+            .changed(&json!({"spp": 1e9}))
+            .and_then(|s| s.parse(&parser))
+            .unwrap();
+        let refusal = crate::job::outputs::check_values(&huge)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            refusal.contains("--spp must be at most 16777216"),
+            "{refusal}"
+        );
+        let float_whole = settings.changed(&json!({"spp": 16.0})).unwrap();
+        assert_eq!(float_whole.parse(&parser).unwrap().spp, 16);
         // The command line's text is accepted as well as JSON numbers.
         let texts = settings
             .changed(&json!({"f_number": "5.6", "focus_distance": "inf"}))

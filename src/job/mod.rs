@@ -16,7 +16,7 @@ use anyhow::{Context, bail};
 use bevy_ecs::entity::Entity;
 use glam::Mat4;
 
-use crate::diagnosis::black_picture;
+use crate::diagnosis::exposure_warning;
 use crate::film::Image;
 use crate::film::contact_sheet::{Thumbnail, contact_sheet};
 use crate::film::footprint::RunSize;
@@ -268,7 +268,7 @@ impl<'a> Job<'a> {
                             .get_or_insert_with(|| choose_exposure(spec, &image));
                         if let Some(ev) = spec.output.exposure
                             && !formats.out.is_float()
-                            && let Some(warning) = black_picture(&image, ev)
+                            && let Some(warning) = exposure_warning(&image, ev)
                         {
                             eprintln!("warning: {}: {warning}", shown(&frame.out));
                             report.warnings.push(warning);

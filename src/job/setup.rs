@@ -31,7 +31,19 @@ pub fn choose_environment(spec: &JobSpec, renderer: &mut Renderer) -> anyhow::Re
             }
             return Ok(Environment::Uniform(*rgb));
         }
-        Some(EnvironmentSpec::Image(path)) => return crate::shade::load_environment(path),
+        Some(EnvironmentSpec::Image(path)) => {
+            // `--env 1,1` is a sky with a number missing more likely than a file's name.
+            let numeric = path
+                .to_str()
+                .is_some_and(|text| text.chars().all(|c| "0123456789.,+-eE ".contains(c)));
+            if numeric && !path.exists() {
+                bail!(
+                    "--env {}: neither a sky R,G,B (three numbers) nor an image file that exists",
+                    path.display()
+                );
+            }
+            return crate::shade::load_environment(path);
+        }
         None => {}
     }
     let has_lights = renderer

@@ -26,6 +26,16 @@ pub enum FocusMode {
     Best,
 }
 
+impl FocusMode {
+    /// The mode as `--focus-mode` names it.
+    pub fn name(self) -> &'static str {
+        match self {
+            FocusMode::Paraxial => "paraxial",
+            FocusMode::Best => "best",
+        }
+    }
+}
+
 impl std::str::FromStr for FocusMode {
     type Err = String;
 

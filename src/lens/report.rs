@@ -302,7 +302,7 @@ impl LensReport {
         }
         let focus = match self.focus {
             FocusSetting::Distance { metres, mode } => {
-                format!("focused at {metres} m, {mode:?} focus")
+                format!("focused at {metres} m, {} focus", mode.name())
             }
             FocusSetting::FilmDistance(_) => "set directly".into(),
         };
@@ -381,4 +381,26 @@ fn aspheric_note(row: &crate::lens::SurfaceRow) -> String {
         }
     }
     parts.join(", ")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::lens::io::bundled::load_lens;
+
+    #[test]
+    fn the_summary_names_the_focus_mode_in_lower_case() {
+        let settings = LensSettings {
+            focus_distance: Some(3.0),
+            ..LensSettings::default()
+        };
+        let report =
+            LensReport::derive(load_lens("dgauss.50mm", None).unwrap(), &settings).unwrap();
+        let summary = report.summary();
+        assert!(
+            summary.contains("focused at 3 m, paraxial focus"),
+            "{summary}"
+        );
+        assert!(!summary.contains("Paraxial"), "{summary}");
+    }
 }

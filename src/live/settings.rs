@@ -195,7 +195,7 @@ impl LiveSettings {
                 Value::Number(n)
                     if !WORDS.contains(&name.as_str()) && !PAIRS.contains(&name.as_str()) =>
                 {
-                    n.to_string()
+                    whole_number_text(n).unwrap_or_else(|| n.to_string())
                 }
                 // The command line's own text is welcome too ("4", "inf" — JSON has no
                 // infinity — or "1.5,-2" for a pair): the option parser checks it.
@@ -272,6 +272,18 @@ impl LiveSettings {
             .chain(self.arguments().iter().chain(extra).map(|a| shell_quote(a)))
             .collect::<Vec<_>>()
             .join(" ")
+    }
+}
+
+/// A JSON number with no fractional part as the command line writes it (`1e9` and
+/// `1000000000.0` as `1000000000`), so that a whole-number setting is judged by its range,
+/// not refused as "not a whole number".
+fn whole_number_text(n: &serde_json::Number) -> Option<String> {
+    if n.is_f64() {
+        let value = n.as_f64()?;
+        (value.fract() == 0.0 && value.abs() < 1e18).then(|| format!("{}", value as i64))
+    } else {
+        None
     }
 }
 

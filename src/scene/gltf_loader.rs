@@ -320,6 +320,7 @@ fn build_instances(
     warnings: &mut Vec<String>,
 ) -> Result<(Vec<Arc<Mesh>>, Vec<MeshInstance>)> {
     let mut read: HashMap<(usize, usize), Option<Arc<Mesh>>> = HashMap::new();
+    let mut degenerate = geometry::DegenerateTriangles::default();
     let mut mirrored: HashMap<(usize, usize), Arc<Mesh>> = HashMap::new();
     let mut meshes = Vec::new();
     let mut instances = Vec::new();
@@ -340,6 +341,7 @@ fn build_instances(
                         placement.mesh,
                         primitive,
                         warnings,
+                        &mut degenerate,
                     )?
                     .map(Arc::new);
                     meshes.extend(mesh.clone());
@@ -369,5 +371,6 @@ fn build_instances(
             instances.extend(world::usable_in_world(instance, &mut meshes, warnings));
         }
     }
+    warnings.extend(degenerate.warning());
     Ok((meshes, instances))
 }

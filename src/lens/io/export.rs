@@ -9,13 +9,24 @@ use super::toml::write_lens_file;
 use crate::glass::Glass;
 use crate::lens::prescription::{Prescription, SurfaceKind};
 
+/// The formats a lens is exported in, as messages name them.
+const EXPORT_FORMATS: &str = ".toml (realcam's lens format) or .dat (a pbrt table)";
+
 /// The text of `prescription` in the format `path`'s extension names.
 pub fn export_text(prescription: &Prescription, path: &Path) -> Result<String, String> {
     match extension(path).as_str() {
         "toml" => Ok(write_lens_file(prescription)),
         "dat" => write_dat(prescription),
+        _ if path.is_dir() => Err(format!(
+            "{}: is a directory; give a file name ending in {EXPORT_FORMATS}",
+            path.display()
+        )),
+        "" => Err(format!(
+            "{}: has no extension to choose the format by; name it {EXPORT_FORMATS}",
+            path.display()
+        )),
         other => Err(format!(
-            "{}: cannot export a lens as '.{other}': use .toml (realcam's lens format) or .dat (a pbrt table)",
+            "{}: cannot export a lens as '.{other}': use {EXPORT_FORMATS}",
             path.display()
         )),
     }
@@ -81,4 +92,24 @@ pub fn write_dat(prescription: &Prescription) -> Result<String, String> {
         );
     }
     Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::lens::io::bundled::load_lens;
+
+    #[test]
+    fn an_export_path_without_a_format_says_what_is_wrong() {
+        let lens = load_lens("dgauss.50mm", None).unwrap();
+        let dir = tempfile::tempdir().unwrap();
+        let folder = export_text(&lens, dir.path()).unwrap_err();
+        assert!(folder.contains("is a directory"), "{folder}");
+        assert!(folder.contains(".toml"), "{folder}");
+        let bare = export_text(&lens, &dir.path().join("mylens")).unwrap_err();
+        assert!(bare.contains("has no extension"), "{bare}");
+        let odd = export_text(&lens, Path::new("lens.txt")).unwrap_err();
+        assert!(odd.contains("cannot export a lens as '.txt'"), "{odd}");
+        assert!(export_text(&lens, Path::new("lens.toml")).is_ok());
+    }
 }

@@ -84,9 +84,25 @@ impl Prescription {
         match extension(source).as_str() {
             "toml" => toml::read_lens_file(text, source),
             "zmx" => zemax::read_zemax(text.as_bytes(), source),
+            _ if looks_like_json(text) => Err(PrescriptionError {
+                file: source.to_path_buf(),
+                line: None,
+                message: JSON_LENS_FILE.into(),
+            }),
             _ => dat::parse_dat(text, source, format),
         }
     }
+}
+
+/// Why a JSON lens file is refused, and what to do instead.
+const JSON_LENS_FILE: &str = "is a JSON lens file (as DeepLens and lentil write them), which realcam does not read: \
+     write the lens as a realcam .toml (lenses/README.md gives the format; `realcam lens FILE --export OUT.toml` \
+     converts any lens file realcam reads), a pbrt .dat table or a Zemax .zmx";
+
+/// Text that opens with `{` or `[`, as no `.dat` table does: some other program's JSON lens,
+/// which the `.dat` parser would refuse for its first character alone.
+fn looks_like_json(text: &str) -> bool {
+    text.trim_start().starts_with(['{', '['])
 }
 
 /// A path's extension, lower case ("" when it has none).
@@ -105,5 +121,22 @@ pub fn shorten(s: &str) -> String {
         shown
     } else {
         format!("{shown}…")
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_json_lens_file_is_refused_for_what_it_is() {
+        let deeplens = "{\n  \"info\": \"a cellphone lens\",\n  \"surfaces\": []\n}\n";
+        for name in ["phone.json", "phone.dat", "phone"] {
+            let error = Prescription::parse(deeplens, Path::new(name), None).unwrap_err();
+            let message = error.to_string();
+            assert!(message.contains("JSON lens file"), "{message}");
+            assert!(message.contains("--export"), "{message}");
+            assert!(!message.contains("found"), "{message}");
+        }
     }
 }

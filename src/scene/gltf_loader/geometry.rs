@@ -42,6 +42,7 @@ pub(super) fn read_primitive(
     mesh: usize,
     primitive: usize,
     warnings: &mut Vec<String>,
+    degenerate: &mut DegenerateTriangles,
 ) -> Result<Option<Mesh>> {
     let label = primitive_label(root, mesh, primitive);
     let json = root
@@ -49,7 +50,54 @@ pub(super) fn read_primitive(
         .get(mesh)
         .and_then(|json| json.primitives.get(primitive))
         .ok_or_else(|| anyhow!("{label} does not exist"))?;
-    read(root, buffers, json, &label, warnings).with_context(|| label.clone())
+    read(root, buffers, json, &label, warnings, degenerate).with_context(|| label.clone())
+}
+
+/// Zero-area triangles dropped over a whole scene. They are harmless and common (a UV sphere's
+/// pole triangles, in every copy of the model), so the scene gets one warning for all of them
+/// rather than one per primitive.
+#[derive(Debug, Default)]
+pub(super) struct DegenerateTriangles {
+    /// Each primitive that had some, with how many.
+    primitives: Vec<(String, usize)>,
+}
+
+impl DegenerateTriangles {
+    fn add(&mut self, label: &str, count: usize) {
+        if count > 0 {
+            self.primitives.push((label.to_string(), count));
+        }
+    }
+
+    /// The one warning, naming the primitive when there is one and the first few otherwise.
+    pub(super) fn warning(&self) -> Option<String> {
+        const NAMED: usize = 3;
+        let total: usize = self.primitives.iter().map(|(_, count)| count).sum();
+        match self.primitives.as_slice() {
+            [] => None,
+            [(label, count)] => Some(format!(
+                "{label}: {count} degenerate (zero-area) triangles dropped"
+            )),
+            primitives => {
+                let named: Vec<&str> = primitives
+                    .iter()
+                    .take(NAMED)
+                    .map(|(label, _)| label.as_str())
+                    .collect();
+                let more = primitives.len().saturating_sub(NAMED);
+                Some(format!(
+                    "{total} degenerate (zero-area) triangles dropped in {} primitives ({}{})",
+                    primitives.len(),
+                    named.join(", "),
+                    if more > 0 {
+                        format!(" and {more} more")
+                    } else {
+                        String::new()
+                    }
+                ))
+            }
+        }
+    }
 }
 
 fn read(
@@ -58,6 +106,7 @@ fn read(
     json: &Primitive,
     label: &str,
     warnings: &mut Vec<String>,
+    degenerate: &mut DegenerateTriangles,
 ) -> Result<Option<Mesh>> {
     let mode = match json.mode {
         Checked::Valid(mode @ (Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan)) => mode,
@@ -113,7 +162,8 @@ fn read(
         ));
     }
     let mut triangles = assemble_triangles(mode, &corners);
-    drop_bad_triangles(&mut triangles, &mut positions, label, warnings);
+    let zero_area = drop_bad_triangles(&mut triangles, &mut positions, label, warnings);
+    degenerate.add(label, zero_area);
     if triangles.is_empty() {
         return Ok(None);
     }
@@ -304,14 +354,15 @@ pub(super) fn assemble_triangles(mode: Mode, corners: &[u32]) -> Vec<[u32; 3]> {
 }
 
 /// Removes triangles touching a non-finite position, zero-area triangles and triangles so
-/// large their area overflows f32 (each with a warning), then zeroes non-finite positions so
-/// no NaN reaches later stages.
+/// large their area overflows f32 (the first and last with a warning), then zeroes non-finite
+/// positions so no NaN reaches later stages. Returns how many zero-area triangles it dropped
+/// (see [`DegenerateTriangles`]).
 fn drop_bad_triangles(
     triangles: &mut Vec<[u32; 3]>,
     positions: &mut [Vec3],
     label: &str,
     warnings: &mut Vec<String>,
-) {
+) -> usize {
     let (mut non_finite, mut degenerate, mut overflowing) = (0usize, 0usize, 0usize);
     triangles.retain(|triangle| {
         let [a, b, c] = triangle.map(|index| positions[index as usize]);
@@ -343,11 +394,7 @@ fn drop_bad_triangles(
             *position = Vec3::ZERO;
         }
     }
-    if degenerate > 0 {
-        warnings.push(format!(
-            "{label}: {degenerate} degenerate (zero-area) triangles dropped"
-        ));
-    }
+    degenerate
 }
 
 /// The same mesh with every triangle's winding reversed: placed by a mirroring transform
@@ -396,13 +443,32 @@ mod tests {
         ];
         let mut triangles = vec![[0, 1, 2], [0, 1, 3], [0, 1, 4], [2, 2, 1], [0, 5, 6]];
         let mut warnings = Vec::new();
-        drop_bad_triangles(&mut triangles, &mut positions, "test", &mut warnings);
+        let zero_area = drop_bad_triangles(&mut triangles, &mut positions, "test", &mut warnings);
         assert_eq!(triangles, [[0, 1, 2]]);
-        assert_eq!(warnings.len(), 3, "{warnings:?}");
+        assert_eq!(zero_area, 2);
+        assert_eq!(warnings.len(), 2, "{warnings:?}");
         assert!(warnings[0].contains("1 triangles so large their area overflows"));
         assert!(warnings[1].contains("1 triangles with non-finite"));
-        assert!(warnings[2].contains("2 degenerate"));
         assert!(positions.iter().all(|p| p.is_finite()));
+    }
+
+    #[test]
+    fn zero_area_triangles_are_one_warning_for_the_scene() {
+        let mut tally = DegenerateTriangles::default();
+        assert_eq!(tally.warning(), None);
+        tally.add("mesh 0 ('Sphere') primitive 0", 2);
+        assert_eq!(
+            tally.warning().unwrap(),
+            "mesh 0 ('Sphere') primitive 0: 2 degenerate (zero-area) triangles dropped"
+        );
+        for mesh in 1..98 {
+            tally.add(&format!("mesh {mesh} ('Sphere') primitive 0"), 2);
+        }
+        tally.add("mesh 98 primitive 0", 0);
+        assert_eq!(
+            tally.warning().unwrap(),
+            "196 degenerate (zero-area) triangles dropped in 98 primitives (mesh 0 ('Sphere') primitive 0, mesh 1 ('Sphere') primitive 0, mesh 2 ('Sphere') primitive 0 and 95 more)"
+        );
     }
 
     #[test]
