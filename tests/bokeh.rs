@@ -346,6 +346,28 @@ fn a_hexagon_passes_three_root_three_over_two_pi_of_the_circles_light() {
     );
 }
 
+/// Stops far smaller than the exit-pupil search's grid resolves (f/500, f/1000) still pass
+/// camera rays: the sky only darkens, as 1/N² (the irradiance of a uniform sky through
+/// an f/N lens is πL / (4N²), so N twice as large passes a quarter of the light).
+#[test]
+fn very_small_stops_darken_the_image_as_one_over_n_squared() {
+    let dir = tempfile::tempdir().unwrap();
+    let (f256, _) = sky_through(dir.path(), 0.0, None, Some(256.0));
+    assert!(f256 > 0.0, "f/256 is black");
+    for n in [500.0, 1000.0] {
+        let (small, geometry) = sky_through(dir.path(), 0.0, None, Some(n));
+        assert!((geometry.f_number() - n).abs() < 1e-6 * n);
+        let expected = (n / 256.0f64).powi(2);
+        let ratio = f256 / small;
+        println!("f/256 over f/{n}: {ratio:.3} ((N/256)² = {expected:.3})");
+        assert!(small > 0.0, "f/{n} is black");
+        assert!(
+            (ratio / expected - 1.0).abs() < 0.05,
+            "{ratio} vs {expected}"
+        );
+    }
+}
+
 /// Adding, changing and removing the stop's diaphragm re-derives the lens (change detection
 /// on the stop surface's entity), and removing it restores the round stop exactly.
 #[test]
@@ -426,6 +448,40 @@ fn bad_diaphragm_values_are_clear_errors() {
         refused(&run(&["--aperture-image", "black.png"]), &["no light"]);
     }
     assert!(!d.join("render.png").exists(), "nothing written");
+}
+
+/// A white mask saved as RGB, as most image editors save it, opens the whole stop (its
+/// luminance weights' rounding is no "grey level 1.0000001"), and a note says how it was read.
+#[test]
+fn a_white_rgb_mask_opens_the_whole_stop() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    image::RgbImage::from_pixel(8, 8, image::Rgb([255, 255, 255]))
+        .save(d.join("white_rgb.png"))
+        .unwrap();
+    image::RgbaImage::from_pixel(8, 8, image::Rgba([255, 255, 255, 255]))
+        .save(d.join("white_rgba.png"))
+        .unwrap();
+    for (mask, read_as) in [
+        ("white_rgb.png", "8×8 8-bit RGB: Rec. 709 luminance"),
+        (
+            "white_rgba.png",
+            "8×8 8-bit RGBA: Rec. 709 luminance × alpha",
+        ),
+    ] {
+        let output = realcam(
+            d,
+            &["lens", "dgauss.50mm", "--json", "--aperture-image", mask],
+        );
+        let stderr = ok(&output);
+        assert!(
+            stderr.contains(&format!("note: aperture image {mask}: {read_as}")),
+            "{stderr}"
+        );
+        let report: serde_json::Value = serde_json::from_slice(&output.stdout).unwrap();
+        let open = report["diaphragm"]["open_fraction"].as_f64().unwrap();
+        assert!((open - 1.0).abs() < 1e-3, "{mask}: {open}");
+    }
 }
 
 /// A shard's fingerprint records the diaphragm when one is set (so shards or checkpoints of

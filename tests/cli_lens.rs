@@ -140,3 +140,94 @@ fn bad_lens_files_fail_clearly() {
     assert_ne!(code, 0);
     assert!(stderr.contains("focus-distance"), "{stderr}");
 }
+
+/// `realcam ARGS | head -1`: reads the first line of standard output, closes the pipe, and
+/// returns how the run ended and its standard error.
+fn first_line_then_close(args: &[&str], input: &str) -> (std::process::ExitStatus, String) {
+    use std::io::{BufRead, Write};
+    let manifest = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+    let mut child = support::cli::command(manifest, args)
+        .stdin(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut stdin = child.stdin.take().unwrap();
+    let input = input.to_string();
+    let feeder = std::thread::spawn(move || {
+        // The run may end before it reads everything: a refused write here is no failure.
+        let _ = stdin.write_all(input.as_bytes());
+    });
+    let mut stdout = std::io::BufReader::new(child.stdout.take().unwrap());
+    let mut line = String::new();
+    stdout.read_line(&mut line).unwrap();
+    assert!(!line.is_empty(), "{args:?} printed nothing");
+    drop(stdout);
+    feeder.join().unwrap();
+    let output = child.wait_with_output().unwrap();
+    (output.status, support::cli::stderr(&output))
+}
+
+/// A reader that leaves early (`| head -1`) ends the printing commands quietly, as it ends
+/// Unix tools: success or SIGPIPE, never a panic about a broken pipe (exit 101).
+#[test]
+fn a_closed_pipe_ends_the_printing_commands_quietly() {
+    use std::os::unix::process::ExitStatusExt;
+    // 4000 rays traced: pretty JSON far longer than a pipe buffers (64 KiB).
+    let rays = format!(
+        "[{}]",
+        vec![r#"{"origin":[0,2,-10],"direction":[0,0,1]}"#; 4000].join(",")
+    );
+    let runs: [(&[&str], &str); 5] = [
+        (&["lens", "canon-ef-85mm-f1.8", "--json"], ""),
+        (&["lens", "dgauss.50mm"], ""),
+        (&["lenses", "--json"], ""),
+        (&["lenses"], ""),
+        (&["lens", "dgauss.50mm", "--trace"], &rays),
+    ];
+    for (args, input) in runs {
+        let (status, stderr) = first_line_then_close(args, input);
+        assert!(
+            status.success() || status.signal() == Some(libc::SIGPIPE),
+            "{args:?}: {status:?}\n{stderr}"
+        );
+        for message in ["panicked", "Broken pipe", "error"] {
+            assert!(!stderr.contains(message), "{args:?}: {stderr}");
+        }
+    }
+}
+
+/// The diagram is SVG: a name with another extension is refused before anything is derived
+/// or written, naming the path and the format it writes; `.svg` (any case) is written.
+#[test]
+fn diagram_names_other_than_svg_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    for name in ["x.png", "x.jpg", "diagram"] {
+        let path = dir.path().join(name);
+        let (code, _, stderr) = realcam(
+            &["lens", "dgauss.50mm", "--diagram", path.to_str().unwrap()],
+            None,
+        );
+        assert_eq!(code, 1, "{name}: {stderr}");
+        assert!(stderr.contains(path.to_str().unwrap()), "{stderr}");
+        assert!(stderr.contains(".svg"), "{stderr}");
+        assert!(!stderr.contains("panicked"), "{stderr}");
+        assert!(!path.exists(), "{name} written");
+    }
+    // `-` would mix the SVG into the summary on standard output: refused, no file named `-`.
+    let (code, stdout, stderr) = realcam(&["lens", "dgauss.50mm", "--diagram", "-"], None);
+    assert_eq!(code, 1, "{stderr}");
+    assert!(
+        stderr.contains("--diagram -") && stderr.contains(".svg"),
+        "{stderr}"
+    );
+    assert!(stdout.is_empty(), "{stdout}");
+    let manifest = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+    assert!(!manifest.join("-").exists(), "a file named -");
+    let path = dir.path().join("X.SVG");
+    let (code, _, stderr) = realcam(
+        &["lens", "dgauss.50mm", "--diagram", path.to_str().unwrap()],
+        None,
+    );
+    assert_eq!(code, 0, "{stderr}");
+    let svg = std::fs::read_to_string(&path).unwrap();
+    assert!(svg.starts_with("<svg"), "{svg}");
+}

@@ -11,8 +11,12 @@ use serde_json::{Value, json};
 use super::options::LensOptions;
 use super::values::number;
 use crate::film::contact_sheet::{Thumbnail, contact_sheet};
-use crate::film::format::{Accepts, DEFAULT_JPEG_QUALITY, ImageFormat, encode_rgb8, output_format};
-use crate::film::output::{check_not_terminal, check_writable, same_file, shown, write_output};
+use crate::film::format::{
+    Accepts, DEFAULT_JPEG_QUALITY, ImageFormat, encode_rgb8, output_format, require_extension,
+};
+use crate::film::output::{
+    check_not_terminal, check_writable, is_stdout, same_file, shown, write_output,
+};
 use crate::glass::FRAUNHOFER_D_NM;
 use crate::lens::diagram::draw_diagram;
 use crate::lens::io::bundled::load_lens;
@@ -78,6 +82,17 @@ pub fn run(args: &LensArgs) -> anyhow::Result<ExitCode> {
             Ok(())
         })?;
         eprintln!("wrote {}", path.display());
+    }
+    if let Some(path) = &args.diagram {
+        // The diagram is SVG text; rasterising it for a .png would take an SVG renderer
+        // (resvg and its tree of crates), too much build for one picture a browser shows.
+        if is_stdout(path) {
+            bail!(
+                "--diagram -: standard output carries the lens summary; name an .svg file for the diagram"
+            );
+        }
+        require_extension("--diagram", path, "svg", "an SVG cross-section")?;
+        check_writable(path)?;
     }
     let pupil_view_format = match &args.pupil_view {
         Some(path) => {

@@ -63,8 +63,9 @@ pub struct LensOptions {
     /// Curvature of the blades: 0 = straight … 1 = the stop's circle [default: 0].
     #[arg(long, value_name = "C", requires = "blades", allow_hyphen_values = true, value_parser = number::<f64>)]
     pub blade_curvature: Option<f64>,
-    /// Transmission mask at the stop: a grey-level image (0 = opaque, 1 = open) spanning the
-    /// stop's diameter, centred on the axis, top row up, as seen from the film.
+    /// Transmission mask at the stop: a grey-level image (0 = opaque, 1 = open; RGB by its
+    /// luminance, alpha multiplied in) spanning the stop's diameter, centred on the axis, top
+    /// row up, as seen from the film.
     #[arg(long, value_name = "FILE.png")]
     pub aperture_image: Option<PathBuf>,
 }

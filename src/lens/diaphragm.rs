@@ -32,13 +32,17 @@
 //! A grey-level image spans the stop's diameter, centred on the axis (as pbrt-v4's aperture
 //! images): its top row at y = +R, its left column at x = −R; each grey level (value / maximum,
 //! read as linear transmission: 0 opaque, 1 open) multiplies the light of rays crossing there,
-//! bilinearly interpolated between pixel centres. Colour images count by their luma; alpha is
-//! ignored.
+//! bilinearly interpolated between pixel centres. A colour image counts by the Rec. 709
+//! luminance of its channels (each value / maximum, read linearly as the grey levels are), and
+//! an alpha channel multiplies in: a transparent pixel is opaque to light, as a mask painted in
+//! an image editor means it.
 
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use std::f64::consts::PI;
+
+use crate::film::output::luminance;
 
 /// Most blades accepted: beyond this the polygon differs from its circle by less than 0.01 %
 /// of the area, and every ray would pay for each blade.
@@ -215,6 +219,10 @@ impl Blades {
     }
 }
 
+/// Values this far outside 0..=1 are rounding (a white pixel's luminance weights summing to
+/// 1 + 1 ulp in f32), clamped rather than refused.
+const ROUNDING: f32 = 4.0 * f32::EPSILON;
+
 /// A transmission mask: grey levels in 0..=1, row-major, row 0 at the top (+y).
 #[derive(Clone, Debug, PartialEq)]
 pub struct ApertureMask {
@@ -222,6 +230,9 @@ pub struct ApertureMask {
     pub width: u32,
     pub height: u32,
     pub values: Vec<f32>,
+    /// How the image's pixels became transmissions, for the note that says what was read
+    /// ("64×64 8-bit RGBA: Rec. 709 luminance × alpha").
+    pub reading: String,
 }
 
 impl ApertureMask {
@@ -245,17 +256,20 @@ impl ApertureMask {
             .map_err(|e| format!("--aperture-image {shown}: cannot read it: {e}"))?
             .decode()
             .map_err(|e| format!("--aperture-image {shown}: not an image realcam reads: {e}"))?;
-        let grey = image.to_luma32f();
-        ApertureMask::from_values(path, width, height, grey.into_raw())
+        let (values, reading) = transmission(&image);
+        let mut mask = ApertureMask::from_values(path, width, height, values)?;
+        mask.reading = format!("{width}×{height} {reading}");
+        Ok(mask)
     }
 
     /// A mask from grey levels (row-major, top row first), refusing sizes that do not match,
-    /// values outside 0..=1 and masks that let no light through.
+    /// values outside 0..=1 (beyond the last rounding ulps, which are clamped) and masks that
+    /// let no light through.
     pub fn from_values(
         source: &Path,
         width: u32,
         height: u32,
-        values: Vec<f32>,
+        mut values: Vec<f32>,
     ) -> Result<ApertureMask, String> {
         let shown = source.display();
         if width == 0 || height == 0 || values.len() != width as usize * height as usize {
@@ -266,17 +280,21 @@ impl ApertureMask {
         }
         if let Some(bad) = values
             .iter()
-            .find(|v| !(v.is_finite() && (0.0..=1.0).contains(*v)))
+            .find(|v| !(v.is_finite() && (-ROUNDING..=1.0 + ROUNDING).contains(*v)))
         {
             return Err(format!(
                 "--aperture-image {shown}: grey level {bad} is outside 0 (opaque) … 1 (open)"
             ));
+        }
+        for value in &mut values {
+            *value = value.clamp(0.0, 1.0);
         }
         let mask = ApertureMask {
             source: source.to_path_buf(),
             width,
             height,
             values,
+            reading: format!("{width}×{height} grey levels"),
         };
         let open = Diaphragm {
             blades: None,
@@ -334,6 +352,39 @@ impl ApertureMask {
         }
         hash
     }
+}
+
+/// An image's pixels as transmissions (module docs: grey levels as they are, colour by its
+/// Rec. 709 luminance, alpha multiplied in), and how they were read, in words.
+fn transmission(image: &image::DynamicImage) -> (Vec<f32>, String) {
+    let colour = image.color();
+    let (has_colour, has_alpha) = (colour.has_color(), colour.has_alpha());
+    let opacity = |level: f32, alpha: f32| if has_alpha { level * alpha } else { level };
+    let values = if has_colour {
+        let rgba = image.to_rgba32f();
+        rgba.pixels()
+            .map(|&image::Rgba([r, g, b, alpha])| opacity(luminance([r, g, b]), alpha))
+            .collect()
+    } else {
+        // A grey image's levels as they are, with no weights to round.
+        let grey = image.to_luma_alpha32f();
+        grey.pixels()
+            .map(|&image::LumaA([level, alpha])| opacity(level, alpha))
+            .collect()
+    };
+    let bits = colour.bits_per_pixel() / u16::from(colour.channel_count());
+    let float = if matches!(colour, image::ColorType::Rgb32F | image::ColorType::Rgba32F) {
+        " float"
+    } else {
+        ""
+    };
+    let reading = match (has_colour, has_alpha) {
+        (false, false) => "grey levels",
+        (false, true) => "grey + alpha: grey level × alpha",
+        (true, false) => "RGB: Rec. 709 luminance",
+        (true, true) => "RGBA: Rec. 709 luminance × alpha",
+    };
+    (values, format!("{bits}-bit{float} {reading}"))
 }
 
 /// A diaphragm packed for tracing at one stop radius: what the per-ray reference
@@ -521,6 +572,98 @@ mod tests {
         assert!(black.unwrap_err().contains("no light"));
         let missing = ApertureMask::load(Path::new("/nonexistent/mask.png"));
         assert!(missing.unwrap_err().contains("/nonexistent/mask.png"));
+    }
+
+    /// Rec. 709 luminance of 8-bit channels read linearly (value / 255), the test's own.
+    fn rec709(rgb: [u8; 3]) -> f64 {
+        let [r, g, b] = rgb.map(|v| v as f64 / 255.0);
+        0.2126 * r + 0.7152 * g + 0.0722 * b
+    }
+
+    /// RGB and RGBA PNGs (as image editors save masks) read as the luminance of their colour
+    /// times their alpha; grey PNGs as their grey levels; white is fully open, not refused by
+    /// the last rounding ulp of the luminance weights; the note says what was read.
+    #[test]
+    fn colour_and_alpha_masks_read_as_luminance_times_alpha() {
+        let dir = tempfile::tempdir().unwrap();
+        let colours = [
+            [255, 255, 255],
+            [255, 0, 0],
+            [0, 255, 0],
+            [0, 0, 255],
+            [200, 100, 50],
+        ];
+        let alphas = [255u8, 128, 0, 64, 200];
+        let rgb = image::RgbImage::from_fn(5, 1, |x, _| image::Rgb(colours[x as usize]));
+        let rgba = image::RgbaImage::from_fn(5, 1, |x, _| {
+            let [r, g, b] = colours[x as usize];
+            image::Rgba([r, g, b, alphas[x as usize]])
+        });
+        let grey = image::GrayImage::from_fn(5, 1, |x, _| image::Luma([alphas[x as usize]]));
+        for (name, image) in [
+            ("rgb.png", image::DynamicImage::from(rgb)),
+            ("rgba.png", rgba.into()),
+            ("grey.png", grey.into()),
+        ] {
+            image.save(dir.path().join(name)).unwrap();
+        }
+        let read = |name: &str| ApertureMask::load(&dir.path().join(name)).unwrap();
+
+        let mask = read("rgb.png");
+        for (x, colour) in colours.into_iter().enumerate() {
+            let expected = rec709(colour);
+            assert!(
+                (mask.values[x] as f64 - expected).abs() < 1e-6,
+                "{x}: {mask:?}"
+            );
+        }
+        assert_eq!(mask.values[0], 1.0, "white is open");
+        assert_eq!(mask.reading, "5×1 8-bit RGB: Rec. 709 luminance");
+
+        let mask = read("rgba.png");
+        for x in 0..5 {
+            let expected = rec709(colours[x]) * alphas[x] as f64 / 255.0;
+            assert!(
+                (mask.values[x] as f64 - expected).abs() < 1e-6,
+                "{x}: {mask:?}"
+            );
+        }
+        assert_eq!(mask.reading, "5×1 8-bit RGBA: Rec. 709 luminance × alpha");
+
+        let mask = read("grey.png");
+        for (x, alpha) in alphas.into_iter().enumerate() {
+            let expected = alpha as f64 / 255.0;
+            assert!(
+                (mask.values[x] as f64 - expected).abs() < 1e-7,
+                "{x}: {mask:?}"
+            );
+        }
+        assert_eq!(mask.reading, "5×1 8-bit grey levels");
+
+        // An all-white RGB mask is the stop's circle: all of its area open (to the 1024²
+        // grid's count of the circle's area), every point of it passing all the light.
+        let white = image::RgbImage::from_pixel(16, 16, image::Rgb([255; 3]));
+        white.save(dir.path().join("white_rgb.png")).unwrap();
+        let white = Diaphragm {
+            blades: None,
+            mask: Some(Arc::new(read("white_rgb.png"))),
+        };
+        let open = white.open_fraction();
+        assert!((open - 1.0).abs() < 1e-3, "{open}");
+        let clip = StopClip::new(&white, 0, 1.0);
+        for (x, y) in [(0.0, 0.0), (0.7, -0.2), (-0.3, 0.9)] {
+            assert_eq!(clip.transmission(x, y), 1.0);
+        }
+    }
+
+    /// Only the rounding ulps beyond 0 … 1 are clamped; a real excess is still refused.
+    #[test]
+    fn levels_beyond_rounding_are_refused() {
+        let ulp_over = 1.0 + f32::EPSILON;
+        let mask = ApertureMask::from_values(Path::new("m"), 1, 1, vec![ulp_over]).unwrap();
+        assert_eq!(mask.values, [1.0]);
+        let over = ApertureMask::from_values(Path::new("m"), 1, 1, vec![1.01]);
+        assert!(over.unwrap_err().contains("outside 0"));
     }
 
     /// A mask's top row is +y, its left column −x; grey levels pass as linear transmission.

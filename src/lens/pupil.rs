@@ -9,6 +9,11 @@
 //! pbrt traces 2²⁰ rays per segment (6–8 s a lens). Here a coarse grid finds the pupil, a fine
 //! grid over it finds the edges, only the y ≥ 0 half is traced (mirror symmetry about the
 //! meridional plane), rays run in SoA batches, and segments run in parallel.
+//!
+//! A stop so small (f/500, f/1000) that its pupil could slip between the coarse grid's
+//! points is found through wider stops: the rays that pass a smaller circle at the stop pass
+//! every wider one too, so the pupil of a stop [`STOP_ZOOM`] times wider, found first, holds
+//! the small stop's pupil, and a fine grid over it finds that.
 
 use rayon::prelude::*;
 
@@ -26,6 +31,10 @@ pub const SEGMENTS: usize = 64;
 const COARSE_CELLS_PER_PUPIL: f64 = 6.0;
 const COARSE_GRID: std::ops::RangeInclusive<usize> = 32..=384;
 const FINE_GRID: usize = 48;
+/// How much wider each stop in the search for a small stop's pupil is than the next smaller
+/// one: its pupil then spans FINE_GRID / STOP_ZOOM = 6 cells of the fine grid laid over the
+/// wider one's.
+pub const STOP_ZOOM: f64 = 8.0;
 
 /// How camera rays pick their point on the rear element.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default, serde::Serialize)]
@@ -192,9 +201,13 @@ impl ExitPupil {
         let rear_radius = system.rear_semi_aperture();
         let pupil_diameter =
             FirstOrder::compute(system).map_or(rear_radius, |fo| fo.exit_pupil.diameter_mm);
-        let coarse_grid = ((3.0 * rear_radius / pupil_diameter.max(1e-9)) * COARSE_CELLS_PER_PUPIL)
+        let wanted_grid = ((3.0 * rear_radius / pupil_diameter.max(1e-9)) * COARSE_CELLS_PER_PUPIL)
             .ceil() as usize;
-        let coarse_grid = coarse_grid.clamp(*COARSE_GRID.start(), *COARSE_GRID.end());
+        let coarse_grid = wanted_grid.clamp(*COARSE_GRID.start(), *COARSE_GRID.end());
+        // The pupil grows with the stop: from this stop diameter on, the coarse grid has its
+        // cells across the pupil, so a search that finds nothing there means no light passes.
+        let resolved_stop = system.stop_diameter() * (wanted_grid as f64 / coarse_grid as f64);
+        let resolved_stop = resolved_stop.max(system.stop_diameter());
         let results: Vec<(Rect, u64)> = (0..SEGMENTS)
             .into_par_iter()
             .map(|k| {
@@ -203,7 +216,13 @@ impl ExitPupil {
                 systems
                     .iter()
                     .map(|system| {
-                        segment_bounds(system, &film_zs, rear_radius, [r0, r1], coarse_grid)
+                        let search = PupilSearch {
+                            film_zs: &film_zs,
+                            radii: [r0, r1],
+                            coarse_grid,
+                            resolved_stop,
+                        };
+                        segment_bounds(system, rear_radius, &search)
                     })
                     .fold((Rect::EMPTY, 0), |(bounds, traced), (b, t)| {
                         (bounds.union(&b), traced + t)
@@ -470,44 +489,42 @@ pub fn concentric_disk(u: [f32; 2]) -> [f32; 2] {
     [r * phi.cos(), r * phi.sin()]
 }
 
-/// Bounds of the rear-plane points whose rays from film points at x ∈ {r0, r1} pass the lens.
-fn segment_bounds(
-    system: &LensSystem,
-    film_zs: &[f64],
-    rear_radius: f64,
+/// One segment's search for its pupil: where its film points are and how fine a grid finds a
+/// pupil without letting it slip between points.
+struct PupilSearch<'a> {
+    /// Lens-frame z of the film planes the film points lie in.
+    film_zs: &'a [f64],
+    /// The film points' distances from the axis (on +x), mm.
     radii: [f64; 2],
+    /// Coarse cells across the search window.
     coarse_grid: usize,
-) -> (Rect, u64) {
+    /// The stop diameter (mm) from which the coarse grid resolves the pupil.
+    resolved_stop: f64,
+}
+
+/// Bounds of the rear-plane points whose rays from the film points of `search` pass the lens.
+fn segment_bounds(system: &LensSystem, rear_radius: f64, search: &PupilSearch) -> (Rect, u64) {
     // pbrt's margin: rays aimed past the rear vertex plane's aperture can still meet a curved
     // rear surface inside its clear aperture.
     let half = 1.5 * rear_radius;
-    let search = Rect {
+    let whole = Rect {
         min: [-half, 0.0],
         max: [half, half],
     };
     let mut traced = 0u64;
-    // Square cells over the 2:1 half-window.
-    let points: Vec<[f64; 2]> = film_zs
+    let points: Vec<[f64; 2]> = search
+        .film_zs
         .iter()
-        .flat_map(|&z| radii.map(|r| [r, z]))
+        .flat_map(|&z| search.radii.map(|r| [r, z]))
         .collect();
-    let coarse = passing_bounds(
-        system,
-        &points,
-        &search,
-        [coarse_grid, coarse_grid / 2],
-        &mut traced,
-    );
-    let cell = 2.0 * half / coarse_grid as f64;
+    // Square cells over the 2:1 half-window.
+    let grid = [search.coarse_grid, search.coarse_grid / 2];
+    let (coarse, cell) = locate_pupil(system, &points, &whole, grid, search, &mut traced);
     if coarse.is_empty() {
         // Beyond the image circle (a fisheye's film corners): no light reaches here.
         return (Rect::EMPTY, traced);
     }
-    let window = coarse.expanded(cell);
-    let window = Rect {
-        min: [window.min[0], window.min[1].max(0.0)],
-        max: window.max,
-    };
+    let window = upper_half(coarse.expanded(cell));
     let fine = passing_bounds(
         system,
         &points,
@@ -515,8 +532,7 @@ fn segment_bounds(
         [FINE_GRID, FINE_GRID],
         &mut traced,
     );
-    let fine_cell =
-        ((window.max[0] - window.min[0]).max(window.max[1] - window.min[1])) / FINE_GRID as f64;
+    let fine_cell = fine_cell(&window);
     let bounds = if fine.is_empty() {
         coarse.expanded(cell)
     } else {
@@ -531,6 +547,60 @@ fn segment_bounds(
         },
         traced,
     )
+}
+
+/// The bounds of the `grid` lattice points of `window` whose rays pass, and the lattice's
+/// cell size. Where none pass and the stop is too small for the lattice to resolve its
+/// pupil, the pupil of a [`STOP_ZOOM`] times wider stop (found the same way) is searched
+/// with a fine lattice instead: it holds every ray the smaller stop passes.
+fn locate_pupil(
+    system: &LensSystem,
+    points: &[[f64; 2]],
+    window: &Rect,
+    grid: [usize; 2],
+    search: &PupilSearch,
+    traced: &mut u64,
+) -> (Rect, f64) {
+    let found = passing_bounds(system, points, window, grid, traced);
+    let cell = (window.max[0] - window.min[0]) / grid[0] as f64;
+    let stop = system.stop_diameter();
+    if !found.is_empty() || stop >= search.resolved_stop {
+        return (found, cell);
+    }
+    let wider = with_circular_stop(system, (stop * STOP_ZOOM).min(search.resolved_stop));
+    let (outer, outer_cell) = locate_pupil(&wider, points, window, grid, search, traced);
+    if outer.is_empty() {
+        return (Rect::EMPTY, cell);
+    }
+    let within = upper_half(outer.expanded(outer_cell));
+    let fine = [FINE_GRID, FINE_GRID];
+    let found = passing_bounds(system, points, &within, fine, traced);
+    (found, fine_cell(&within))
+}
+
+/// The larger side of a fine lattice's cells over `window`.
+fn fine_cell(window: &Rect) -> f64 {
+    ((window.max[0] - window.min[0]).max(window.max[1] - window.min[1])) / FINE_GRID as f64
+}
+
+/// `rect` without what lies below y = 0 (the traced half of the meridional mirror symmetry).
+fn upper_half(rect: Rect) -> Rect {
+    Rect {
+        min: [rect.min[0], rect.min[1].max(0.0)],
+        max: rect.max,
+    }
+}
+
+/// `system` with its stop a plain circle `diameter` mm across (indices and every other
+/// surface as they are): a wider stop passes every ray a narrower one does.
+fn with_circular_stop(system: &LensSystem, diameter: f64) -> LensSystem {
+    let mut wider = system.without_diaphragm();
+    let stop = wider.stop;
+    wider.rows[stop].base.aperture = diameter;
+    let semi_sq = (diameter / 2.0).powi(2);
+    wider.f64s.semi_aperture_sq[stop] = semi_sq;
+    wider.f32s.semi_aperture_sq[stop] = semi_sq as f32;
+    wider
 }
 
 /// Traces a `grid[0]` × `grid[1]` lattice of cell centres of `window` from each film point

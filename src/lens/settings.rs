@@ -81,6 +81,7 @@ impl LensSettings {
         let mask = match &self.aperture_image {
             Some(path) => {
                 let mask = ApertureMask::load(path).map_err(anyhow::Error::msg)?;
+                eprintln!("note: aperture image {}: {}", path.display(), mask.reading);
                 if mask.width != mask.height {
                     eprintln!(
                         "warning: --aperture-image {}: {}×{} pixels is not square; it is stretched over the stop's diameter",
