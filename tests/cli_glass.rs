@@ -79,6 +79,24 @@ fn nearest_glasses() {
         stdout.contains("V_d ignored") && stdout.contains("F2 (Schott)"),
         "{stdout}"
     );
+    // Every row gives n_d to 5 decimals and V_d to 2, whatever the maker published (Hikari's
+    // J-F2 has V_d 36.396775 in the catalogue, Schott's F2 36.37).
+    let (code, stdout, _) = realcam(&["--near", "1.62,36.4", "--count", "5"]);
+    assert_eq!(code, 0);
+    let rows: Vec<&str> = stdout
+        .lines()
+        .filter(|line| line.contains(" (") && line.contains(')'))
+        .collect();
+    assert_eq!(rows.len(), 5, "{stdout}");
+    for row in rows {
+        let numbers: Vec<&str> = row.split(')').nth(1).unwrap().split_whitespace().collect();
+        let decimals = |text: &str| text.split('.').nth(1).map_or(0, str::len);
+        assert_eq!(
+            (decimals(numbers[0]), decimals(numbers[1])),
+            (5, 2),
+            "{row}"
+        );
+    }
 }
 
 #[test]

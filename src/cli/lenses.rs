@@ -206,7 +206,7 @@ pub fn table(entries: &[LensEntry]) -> String {
         "name",
         "focal length",
         "f-number",
-        "FoV on 35 mm",
+        "FoV on 36×24",
         "elements",
         "aspheres",
         "year",
@@ -245,10 +245,11 @@ pub fn table(entries: &[LensEntry]) -> String {
         out += &line(std::array::from_fn(|k| r[k].as_str()));
     }
     out += "\nFocal length and f-number: computed by realcam (paraxial; the f-number with the stop \
-            wide open),\nthe published value in brackets where it differs. FoV on 35 mm: diagonal field \
-            of view at infinity\nfocus on a 36 × 24 mm frame, from real chief rays; ○ a° ⌀d: the image \
-            circle, d mm across and\ncovering a°, is smaller than the frame. `realcam lens NAME` shows \
-            one lens in full.\n";
+            wide open),\nthe published value in brackets where it differs. FoV on 36×24: diagonal field \
+            of view at infinity\nfocus on a 36 × 24 mm (\"35 mm\" full-frame) frame, 43.3 mm diagonal, from \
+            real chief rays; ○ a° ⌀d: the\nimage circle, d mm across and covering a°, is smaller than the \
+            frame. `realcam render` films a 35 mm\ndiagonal unless the lens, the scene or --film-diagonal \
+            says otherwise. `realcam lens NAME` shows one lens in full.\n";
     out
 }
 
