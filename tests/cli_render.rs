@@ -58,6 +58,82 @@ fn several_lenses_share_one_scene_load_and_one_bvh() {
 }
 
 #[test]
+fn each_lens_of_a_run_renders_on_its_own_film_as_it_does_alone() {
+    let dir = tempfile::tempdir().unwrap();
+    // Formats from the lens files (a phone lens's sensor, a 35 mm-ish triplet) and, for a lens
+    // that names none, the default scene camera's 70 mm.
+    let lenses = [
+        ("deeplens-phone-80deg", 7.66),
+        ("cooke-triplet-50mm-f4", 36.35),
+        ("dgauss.50mm", 70.0),
+    ];
+    let mut run = vec![
+        "render",
+        "--spp",
+        "2",
+        "--exr",
+        "run.exr",
+        "--stats",
+        "stats.json",
+    ];
+    for (lens, _) in lenses {
+        run.extend(["--lens", lens]);
+    }
+    run.extend(SMALL);
+    ok(&realcam(dir.path(), &run));
+    let stats: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.path().join("stats.json")).unwrap()).unwrap();
+    let frames = stats["frames"].as_array().unwrap();
+    for ((lens, diagonal), frame) in lenses.iter().zip(frames) {
+        assert_eq!(frame["lens"], *lens);
+        assert_eq!(frame["film_diagonal_mm"], *diagonal, "{lens}");
+        let mut alone = vec![
+            "render",
+            "--lens",
+            lens,
+            "--spp",
+            "2",
+            "--exr",
+            "alone.exr",
+            "--out",
+            "alone.png",
+        ];
+        alone.extend(SMALL);
+        ok(&realcam(dir.path(), &alone));
+        assert_eq!(
+            std::fs::read(dir.path().join(format!("render-{lens}.png"))).unwrap(),
+            std::fs::read(dir.path().join("alone.png")).unwrap(),
+            "{lens}"
+        );
+        assert_eq!(
+            exr_pixels(&dir.path().join(format!("run-{lens}.exr"))),
+            exr_pixels(&dir.path().join("alone.exr")),
+            "{lens}"
+        );
+    }
+    // --film-diagonal still puts every lens on the film it names.
+    let mut fixed = vec![
+        "render",
+        "--film-diagonal",
+        "24",
+        "--spp",
+        "1",
+        "--stats",
+        "fixed.json",
+    ];
+    for (lens, _) in &lenses[..2] {
+        fixed.extend(["--lens", lens]);
+    }
+    fixed.extend(SMALL);
+    ok(&realcam(dir.path(), &fixed));
+    let stats: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.path().join("fixed.json")).unwrap()).unwrap();
+    for frame in stats["frames"].as_array().unwrap() {
+        assert_eq!(frame["film_diagonal_mm"], 24.0, "{frame}");
+    }
+}
+
+#[test]
 fn frame_n_of_a_focus_sweep_equals_a_single_render_at_that_distance() {
     let dir = tempfile::tempdir().unwrap();
     let mut args = vec![

@@ -33,6 +33,7 @@ pub(super) struct FrameReport {
     pub(super) f_number: f64,
     pub(super) focus: FocusSetting,
     pub(super) film_distance_mm: f64,
+    pub(super) film_diagonal_mm: f64,
     /// What --focus-on found.
     pub(super) probe: Option<FocusProbe>,
     pub(super) lens_derivation_seconds: f64,
@@ -73,6 +74,7 @@ impl FrameReport {
             },
             "focus_on": self.probe.map(|p| p.pixel),
             "film_distance_mm": self.film_distance_mm,
+            "film_diagonal_mm": self.film_diagonal_mm,
             "lens_derivation_seconds": self.lens_derivation_seconds,
             "render_seconds": self.render_seconds,
             "samples": self.samples,
@@ -98,6 +100,8 @@ pub(super) fn render_frame(
 ) -> anyhow::Result<Outcome> {
     let spec = context.spec;
     renderer.set_active_lens(lens.entity);
+    // Each lens on its own film: the lens derivation re-runs through change detection.
+    renderer.set_film(lens.film_diagonal, spec.lens.pupil_sampling);
     set_if_changed(renderer, lens.entity, frame.focus);
     set_if_changed(renderer, lens.entity, frame.aperture);
     let derivation_before = renderer.world.resource::<LensDerivationStats>().total_time;
@@ -265,6 +269,7 @@ pub(super) fn render_frame(
         f_number,
         focus: frame.focus,
         film_distance_mm,
+        film_diagonal_mm: lens.film_diagonal,
         probe,
         lens_derivation_seconds,
         render_seconds: render_start.elapsed().as_secs_f64(),
@@ -310,7 +315,7 @@ fn settings_fingerprint(
         "lens_rows": rows,
         "focus": format!("{:?}", frame.focus),
         "aperture": format!("{:?}", frame.aperture),
-        "film_diagonal_mm": context.film_diagonal,
+        "film_diagonal_mm": lens.film_diagonal,
         "pupil_sampling": spec.lens.pupil_sampling,
         "width": settings.width,
         "height": settings.height,

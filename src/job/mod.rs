@@ -34,7 +34,9 @@ use crate::scene::default_scene::{DEFAULT_SCENE_GLB, DEFAULT_SCENE_PATH};
 use frame::{Outcome, render_frame};
 use outputs::{Formats, refuse_overwriting_scene_files};
 use plan::{FrameRequest, frame_count, plan_frames};
-use setup::{Placement, autofocus, choose_environment, frame_scene, place_camera};
+use setup::{
+    Placement, autofocus, choose_environment, film_diagonal_for, frame_scene, place_camera,
+};
 use spec::JobSpec;
 use stats::stats_json;
 
@@ -64,7 +66,8 @@ pub struct Job<'a> {
     pub renderer: Renderer,
     pub lenses: Vec<RunLens>,
     pub world_from_camera: Mat4,
-    pub film_diagonal: f64,
+    /// The scene camera's film diagonal (mm), for lenses that do not say their own format.
+    pub hinted_film_diagonal: Option<f64>,
     pub width: u32,
     pub height: u32,
     /// When the job started, for its wall time.
@@ -73,9 +76,11 @@ pub struct Job<'a> {
     pub diaphragm: Option<Diaphragm>,
 }
 
-/// A lens of the run: its prescription, entity and the defaults its frames start from.
+/// A lens of the run: its prescription, entity, film and the defaults its frames start from.
 pub struct RunLens {
     pub prescription: Prescription,
+    /// The film diagonal (mm) its frames render on ([`film_diagonal_for`]).
+    pub film_diagonal: f64,
     pub entity: Entity,
     pub focus: FocusSetting,
     pub aperture: ApertureSetting,
@@ -128,17 +133,15 @@ impl<'a> Job<'a> {
         for warning in prescriptions.iter().flat_map(|p| &p.warnings) {
             eprintln!("warning: {warning}");
         }
-        // The film: as asked, else the format the (first) lens was designed for (a phone lens's is
-        // a few mm), else the scene camera's.
-        let film_diagonal = spec
-            .lens
-            .film_diagonal
-            .or(prescriptions[0].info.film_diagonal_mm)
-            .or(placement.hints.film_diagonal_mm)
-            .unwrap_or(35.0);
+        let hinted_film_diagonal = placement.hints.film_diagonal_mm;
+        let film_diagonal = |lens: &Prescription| {
+            film_diagonal_for(spec.lens.film_diagonal, lens, hinted_film_diagonal)
+        };
         let (world_from_camera, framed_focus) = if placement.frame_bounds {
+            // One camera for the whole run: placed for the first lens.
             let aperture = spec.lens.aperture(ApertureSetting::Full);
-            frame_scene(&mut renderer, &prescriptions[0], aperture, film_diagonal)
+            let first = &prescriptions[0];
+            frame_scene(&mut renderer, first, aperture, film_diagonal(first))
                 .with_context(|| source_path.display().to_string())?
         } else {
             (placement.world_from_camera, placement.default_focus_m)
@@ -165,6 +168,7 @@ impl<'a> Job<'a> {
                 }
                 renderer.set_diaphragm(entity, diaphragm.clone());
                 RunLens {
+                    film_diagonal: film_diagonal(&prescription),
                     prescription,
                     entity,
                     focus,
@@ -192,7 +196,7 @@ impl<'a> Job<'a> {
         .check()?;
         renderer.set_camera(world_from_camera);
         renderer.set_sample_plan(spec.spp);
-        renderer.set_film(film_diagonal, spec.lens.pupil_sampling);
+        renderer.set_film(lenses[0].film_diagonal, spec.lens.pupil_sampling);
         renderer.set_settings(RenderSettings {
             width,
             height,
@@ -206,7 +210,7 @@ impl<'a> Job<'a> {
             renderer,
             lenses,
             world_from_camera,
-            film_diagonal,
+            hinted_film_diagonal,
             width,
             height,
             start,
@@ -227,11 +231,11 @@ impl<'a> Job<'a> {
             mut renderer,
             lenses,
             world_from_camera,
-            film_diagonal,
             width,
             height,
             start,
             diaphragm,
+            ..
         } = self;
         let names: Vec<String> = lenses.iter().map(|l| l.prescription.name.clone()).collect();
         let focus: Vec<FocusSetting> = lenses.iter().map(|l| l.focus).collect();
@@ -250,7 +254,6 @@ impl<'a> Job<'a> {
             spec,
             formats,
             world_from_camera,
-            film_diagonal,
             stop,
             diaphragm: diaphragm.as_ref(),
         };
@@ -335,7 +338,6 @@ struct RunContext<'a> {
     spec: &'a JobSpec,
     formats: Formats,
     world_from_camera: Mat4,
-    film_diagonal: f64,
     /// The exit code to stop with, once the front end was asked to stop (Ctrl-C).
     stop: &'a dyn Fn() -> Option<u8>,
     diaphragm: Option<&'a Diaphragm>,

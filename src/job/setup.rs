@@ -13,6 +13,20 @@ use crate::pipeline::{Renderer, SceneBounds};
 use crate::scene::{CameraHints, MaterialLibrary, PunctualLight, SceneCamera, look_at};
 use crate::shade::Environment;
 
+/// Film diagonal (mm) when neither the job, the lens nor the scene's camera gives one.
+pub const DEFAULT_FILM_DIAGONAL_MM: f64 = 35.0;
+
+/// The film a lens renders on: `requested` (`--film-diagonal`), else the format the lens was
+/// designed for (a phone lens's is a few mm), else the scene camera's `hinted` one, else
+/// [`DEFAULT_FILM_DIAGONAL_MM`]. Each lens of a run, and each lens a live session swaps in, gets
+/// its own, so a lens renders the same picture beside others as alone.
+pub fn film_diagonal_for(requested: Option<f64>, lens: &Prescription, hinted: Option<f64>) -> f64 {
+    requested
+        .or(lens.info.film_diagonal_mm)
+        .or(hinted)
+        .unwrap_or(DEFAULT_FILM_DIAGONAL_MM)
+}
+
 /// The camera placement chosen for a render.
 pub struct Placement {
     pub world_from_camera: Mat4,
