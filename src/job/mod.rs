@@ -21,7 +21,7 @@ use crate::film::Image;
 use crate::film::contact_sheet::{Thumbnail, contact_sheet};
 use crate::film::footprint::RunSize;
 use crate::film::format::{DEFAULT_JPEG_QUALITY, Tone, encode_rgb8};
-use crate::film::output::{auto_exposure, shown, to_srgb8, write_image, write_output};
+use crate::film::output::{auto_exposure, shown, to_srgb8, write_output};
 use crate::lens::Prescription;
 use crate::lens::aperture::ApertureSetting;
 use crate::lens::bundled::{DEFAULT_LENS, load_lens};
@@ -31,11 +31,12 @@ use crate::lens::focus_probe::FocusOnPixel;
 use crate::pipeline::{RenderSettings, Renderer, SceneInputs, SceneSource, SceneWarnings};
 use crate::scene::CameraHints;
 use crate::scene::default_scene::{DEFAULT_SCENE_GLB, DEFAULT_SCENE_PATH};
-use frame::{Outcome, render_frame};
+use frame::{Outcome, remove_spent_checkpoints, render_frame, write_frame_images};
 use outputs::{Formats, refuse_overwriting_scene_files};
 use plan::{FrameRequest, frame_count, plan_frames};
 use setup::{
     Placement, autofocus, choose_environment, film_diagonal_for, frame_scene, place_camera,
+    within_focus_range,
 };
 use spec::JobSpec;
 use stats::stats_json;
@@ -190,7 +191,7 @@ impl<'a> Job<'a> {
         RunSize {
             width,
             height,
-            frames: frame_count(lenses.len(), spec.focus_sweep, spec.aperture_sweep)?,
+            frames: frame_count(lenses.len(), spec.focus_sweep, spec.stop_sweep())?,
             contact_sheet: spec.output.contact_sheet.is_some(),
         }
         .check()?;
@@ -247,6 +248,7 @@ impl<'a> Job<'a> {
             focus_sweep: spec.focus_sweep,
             focus_mode: spec.lens.focus_mode,
             aperture_sweep: spec.aperture_sweep,
+            f_number_sweep: spec.f_number_sweep,
             out: &spec.output.out,
             exr: spec.output.exr.as_deref(),
         });
@@ -264,7 +266,7 @@ impl<'a> Job<'a> {
             let lens = &lenses[frame.lens];
             match render_frame(&context, &mut renderer, lens, frame, progress)? {
                 Outcome::Interrupted(code) => return Ok(Some(code)),
-                Outcome::Finished(mut report, image) => {
+                Outcome::Finished(mut report, image, spent) => {
                     if spec.output.shard.is_none() {
                         // One exposure per lens sequence, so a focus pull does not flicker.
                         let exposure = *exposures[frame.lens]
@@ -276,7 +278,7 @@ impl<'a> Job<'a> {
                             eprintln!("warning: {}: {warning}", shown(&frame.out));
                             report.warnings.push(warning);
                         }
-                        write_image(&frame.out, &image, formats.out, tone(spec, exposure))?;
+                        write_frame_images(spec, &formats, frame, &image, exposure)?;
                         eprintln!(
                             "wrote {} ({}×{}, {} spp, {})",
                             shown(&frame.out),
@@ -286,7 +288,6 @@ impl<'a> Job<'a> {
                             formats.out.name()
                         );
                         if let (Some(exr), Some(format)) = (&frame.exr, formats.exr) {
-                            write_image(exr, &image, format, tone(spec, 1.0))?;
                             eprintln!("wrote {} ({})", shown(exr), format.name());
                         }
                         if spec.output.contact_sheet.is_some() {
@@ -302,6 +303,7 @@ impl<'a> Job<'a> {
                             });
                         }
                     }
+                    remove_spent_checkpoints(&spent);
                     reports.push(*report);
                 }
             }
@@ -345,7 +347,8 @@ struct RunContext<'a> {
 
 /// Focus and aperture a lens starts from when the flags don't set them. A scene's film
 /// distance and stop hints were chosen for its own lens: with another lens they mean nothing,
-/// so that lens autofocuses and opens fully instead.
+/// so that lens autofocuses and opens fully instead. A focus distance the flags did not ask for
+/// is kept within the lens's reach ([`within_focus_range`]).
 pub fn lens_defaults(
     spec: &JobSpec,
     placement: &Placement,
@@ -388,7 +391,13 @@ pub fn lens_defaults(
         },
         (None, None) => autofocus(renderer, world_from_camera),
     };
-    (spec.lens.focus(fallback), aperture)
+    let implied = spec.lens.focus_distance.is_none() && spec.lens.film_distance.is_none();
+    let focus = spec.lens.focus(fallback);
+    if implied {
+        (within_focus_range(prescription, focus), aperture)
+    } else {
+        (focus, aperture)
+    }
 }
 
 pub fn choose_exposure(spec: &JobSpec, image: &Image) -> f32 {
