@@ -3,7 +3,7 @@
 
 mod support;
 
-use support::cli::{ok, realcam};
+use support::cli::{ok, realcam, refused};
 
 use std::path::Path;
 use std::process::{Command, Stdio};
@@ -58,6 +58,123 @@ fn several_lenses_share_one_scene_load_and_one_bvh() {
 }
 
 #[test]
+fn each_lens_of_a_run_renders_on_its_own_film_as_it_does_alone() {
+    let dir = tempfile::tempdir().unwrap();
+    // Formats from the lens files (a phone lens's sensor, a 35 mm-ish triplet) and, for a lens
+    // that names none, the default scene camera's 70 mm.
+    let lenses = [
+        ("deeplens-phone-80deg", 7.66),
+        ("cooke-triplet-50mm-f4", 36.35),
+        ("dgauss.50mm", 70.0),
+    ];
+    let mut run = vec![
+        "render",
+        "--spp",
+        "2",
+        "--exr",
+        "run.exr",
+        "--stats",
+        "stats.json",
+    ];
+    for (lens, _) in lenses {
+        run.extend(["--lens", lens]);
+    }
+    run.extend(SMALL);
+    ok(&realcam(dir.path(), &run));
+    let stats: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.path().join("stats.json")).unwrap()).unwrap();
+    let frames = stats["frames"].as_array().unwrap();
+    for ((lens, diagonal), frame) in lenses.iter().zip(frames) {
+        assert_eq!(frame["lens"], *lens);
+        assert_eq!(frame["film_diagonal_mm"], *diagonal, "{lens}");
+        let mut alone = vec![
+            "render",
+            "--lens",
+            lens,
+            "--spp",
+            "2",
+            "--exr",
+            "alone.exr",
+            "--out",
+            "alone.png",
+        ];
+        alone.extend(SMALL);
+        ok(&realcam(dir.path(), &alone));
+        assert_eq!(
+            std::fs::read(dir.path().join(format!("render-{lens}.png"))).unwrap(),
+            std::fs::read(dir.path().join("alone.png")).unwrap(),
+            "{lens}"
+        );
+        assert_eq!(
+            exr_pixels(&dir.path().join(format!("run-{lens}.exr"))),
+            exr_pixels(&dir.path().join("alone.exr")),
+            "{lens}"
+        );
+    }
+    // --film-diagonal still puts every lens on the film it names.
+    let mut fixed = vec![
+        "render",
+        "--film-diagonal",
+        "24",
+        "--spp",
+        "1",
+        "--stats",
+        "fixed.json",
+    ];
+    for (lens, _) in &lenses[..2] {
+        fixed.extend(["--lens", lens]);
+    }
+    fixed.extend(SMALL);
+    ok(&realcam(dir.path(), &fixed));
+    let stats: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.path().join("fixed.json")).unwrap()).unwrap();
+    for frame in stats["frames"].as_array().unwrap() {
+        assert_eq!(frame["film_diagonal_mm"], 24.0, "{frame}");
+    }
+}
+
+#[test]
+fn an_implied_focus_closer_than_the_lens_reaches_is_clamped_but_an_asked_one_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let lens = realcam(dir.path(), &["lens", "dgauss.50mm", "--json"]);
+    let report: serde_json::Value = serde_json::from_slice(&lens.stdout).unwrap();
+    let closest = report["closest_focus_m"].as_f64().unwrap();
+    // Looking at a point 10 cm away implies focusing there, closer than the lens can.
+    let view = [
+        "--lens",
+        "dgauss.50mm",
+        "--look-from",
+        "0,0.5,3",
+        "--look-at",
+        "0,0.5,2.9",
+        "--spp",
+        "1",
+    ];
+    let mut implied = vec!["render", "--stats", "stats.json"];
+    implied.extend(view);
+    implied.extend(SMALL);
+    let stderr = ok(&realcam(dir.path(), &implied));
+    assert!(
+        stderr.contains("warning: ")
+            && stderr.contains("0.1000 m")
+            && stderr.contains(&format!("{closest:.4} m")),
+        "{stderr}"
+    );
+    let stats: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.path().join("stats.json")).unwrap()).unwrap();
+    let focused = stats["frames"][0]["focus_distance_m"].as_f64().unwrap();
+    assert!(
+        (focused - closest).abs() < 1e-6 * closest,
+        "{focused} vs {closest}"
+    );
+
+    let mut asked = vec!["render", "--focus-distance", "0.1"];
+    asked.extend(view);
+    asked.extend(SMALL);
+    refused(&realcam(dir.path(), &asked), &["cannot focus at 0.1000 m"]);
+}
+
+#[test]
 fn frame_n_of_a_focus_sweep_equals_a_single_render_at_that_distance() {
     let dir = tempfile::tempdir().unwrap();
     let mut args = vec![
@@ -99,6 +216,55 @@ fn frame_n_of_a_focus_sweep_equals_a_single_render_at_that_distance() {
     let a = exr_pixels(&dir.path().join("sweep-000.exr"));
     let c = exr_pixels(&dir.path().join("sweep-002.exr"));
     assert_ne!(a, c, "focus changes the picture");
+}
+
+#[test]
+fn an_f_number_sweep_renders_each_stop_as_a_single_render_at_that_f_number() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut args = vec![
+        "render",
+        "--f-number-sweep",
+        "2.8:5.6:2",
+        "--spp",
+        "1",
+        "--exr",
+        "stops.exr",
+        "--out",
+        "stops.png",
+        "--stats",
+        "stats.json",
+    ];
+    args.extend(SMALL);
+    ok(&realcam(dir.path(), &args));
+    let stats: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.path().join("stats.json")).unwrap()).unwrap();
+    for (frame, (n, name)) in [(2.8, "000-f2.8"), (5.6, "001-f5.6")].iter().enumerate() {
+        // The lens's real f-number (EFL / entrance-pupil diameter) is the one asked for.
+        let real = stats["frames"][frame]["f_number"].as_f64().unwrap();
+        assert!((real - n).abs() < 1e-3 * n, "f/{real} for f/{n}");
+        let mut single = vec![
+            "render",
+            "--f-number",
+            &n.to_string(),
+            "--spp",
+            "1",
+            "--exr",
+            "single.exr",
+            "--out",
+            "single.png",
+        ]
+        .into_iter()
+        .map(String::from)
+        .collect::<Vec<_>>();
+        single.extend(SMALL.map(String::from));
+        let single: Vec<&str> = single.iter().map(String::as_str).collect();
+        ok(&realcam(dir.path(), &single));
+        assert_eq!(
+            exr_pixels(&dir.path().join(format!("stops-{name}.exr"))),
+            exr_pixels(&dir.path().join("single.exr")),
+            "f/{n}"
+        );
+    }
 }
 
 #[test]
@@ -246,6 +412,18 @@ fn interrupted_render_resumes_to_the_uninterrupted_image() {
     );
     assert!(info.shard.is_none());
     assert_eq!(partial.samples as usize + info.remaining.len(), 30000);
+    // (Checked before the resume, which removes the checkpoint it finishes.)
+    // A checkpoint refuses other settings, naming what differs.
+    let mut other = vec!["render", "--out", "x.png", "--resume", "cut.checkpoint.exr"];
+    other.extend(CHEAP_PASSES);
+    *other.last_mut().unwrap() = "6"; // --seed
+    let output = realcam(dir.path(), &other);
+    assert_eq!(output.status.code(), Some(1));
+    assert!(
+        String::from_utf8_lossy(&output.stderr).contains("seed"),
+        "{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
 
     let mut resume = vec![
         "render",
@@ -265,17 +443,99 @@ fn interrupted_render_resumes_to_the_uninterrupted_image() {
         exr_pixels(&dir.path().join("resumed.exr")),
         exr_pixels(&dir.path().join("whole.exr"))
     );
+}
 
-    // A checkpoint refuses other settings, naming what differs.
-    let mut other = vec!["render", "--out", "x.png", "--resume", "cut.checkpoint.exr"];
-    other.extend(CHEAP_PASSES);
-    *other.last_mut().unwrap() = "6"; // --seed
-    let output = realcam(dir.path(), &other);
-    assert_eq!(output.status.code(), Some(1));
+/// A stopped render continues to more samples than it first asked for: its samples keep the
+/// stratification it began with (the sample plan of 30000) and the added ones are independent,
+/// so the picture is a render at the larger spp, but not bit for bit the one a render asking
+/// for that spp from the start gives, whose samples are all stratified over it.
+#[test]
+fn a_stopped_render_continues_to_more_samples() {
+    let dir = tempfile::tempdir().unwrap();
+    let common = CHEAP_PASSES;
+    let mut first = common.to_vec();
+    first.extend(["--exr", "cut.exr"]);
+    let (partial, _) = render_until_interrupted(dir.path(), &first, "cut.checkpoint.exr");
     assert!(
-        String::from_utf8_lossy(&output.stderr).contains("seed"),
-        "{}",
-        String::from_utf8_lossy(&output.stderr)
+        dir.path().join("cut.exr").exists(),
+        "an interruption writes --exr as well as --out"
+    );
+    let more = "30002";
+    /// Continue cut.checkpoint.exr to `spp` with `extra` options.
+    fn with_spp<'a>(spp: &'a str, extra: &[&'a str]) -> Vec<&'a str> {
+        let mut args = vec![
+            "render",
+            "--out",
+            "more.png",
+            "--resume",
+            "cut.checkpoint.exr",
+        ];
+        args.extend(CHEAP_PASSES);
+        args[6] = spp; // --spp
+        args.extend(extra);
+        args
+    }
+    // Fewer samples than the checkpoint holds, or another stop: refused, naming why.
+    let fewer = (partial.samples - 1).to_string();
+    refused(
+        &realcam(dir.path(), &with_spp(&fewer, &[])),
+        &["already holds", "resume with --spp"],
+    );
+    refused(
+        &realcam(dir.path(), &with_spp(more, &["--f-number", "4"])),
+        &["different settings (aperture)"],
+    );
+
+    ok(&realcam(
+        dir.path(),
+        &with_spp(more, &["--exr", "more.exr"]),
+    ));
+    assert!(
+        !dir.path().join("cut.checkpoint.exr").exists(),
+        "a finished resume removes its checkpoint"
+    );
+
+    // The same samples rendered in one go through the library: passes 0..30002 over the first
+    // run's sample plan.
+    let mut arguments: Vec<String> = common.iter().map(|s| s.to_string()).collect();
+    arguments[1] = more.to_string();
+    let spec = realcam::cli::render::parse_render_arguments(&arguments).unwrap();
+    let formats = realcam::job::outputs::validate(&spec).unwrap();
+    let mut job = realcam::job::Job::prepare(&spec, formats).unwrap();
+    let renderer = &mut job.renderer;
+    renderer.set_active_lens(job.lenses[0].entity);
+    renderer.set_sample_plan(30000);
+    renderer.begin_film(None).unwrap();
+    for sample in 0..30002 {
+        renderer.render_pass(sample).unwrap();
+    }
+    let reference = renderer.image();
+    assert_eq!(reference.samples, 30002);
+    realcam::film::output::write_image(
+        &dir.path().join("reference.exr"),
+        &reference,
+        realcam::film::format::ImageFormat::Exr,
+        realcam::film::format::Tone::exposure(1.0),
+    )
+    .unwrap();
+    let resumed = exr_pixels(&dir.path().join("more.exr"));
+    assert_eq!(resumed, exr_pixels(&dir.path().join("reference.exr")));
+
+    // And it is a render at that spp: its mean agrees with a direct render's to within the
+    // noise of 64 pixels × 30002 samples (per pixel, the scene's small emitters leave several
+    // per cent).
+    let mut direct = vec!["render", "--out", "direct.png", "--exr", "direct.exr"];
+    direct.extend(common);
+    direct[6] = more;
+    ok(&realcam(dir.path(), &direct));
+    let direct = exr_pixels(&dir.path().join("direct.exr"));
+    assert_ne!(resumed, direct, "the stratification differs");
+    let mean = |values: &[f32]| values.iter().map(|&v| v as f64).sum::<f64>() / values.len() as f64;
+    let (resumed_mean, direct_mean) = (mean(&resumed), mean(&direct));
+    assert!(direct_mean > 0.0);
+    assert!(
+        (resumed_mean - direct_mean).abs() < 0.03 * direct_mean,
+        "mean {resumed_mean} resumed vs {direct_mean} direct"
     );
 }
 

@@ -206,6 +206,35 @@ fn changes_are_live_and_reload_nothing() {
 }
 
 #[test]
+fn a_swapped_in_lens_renders_on_its_own_film_unless_one_is_set() {
+    let served = Served::start(SMALL);
+    // The default scene's camera names a 70 mm film for its lens, which names none.
+    assert_eq!(served.wait_until_done()["film_diagonal"], 70.0);
+    // A phone lens's sensor, from its lens file.
+    served.post("/api/settings", &json!({"lens": "deeplens-phone-80deg"}));
+    let phone = served.wait_until_done();
+    assert_eq!(phone["film_diagonal"], 7.66, "{phone}");
+    assert!(
+        !phone["command"]
+            .as_str()
+            .unwrap()
+            .contains("--film-diagonal"),
+        "{phone}"
+    );
+    // A film the user sets stays through a swap.
+    served.post("/api/settings", &json!({"film_diagonal": 24}));
+    served.post("/api/settings", &json!({"lens": "cooke-triplet-50mm-f4"}));
+    let set = served.wait_until_done();
+    assert_eq!(set["film_diagonal"], 24.0, "{set}");
+    assert!(
+        set["command"]
+            .as_str()
+            .unwrap()
+            .contains("--film-diagonal 24")
+    );
+}
+
+#[test]
 fn bad_requests_get_an_error_and_the_render_goes_on() {
     let served = Served::start(SMALL);
     let start = served.wait_until_done();

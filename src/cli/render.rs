@@ -110,6 +110,10 @@ pub struct RenderArgs {
     /// Stop sweep: FRAMES frames with the stop diameter from A to B mm (evenly in stops).
     #[arg(long, value_name = "A:B:FRAMES", allow_hyphen_values = true, conflicts_with_all = ["aperture", "f_number"])]
     pub aperture_sweep: Option<Sweep>,
+    /// Stop sweep by f-number: FRAMES frames with the real f-number from A to B, evenly in
+    /// stops (N_i = A·(B/A)^(i/(FRAMES−1))), named `<out>-000-f2.png`, ….
+    #[arg(long, value_name = "A:B:FRAMES", allow_hyphen_values = true, conflicts_with_all = ["aperture", "f_number", "aperture_sweep"])]
+    pub f_number_sweep: Option<Sweep>,
     /// Also write one picture of every render of the run, in a labelled grid (.png, .jpg or
     /// .tif).
     #[arg(long, value_name = "FILE.png")]
@@ -123,11 +127,11 @@ pub struct RenderArgs {
     pub checkpoint_every: Option<f64>,
     /// Continue the render saved in CHECKPOINT (same scene and settings, and the same --shard
     /// for a shard's checkpoint) to the target --spp.
-    #[arg(long, value_name = "CHECKPOINT", conflicts_with_all = ["focus_sweep", "aperture_sweep"])]
+    #[arg(long, value_name = "CHECKPOINT", conflicts_with_all = ["focus_sweep", "aperture_sweep", "f_number_sweep"])]
     pub resume: Option<PathBuf>,
     /// Render only the I-th (0-based) of N disjoint sample subsets, to a partial EXR that
     /// `realcam merge` combines (one shard per render-farm task).
-    #[arg(long, value_name = "I/N", allow_hyphen_values = true, conflicts_with_all = ["focus_sweep", "aperture_sweep"])]
+    #[arg(long, value_name = "I/N", allow_hyphen_values = true, conflicts_with_all = ["focus_sweep", "aperture_sweep", "f_number_sweep"])]
     pub shard: Option<Shard>,
     /// Colour from the lens's glass: `on` gives every camera ray its own wavelength, refracted
     /// with each glass's index at it (axial and lateral colour, from the glass data); `off`
@@ -178,6 +182,7 @@ impl RenderArgs {
             stats,
             focus_sweep,
             aperture_sweep,
+            f_number_sweep,
             contact_sheet,
             checkpoint,
             checkpoint_every,
@@ -218,6 +223,7 @@ impl RenderArgs {
             },
             focus_sweep,
             aperture_sweep,
+            f_number_sweep,
             output: OutputSpec {
                 out,
                 exr,

@@ -42,6 +42,7 @@ fn refuse_batch_options(args: &RenderArgs) -> anyhow::Result<()> {
     let given = [
         ("--focus-sweep", args.focus_sweep.is_some()),
         ("--aperture-sweep", args.aperture_sweep.is_some()),
+        ("--f-number-sweep", args.f_number_sweep.is_some()),
         ("--contact-sheet", args.contact_sheet.is_some()),
         ("--checkpoint", args.checkpoint.is_some()),
         ("--checkpoint-every", args.checkpoint_every.is_some()),

@@ -8,7 +8,9 @@ use anyhow::{Context, bail};
 use bevy_ecs::entity::Entity;
 use serde_json::{Value, json};
 
+use super::outputs::Formats;
 use super::plan::{Frame, Shard, sidecar};
+use super::spec::JobSpec;
 use super::{Progress, RunContext, RunLens, choose_exposure, tone};
 use crate::diagnosis::{SceneLighting, black_image};
 use crate::film::Image;
@@ -33,6 +35,7 @@ pub(super) struct FrameReport {
     pub(super) f_number: f64,
     pub(super) focus: FocusSetting,
     pub(super) film_distance_mm: f64,
+    pub(super) film_diagonal_mm: f64,
     /// What --focus-on found.
     pub(super) probe: Option<FocusProbe>,
     pub(super) lens_derivation_seconds: f64,
@@ -73,6 +76,7 @@ impl FrameReport {
             },
             "focus_on": self.probe.map(|p| p.pixel),
             "film_distance_mm": self.film_distance_mm,
+            "film_diagonal_mm": self.film_diagonal_mm,
             "lens_derivation_seconds": self.lens_derivation_seconds,
             "render_seconds": self.render_seconds,
             "samples": self.samples,
@@ -83,7 +87,8 @@ impl FrameReport {
 
 /// How a frame ended.
 pub(super) enum Outcome {
-    Finished(Box<FrameReport>, Image),
+    /// The report, the film and the checkpoints it leaves spent ([`remove_spent_checkpoints`]).
+    Finished(Box<FrameReport>, Image, Vec<PathBuf>),
     Interrupted(u8),
 }
 
@@ -98,6 +103,8 @@ pub(super) fn render_frame(
 ) -> anyhow::Result<Outcome> {
     let spec = context.spec;
     renderer.set_active_lens(lens.entity);
+    // Each lens on its own film: the lens derivation re-runs through change detection.
+    renderer.set_film(lens.film_diagonal, spec.lens.pupil_sampling);
     set_if_changed(renderer, lens.entity, frame.focus);
     set_if_changed(renderer, lens.entity, frame.aperture);
     let derivation_before = renderer.world.resource::<LensDerivationStats>().total_time;
@@ -163,11 +170,26 @@ pub(super) fn render_frame(
         Some(shard) => shard.samples(spec.spp),
         None => SampleSequence::all(spec.spp),
     };
-    let (start_image, samples) = match &spec.output.resume {
+    let Resumed {
+        image: start_image,
+        remaining: samples,
+        sample_plan,
+        spent,
+    } = match &spec.output.resume {
         Some(path) => resume_from(path, &settings, spec.spp, spec.output.shard)?,
-        None => (None, planned),
+        None => Resumed {
+            image: None,
+            remaining: planned,
+            sample_plan: spec.spp,
+            spent: None,
+        },
     };
+    let settings = with_sample_plan(settings, sample_plan, spec.spp);
+    renderer.set_sample_plan(sample_plan);
     renderer.begin_film(start_image.as_ref())?;
+    // Checkpoints this frame leaves spent once it is finished: the one it resumed and the one
+    // it saved on the way.
+    let mut spent: Vec<PathBuf> = spent.into_iter().collect();
     // The film so far and the samples still to render, for a resume (the checkpoint) or a
     // shard merge (the partial).
     let save_checkpoint = |path: &Path, image: &Image, remaining: SampleSequence| {
@@ -200,14 +222,13 @@ pub(super) fn render_frame(
             save_checkpoint(&checkpoint_path, &image, remaining)?;
             if spec.output.shard.is_none() {
                 let exposure = choose_exposure(spec, &image);
-                write_image(
-                    &frame.out,
-                    &image,
-                    context.formats.out,
-                    tone(spec, exposure),
-                )?;
+                write_frame_images(spec, &context.formats, frame, &image, exposure)?;
+                let linear = match (&frame.exr, context.formats.exr) {
+                    (Some(exr), Some(_)) => format!(" and {}", shown(exr)),
+                    _ => String::new(),
+                };
                 eprintln!(
-                    "interrupted: wrote the image so far ({} spp) to {}",
+                    "interrupted: wrote the image so far ({} spp) to {}{linear}",
                     image.samples,
                     shown(&frame.out)
                 );
@@ -226,6 +247,9 @@ pub(super) fn render_frame(
             let image = renderer.image();
             save_checkpoint(&checkpoint_path, &image, remaining)?;
             last_checkpoint = Instant::now();
+            if !spent.contains(&checkpoint_path) {
+                spent.push(checkpoint_path.clone());
+            }
         }
     }
     progress.finish();
@@ -265,13 +289,45 @@ pub(super) fn render_frame(
         f_number,
         focus: frame.focus,
         film_distance_mm,
+        film_diagonal_mm: lens.film_diagonal,
         probe,
         lens_derivation_seconds,
         render_seconds: render_start.elapsed().as_secs_f64(),
         samples: image.samples,
         warnings,
     };
-    Ok(Outcome::Finished(Box::new(report), image))
+    Ok(Outcome::Finished(Box::new(report), image, spent))
+}
+
+/// Writes a frame's picture to its `--out` at `exposure` (linear scale) and its linear film to
+/// its `--exr`, when one is asked for.
+pub(super) fn write_frame_images(
+    spec: &JobSpec,
+    formats: &Formats,
+    frame: &Frame,
+    image: &Image,
+    exposure: f32,
+) -> anyhow::Result<()> {
+    write_image(&frame.out, image, formats.out, tone(spec, exposure))?;
+    if let (Some(exr), Some(format)) = (&frame.exr, formats.exr) {
+        write_image(exr, image, format, tone(spec, 1.0))?;
+    }
+    Ok(())
+}
+
+/// Removes the checkpoints of a finished frame, once its outputs are written: continuing one
+/// would only render the frame again. Only plain files go (a checkpoint written into a FIFO or
+/// a device is not a file to delete).
+pub(super) fn remove_spent_checkpoints(spent: &[PathBuf]) {
+    for path in spent {
+        if !std::fs::symlink_metadata(path).is_ok_and(|m| m.is_file()) {
+            continue;
+        }
+        match std::fs::remove_file(path) {
+            Ok(()) => eprintln!("removed {} (the frame is finished)", path.display()),
+            Err(e) => eprintln!("warning: cannot remove {}: {e}", path.display()),
+        }
+    }
 }
 
 /// Writes a lens setting only when it differs, so change detection re-derives nothing needlessly.
@@ -317,7 +373,7 @@ fn settings_fingerprint(
         "lens_rows": rows,
         "focus": format!("{:?}", frame.focus),
         "aperture": format!("{:?}", frame.aperture),
-        "film_diagonal_mm": context.film_diagonal,
+        "film_diagonal_mm": lens.film_diagonal,
         "pupil_sampling": spec.lens.pupil_sampling,
         "width": settings.width,
         "height": settings.height,
@@ -360,14 +416,43 @@ fn settings_fingerprint(
     fingerprint
 }
 
-/// The film and the samples still to render from a checkpoint, after checking it belongs to
-/// this render.
+/// The settings key recording the sample plan (see [`SamplePlan`](crate::pipeline::SamplePlan))
+/// of a render continued past its first target.
+const SAMPLE_PLAN: &str = "sample_plan";
+
+/// `settings` with the sample plan, recorded only when it differs from the target spp (a
+/// render continued to more samples), so every other render keeps the fingerprint it always had.
+fn with_sample_plan(mut settings: Value, sample_plan: u32, spp: u32) -> Value {
+    if sample_plan != spp {
+        settings[SAMPLE_PLAN] = json!(sample_plan);
+    }
+    settings
+}
+
+/// Where a frame starts from.
+struct Resumed {
+    /// The film so far (`None`: a fresh film).
+    image: Option<Image>,
+    /// The samples still to render.
+    remaining: SampleSequence,
+    /// The samples stratified together: the target of the render that began the film.
+    sample_plan: u32,
+    /// The checkpoint continued, which the finished frame leaves spent (a finished file resumed
+    /// is not: it was no checkpoint).
+    spent: Option<PathBuf>,
+}
+
+/// Continues the checkpoint at `path` after checking it belongs to this render. A whole frame's
+/// checkpoint continues to any `spp` at least the samples it holds: its samples keep the
+/// stratification of the render that began it ([`SamplePlan`](crate::pipeline::SamplePlan)),
+/// and the samples past that plan are independent, as a render's samples past its plan always
+/// are. A shard's continues to its own target only, which its partition depends on.
 fn resume_from(
     path: &Path,
     settings: &Value,
     spp: u32,
     shard: Option<Shard>,
-) -> anyhow::Result<(Option<Image>, SampleSequence)> {
+) -> anyhow::Result<Resumed> {
     let (image, info) = read_checkpoint(path)?;
     let shard = shard.map(|s| (s.index, s.count));
     match (info.shard, shard) {
@@ -393,22 +478,20 @@ fn resume_from(
         ),
         _ => {}
     }
-    if &info.settings != settings {
-        let differing: Vec<String> = match (&info.settings, settings) {
-            (Value::Object(a), Value::Object(b)) => b
-                .keys()
-                .filter(|k| a.get(*k) != b.get(*k))
-                .cloned()
-                .collect(),
-            _ => vec!["all".into()],
-        };
+    // A whole frame may continue to another spp; a shard may not.
+    let free: &[&str] = match shard {
+        None => &["spp", SAMPLE_PLAN],
+        Some(_) => &[],
+    };
+    let differing = differing_settings(&info.settings, settings, free);
+    if !differing.is_empty() {
         bail!(
             "{}: the checkpoint was rendered with different settings ({}); resume with the same scene, lens and options",
             path.display(),
             differing.join(", ")
         );
     }
-    if info.planned != spp {
+    if shard.is_some() && info.planned != spp {
         bail!(
             "{}: the checkpoint targets {} spp, not {}",
             path.display(),
@@ -416,10 +499,11 @@ fn resume_from(
             spp
         );
     }
-    if info.remaining.is_empty() {
-        eprintln!(
-            "note: {} is already complete ({} spp)",
+    if spp < info.samples {
+        bail!(
+            "{}: the checkpoint already holds {} spp, more than --spp {spp}; resume with --spp {} or more",
             path.display(),
+            info.samples,
             info.samples
         );
     }
@@ -429,5 +513,52 @@ fn resume_from(
             path.display()
         );
     };
-    Ok((Some(image), remaining))
+    let remaining = if spp == info.planned {
+        remaining
+    } else {
+        // A whole frame renders its samples in order, so what is left is all the rest.
+        if remaining != SampleSequence::all(info.planned).after(info.samples) {
+            bail!(
+                "{}: damaged checkpoint: its remaining samples do not follow the {} it holds",
+                path.display(),
+                info.samples
+            );
+        }
+        SampleSequence::all(spp).after(info.samples)
+    };
+    if remaining.is_empty() {
+        eprintln!(
+            "note: {} is already complete ({} spp)",
+            path.display(),
+            info.samples
+        );
+    }
+    let sample_plan = match info.settings.get(SAMPLE_PLAN).and_then(Value::as_u64) {
+        Some(plan) => u32::try_from(plan).with_context(|| {
+            format!("{}: damaged checkpoint: sample plan {plan}", path.display())
+        })?,
+        None => info.planned,
+    };
+    Ok(Resumed {
+        image: Some(image),
+        remaining,
+        sample_plan,
+        spent: (!info.remaining.is_empty()).then(|| path.to_path_buf()),
+    })
+}
+
+/// The settings that differ between a checkpoint's and this render's, by name, except `free`.
+fn differing_settings(theirs: &Value, ours: &Value, free: &[&str]) -> Vec<String> {
+    match (theirs, ours) {
+        (Value::Object(a), Value::Object(b)) => {
+            let mut keys: Vec<&String> = b
+                .keys()
+                .chain(a.keys().filter(|k| !b.contains_key(*k)))
+                .collect();
+            keys.retain(|k| !free.contains(&k.as_str()) && a.get(*k) != b.get(*k));
+            keys.into_iter().cloned().collect()
+        }
+        _ if theirs == ours => Vec::new(),
+        _ => vec!["all".into()],
+    }
 }

@@ -21,7 +21,7 @@ use crate::film::Image;
 use crate::film::contact_sheet::{Thumbnail, contact_sheet};
 use crate::film::footprint::RunSize;
 use crate::film::format::{DEFAULT_JPEG_QUALITY, Tone, encode_rgb8};
-use crate::film::output::{auto_exposure, shown, to_srgb8, write_image, write_output};
+use crate::film::output::{auto_exposure, shown, to_srgb8, write_output};
 use crate::lens::Prescription;
 use crate::lens::aperture::ApertureSetting;
 use crate::lens::diaphragm::Diaphragm;
@@ -31,10 +31,13 @@ use crate::lens::io::bundled::{DEFAULT_LENS, load_lens};
 use crate::pipeline::{RenderSettings, Renderer, SceneInputs, SceneSource, SceneWarnings};
 use crate::scene::CameraHints;
 use crate::scene::default_scene::{DEFAULT_SCENE_GLB, DEFAULT_SCENE_PATH};
-use frame::{Outcome, render_frame};
+use frame::{Outcome, remove_spent_checkpoints, render_frame, write_frame_images};
 use outputs::{Formats, refuse_overwriting_scene_files};
 use plan::{FrameRequest, frame_count, plan_frames};
-use setup::{Placement, autofocus, choose_environment, frame_scene, place_camera};
+use setup::{
+    Placement, autofocus, choose_environment, film_diagonal_for, frame_scene, place_camera,
+    within_focus_range,
+};
 use spec::JobSpec;
 use stats::stats_json;
 
@@ -64,7 +67,8 @@ pub struct Job<'a> {
     pub renderer: Renderer,
     pub lenses: Vec<RunLens>,
     pub world_from_camera: Mat4,
-    pub film_diagonal: f64,
+    /// The scene camera's film diagonal (mm), for lenses that do not say their own format.
+    pub hinted_film_diagonal: Option<f64>,
     pub width: u32,
     pub height: u32,
     /// When the job started, for its wall time.
@@ -73,9 +77,11 @@ pub struct Job<'a> {
     pub diaphragm: Option<Diaphragm>,
 }
 
-/// A lens of the run: its prescription, entity and the defaults its frames start from.
+/// A lens of the run: its prescription, entity, film and the defaults its frames start from.
 pub struct RunLens {
     pub prescription: Prescription,
+    /// The film diagonal (mm) its frames render on ([`film_diagonal_for`]).
+    pub film_diagonal: f64,
     pub entity: Entity,
     pub focus: FocusSetting,
     pub aperture: ApertureSetting,
@@ -128,17 +134,15 @@ impl<'a> Job<'a> {
         for warning in prescriptions.iter().flat_map(|p| &p.warnings) {
             eprintln!("warning: {warning}");
         }
-        // The film: as asked, else the format the (first) lens was designed for (a phone lens's is
-        // a few mm), else the scene camera's.
-        let film_diagonal = spec
-            .lens
-            .film_diagonal
-            .or(prescriptions[0].info.film_diagonal_mm)
-            .or(placement.hints.film_diagonal_mm)
-            .unwrap_or(35.0);
+        let hinted_film_diagonal = placement.hints.film_diagonal_mm;
+        let film_diagonal = |lens: &Prescription| {
+            film_diagonal_for(spec.lens.film_diagonal, lens, hinted_film_diagonal)
+        };
         let (world_from_camera, framed_focus) = if placement.frame_bounds {
+            // One camera for the whole run: placed for the first lens.
             let aperture = spec.lens.aperture(ApertureSetting::Full);
-            frame_scene(&mut renderer, &prescriptions[0], aperture, film_diagonal)
+            let first = &prescriptions[0];
+            frame_scene(&mut renderer, first, aperture, film_diagonal(first))
                 .with_context(|| source_path.display().to_string())?
         } else {
             (placement.world_from_camera, placement.default_focus_m)
@@ -165,6 +169,7 @@ impl<'a> Job<'a> {
                 }
                 renderer.set_diaphragm(entity, diaphragm.clone());
                 RunLens {
+                    film_diagonal: film_diagonal(&prescription),
                     prescription,
                     entity,
                     focus,
@@ -186,13 +191,13 @@ impl<'a> Job<'a> {
         RunSize {
             width,
             height,
-            frames: frame_count(lenses.len(), spec.focus_sweep, spec.aperture_sweep)?,
+            frames: frame_count(lenses.len(), spec.focus_sweep, spec.stop_sweep())?,
             contact_sheet: spec.output.contact_sheet.is_some(),
         }
         .check()?;
         renderer.set_camera(world_from_camera);
         renderer.set_sample_plan(spec.spp);
-        renderer.set_film(film_diagonal, spec.lens.pupil_sampling);
+        renderer.set_film(lenses[0].film_diagonal, spec.lens.pupil_sampling);
         renderer.set_settings(RenderSettings {
             width,
             height,
@@ -206,7 +211,7 @@ impl<'a> Job<'a> {
             renderer,
             lenses,
             world_from_camera,
-            film_diagonal,
+            hinted_film_diagonal,
             width,
             height,
             start,
@@ -227,11 +232,11 @@ impl<'a> Job<'a> {
             mut renderer,
             lenses,
             world_from_camera,
-            film_diagonal,
             width,
             height,
             start,
             diaphragm,
+            ..
         } = self;
         let names: Vec<String> = lenses.iter().map(|l| l.prescription.name.clone()).collect();
         let focus: Vec<FocusSetting> = lenses.iter().map(|l| l.focus).collect();
@@ -243,6 +248,7 @@ impl<'a> Job<'a> {
             focus_sweep: spec.focus_sweep,
             focus_mode: spec.lens.focus_mode,
             aperture_sweep: spec.aperture_sweep,
+            f_number_sweep: spec.f_number_sweep,
             out: &spec.output.out,
             exr: spec.output.exr.as_deref(),
         });
@@ -250,7 +256,6 @@ impl<'a> Job<'a> {
             spec,
             formats,
             world_from_camera,
-            film_diagonal,
             stop,
             diaphragm: diaphragm.as_ref(),
         };
@@ -261,7 +266,7 @@ impl<'a> Job<'a> {
             let lens = &lenses[frame.lens];
             match render_frame(&context, &mut renderer, lens, frame, progress)? {
                 Outcome::Interrupted(code) => return Ok(Some(code)),
-                Outcome::Finished(mut report, image) => {
+                Outcome::Finished(mut report, image, spent) => {
                     if spec.output.shard.is_none() {
                         // One exposure per lens sequence, so a focus pull does not flicker.
                         let exposure = *exposures[frame.lens]
@@ -273,7 +278,7 @@ impl<'a> Job<'a> {
                             eprintln!("warning: {}: {warning}", shown(&frame.out));
                             report.warnings.push(warning);
                         }
-                        write_image(&frame.out, &image, formats.out, tone(spec, exposure))?;
+                        write_frame_images(spec, &formats, frame, &image, exposure)?;
                         eprintln!(
                             "wrote {} ({}×{}, {} spp, {})",
                             shown(&frame.out),
@@ -283,7 +288,6 @@ impl<'a> Job<'a> {
                             formats.out.name()
                         );
                         if let (Some(exr), Some(format)) = (&frame.exr, formats.exr) {
-                            write_image(exr, &image, format, tone(spec, 1.0))?;
                             eprintln!("wrote {} ({})", shown(exr), format.name());
                         }
                         if spec.output.contact_sheet.is_some() {
@@ -299,6 +303,7 @@ impl<'a> Job<'a> {
                             });
                         }
                     }
+                    remove_spent_checkpoints(&spent);
                     reports.push(*report);
                 }
             }
@@ -335,7 +340,6 @@ struct RunContext<'a> {
     spec: &'a JobSpec,
     formats: Formats,
     world_from_camera: Mat4,
-    film_diagonal: f64,
     /// The exit code to stop with, once the front end was asked to stop (Ctrl-C).
     stop: &'a dyn Fn() -> Option<u8>,
     diaphragm: Option<&'a Diaphragm>,
@@ -343,7 +347,8 @@ struct RunContext<'a> {
 
 /// Focus and aperture a lens starts from when the flags don't set them. A scene's film
 /// distance and stop hints were chosen for its own lens: with another lens they mean nothing,
-/// so that lens autofocuses and opens fully instead.
+/// so that lens autofocuses and opens fully instead. A focus distance the flags did not ask for
+/// is kept within the lens's reach ([`within_focus_range`]).
 pub fn lens_defaults(
     spec: &JobSpec,
     placement: &Placement,
@@ -386,7 +391,13 @@ pub fn lens_defaults(
         },
         (None, None) => autofocus(renderer, world_from_camera),
     };
-    (spec.lens.focus(fallback), aperture)
+    let implied = spec.lens.focus_distance.is_none() && spec.lens.film_distance.is_none();
+    let focus = spec.lens.focus(fallback);
+    if implied {
+        (within_focus_range(prescription, focus), aperture)
+    } else {
+        (focus, aperture)
+    }
 }
 
 pub fn choose_exposure(spec: &JobSpec, image: &Image) -> f32 {

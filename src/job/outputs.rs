@@ -76,7 +76,7 @@ pub fn check_values(spec: &JobSpec) -> anyhow::Result<()> {
 /// formats the outputs' names ask for.
 pub fn validate(spec: &JobSpec) -> anyhow::Result<Formats> {
     check_values(spec)?;
-    let frames = frame_count(spec.lenses.len(), spec.focus_sweep, spec.aperture_sweep)?;
+    let frames = frame_count(spec.lenses.len(), spec.focus_sweep, spec.stop_sweep())?;
     let outputs = outputs(spec);
     for (i, (_, a)) in outputs.iter().enumerate() {
         if outputs[..i].iter().any(|(_, b)| a == b) {

@@ -156,13 +156,16 @@ pub struct FrameRequest<'a> {
     pub focus_sweep: Option<Sweep>,
     pub focus_mode: FocusMode,
     pub aperture_sweep: Option<Sweep>,
+    /// Used when there is no `aperture_sweep`.
+    pub f_number_sweep: Option<Sweep>,
     pub out: &'a Path,
     pub exr: Option<&'a Path>,
 }
 
-/// Every frame of the run: for each lens, its focus sweep × aperture sweep (or the single
-/// setting). Outputs are named `<stem>[-<lens>][-<NNN>].<ext>`: the lens part when there are
-/// several lenses, the number when a lens has several frames.
+/// Every frame of the run: for each lens, its focus sweep × stop sweep (or the single
+/// setting). Outputs are named `<stem>[-<lens>][-<NNN>][-f<N>].<ext>`: the lens part when there
+/// are several lenses, the number when a lens has several frames, the f-number (to a tenth) in
+/// an f-number sweep.
 pub fn plan_frames(request: &FrameRequest) -> Vec<Frame> {
     let mut frames = Vec::new();
     let several_lenses = request.lens_names.len() > 1;
@@ -178,13 +181,19 @@ pub fn plan_frames(request: &FrameRequest) -> Vec<Frame> {
                 .collect(),
             None => vec![request.focus[lens]],
         };
-        let apertures: Vec<ApertureSetting> = match request.aperture_sweep {
-            Some(sweep) => sweep
+        // Stops step evenly in stops, whether named by diameter or by f-number.
+        let stops = |sweep: Sweep, setting: fn(f64) -> ApertureSetting| {
+            sweep
                 .values(Spacing::Geometric)
                 .into_iter()
-                .map(ApertureSetting::Diameter)
-                .collect(),
-            None => vec![request.aperture[lens]],
+                .map(setting)
+                .collect()
+        };
+        let apertures: Vec<ApertureSetting> = match (request.aperture_sweep, request.f_number_sweep)
+        {
+            (Some(sweep), _) => stops(sweep, ApertureSetting::Diameter),
+            (None, Some(sweep)) => stops(sweep, ApertureSetting::FNumber),
+            (None, None) => vec![request.aperture[lens]],
         };
         let sequence = focuses.len() * apertures.len() > 1;
         for (number, (focus, aperture)) in focuses
@@ -193,7 +202,7 @@ pub fn plan_frames(request: &FrameRequest) -> Vec<Frame> {
             .enumerate()
         {
             let suffix = format!(
-                "{}{}",
+                "{}{}{}",
                 if several_lenses {
                     format!("-{name}")
                 } else {
@@ -203,6 +212,12 @@ pub fn plan_frames(request: &FrameRequest) -> Vec<Frame> {
                     format!("-{number:03}")
                 } else {
                     String::new()
+                },
+                match aperture {
+                    ApertureSetting::FNumber(n) if request.f_number_sweep.is_some() => {
+                        format!("-f{}", f_number_label(n))
+                    }
+                    _ => String::new(),
                 }
             );
             frames.push(Frame {
@@ -216,6 +231,12 @@ pub fn plan_frames(request: &FrameRequest) -> Vec<Frame> {
         }
     }
     frames
+}
+
+/// An f-number as a frame's name gives it: to a tenth, without a trailing `.0` (`2`, `2.8`).
+fn f_number_label(n: f64) -> String {
+    let tenth = format!("{n:.1}");
+    tenth.strip_suffix(".0").unwrap_or(&tenth).to_string()
 }
 
 /// `dir/stem.ext` → `dir/stem<suffix>.ext`.
@@ -291,6 +312,7 @@ mod tests {
             focus_sweep: Some("1:10:3".parse().unwrap()),
             focus_mode: FocusMode::Paraxial,
             aperture_sweep: None,
+            f_number_sweep: None,
             out: Path::new("out/render.png"),
             exr: None,
         };
@@ -304,6 +326,54 @@ mod tests {
             ..request
         };
         assert_eq!(plan_frames(&single)[0].out, Path::new("out/render.png"));
+    }
+
+    #[test]
+    fn an_f_number_sweep_steps_evenly_in_stops_and_names_its_frames() {
+        let names = vec!["dgauss.50mm".to_string()];
+        let request = FrameRequest {
+            lens_names: &names,
+            focus: &[FocusSetting::default()],
+            aperture: &[ApertureSetting::Full],
+            focus_sweep: None,
+            focus_mode: FocusMode::Paraxial,
+            aperture_sweep: None,
+            f_number_sweep: Some("2:16:4".parse().unwrap()),
+            out: Path::new("out/stops.png"),
+            exr: Some(Path::new("out/stops.exr")),
+        };
+        let frames = plan_frames(&request);
+        assert_eq!(frames.len(), 4);
+        for (i, frame) in frames.iter().enumerate() {
+            // N_i = A·(B/A)^(i/(FRAMES−1)): 2, 4, 8, 16 — a stop is a factor of √2 in N, so
+            // these are two stops apart (ln(N_i+1/N_i)/ln √2 = 2).
+            let expected = 2.0 * 8f64.powf(i as f64 / 3.0);
+            let ApertureSetting::FNumber(n) = frame.aperture else {
+                panic!("{:?}", frame.aperture)
+            };
+            assert!((n - expected).abs() < 1e-12 * expected, "{n} vs {expected}");
+        }
+        let names: Vec<&Path> = frames.iter().map(|f| f.out.as_path()).collect();
+        assert_eq!(
+            names,
+            [
+                "out/stops-000-f2.png",
+                "out/stops-001-f4.png",
+                "out/stops-002-f8.png",
+                "out/stops-003-f16.png"
+            ]
+            .map(Path::new)
+        );
+        assert_eq!(
+            frames[1].exr.as_deref(),
+            Some(Path::new("out/stops-001-f4.exr"))
+        );
+        let odd = FrameRequest {
+            f_number_sweep: Some("1.4:2.8:3".parse().unwrap()),
+            ..request
+        };
+        // 1.4·√2 = 1.98: named to a tenth.
+        assert_eq!(plan_frames(&odd)[1].out, Path::new("out/stops-001-f2.png"));
     }
 
     #[test]

@@ -13,6 +13,20 @@ use crate::pipeline::{Renderer, SceneBounds};
 use crate::scene::{CameraHints, MaterialLibrary, PunctualLight, SceneCamera, look_at};
 use crate::shade::Environment;
 
+/// Film diagonal (mm) when neither the job, the lens nor the scene's camera gives one.
+pub const DEFAULT_FILM_DIAGONAL_MM: f64 = 35.0;
+
+/// The film a lens renders on: `requested` (`--film-diagonal`), else the format the lens was
+/// designed for (a phone lens's is a few mm), else the scene camera's `hinted` one, else
+/// [`DEFAULT_FILM_DIAGONAL_MM`]. Each lens of a run, and each lens a live session swaps in, gets
+/// its own, so a lens renders the same picture beside others as alone.
+pub fn film_diagonal_for(requested: Option<f64>, lens: &Prescription, hinted: Option<f64>) -> f64 {
+    requested
+        .or(lens.info.film_diagonal_mm)
+        .or(hinted)
+        .unwrap_or(DEFAULT_FILM_DIAGONAL_MM)
+}
+
 /// The camera placement chosen for a render.
 pub struct Placement {
     pub world_from_camera: Mat4,
@@ -195,6 +209,40 @@ pub fn frame_scene(
     Ok((look_at(eye, center, Vec3::Y), Some(distance)))
 }
 
+/// An implied focus (the scene camera's, the look-at point's, the framing's or autofocus) that
+/// is closer than `prescription` can focus, moved out to its closest focus with a warning naming
+/// both distances: the user asked for no distance, so the nearest sharp one serves. An explicit
+/// `--focus-distance` is not passed here; the lens refuses it with its own message.
+pub fn within_focus_range(prescription: &Prescription, focus: FocusSetting) -> FocusSetting {
+    let FocusSetting::Distance { metres, mode } = focus else {
+        return focus;
+    };
+    let lens = Lens {
+        name: prescription.name.clone(),
+        source: prescription.source.clone(),
+        format: prescription.format,
+    };
+    // A lens that does not derive is reported when its frame is rendered.
+    let Ok(geometry) = build_geometry(&lens, &prescription.rows, ApertureSetting::Full) else {
+        return focus;
+    };
+    let closest_mm = closest_focus_mm(&geometry.system, &geometry.first_order);
+    if metres * 1000.0 >= closest_mm {
+        return focus;
+    }
+    eprintln!(
+        "warning: {}: the implied focus distance {metres:.4} m is closer than the lens can focus; focusing at its closest, {:.4} m",
+        prescription.name,
+        closest_mm / 1000.0
+    );
+    FocusSetting::Distance {
+        // At the closest conjugate the focus equation's discriminant is zero, which rounding can
+        // make a hair negative: a part in 10⁹ farther (a micrometre at a metre) stays solvable.
+        metres: closest_mm * (1.0 + 1e-9) / 1000.0,
+        mode,
+    }
+}
+
 /// Focus on whatever the image centre sees, like a camera's autofocus; 10 m on a miss.
 pub fn autofocus(renderer: &mut Renderer, world_from_camera: Mat4) -> FocusSetting {
     let origin = world_from_camera.transform_point3(Vec3::ZERO);
@@ -214,6 +262,55 @@ pub fn autofocus(renderer: &mut Renderer, world_from_camera: Mat4) -> FocusSetti
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::lens::bundled::load_lens;
+    use crate::lens::elements::film_distance_for;
+    use crate::lens::focus::FocusMode;
+
+    #[test]
+    fn an_implied_focus_too_close_is_moved_out_to_the_closest_focus() {
+        let lens = load_lens("dgauss.50mm", None).unwrap();
+        let element = Lens {
+            name: lens.name.clone(),
+            source: lens.source.clone(),
+            format: lens.format,
+        };
+        let geometry = build_geometry(&element, &lens.rows, ApertureSetting::Full).unwrap();
+        // The thick-lens closest conjugate: L = EFL·(2 + A + D) from the rear vertex.
+        let m = geometry.first_order.system;
+        let closest_m = (geometry.first_order.focal_length * (2.0 + m.a + m.d)
+            + geometry.system.rear_z())
+            / 1000.0;
+        for mode in [FocusMode::Paraxial, FocusMode::Best] {
+            let near = FocusSetting::Distance {
+                metres: closest_m * 0.97,
+                mode,
+            };
+            assert!(
+                film_distance_for(&geometry, near).is_err(),
+                "too close as asked"
+            );
+            let moved = within_focus_range(&lens, near);
+            let FocusSetting::Distance { metres, mode: kept } = moved else {
+                panic!("{moved:?}")
+            };
+            assert_eq!(kept, mode);
+            assert!(
+                (metres - closest_m).abs() < 1e-6 * closest_m,
+                "{metres} vs {closest_m}"
+            );
+            assert!(film_distance_for(&geometry, moved).is_ok(), "{mode:?}");
+        }
+        // Within reach, and film distances, stay as they are.
+        for focus in [
+            FocusSetting::Distance {
+                metres: closest_m * 1.5,
+                mode: FocusMode::Paraxial,
+            },
+            FocusSetting::FilmDistance(40.0),
+        ] {
+            assert_eq!(within_focus_range(&lens, focus), focus);
+        }
+    }
 
     fn camera(index: usize, name: Option<&str>) -> SceneCamera {
         SceneCamera {

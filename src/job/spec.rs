@@ -51,6 +51,9 @@ pub struct JobSpec {
     pub focus_sweep: Option<Sweep>,
     /// A stop sweep: frames from one stop diameter to another.
     pub aperture_sweep: Option<Sweep>,
+    /// A stop sweep by f-number: frames from one real f-number to another. At most one of the
+    /// two sweeps.
+    pub f_number_sweep: Option<Sweep>,
     /// What is written, and where.
     pub output: OutputSpec,
 }
@@ -180,8 +183,14 @@ impl JobSpec {
             movements: FilmMovements::default(),
             focus_sweep: None,
             aperture_sweep: None,
+            f_number_sweep: None,
             output: OutputSpec::image(out),
         }
+    }
+
+    /// The stop sweep, by diameter or by f-number: the frames each focus gets.
+    pub fn stop_sweep(&self) -> Option<Sweep> {
+        self.aperture_sweep.or(self.f_number_sweep)
     }
 
     /// The film movements, `None` when there are none.

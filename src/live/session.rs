@@ -17,6 +17,7 @@ use crate::film::format::{ImageFormat, Tone};
 use crate::film::output::{auto_exposure, write_image};
 use crate::job::frame::set_if_changed;
 use crate::job::outputs::Formats;
+use crate::job::setup::film_diagonal_for;
 use crate::job::spec::JobSpec;
 use crate::job::{Job, tone};
 use crate::lens::Prescription;
@@ -34,6 +35,7 @@ pub const PREVIEW_SIDE: u32 = 128;
 pub struct Session {
     renderer: Renderer,
     settings: LiveSettings,
+    /// `settings` as the render takes them: parsed, with the film diagonal filled in.
     spec: JobSpec,
     library: LensLibrary,
     /// The front end's parser of the settings (`realcam render`'s options).
@@ -43,6 +45,8 @@ pub struct Session {
     prescription: Prescription,
     /// What `realcam render --lens` takes for this lens (a lens folder's file by its path).
     lens_argument: String,
+    /// The scene camera's film diagonal (mm), for a lens that does not say its own format.
+    hinted_film_diagonal: Option<f64>,
     formats: Formats,
     /// Where Save writes the picture and the linear film.
     out: PathBuf,
@@ -79,7 +83,7 @@ impl Session {
             mut renderer,
             mut lenses,
             formats,
-            film_diagonal,
+            hinted_film_diagonal,
             width,
             height,
             ..
@@ -131,7 +135,6 @@ impl Session {
             ApertureSetting::Diameter(mm) => settings.set("aperture", format!("{mm}")),
             ApertureSetting::FNumber(n) => settings.set("f_number", format!("{n}")),
         }
-        settings.set("film_diagonal", format!("{film_diagonal}"));
         settings.set("width", width.to_string());
         settings.set("height", height.to_string());
         let spec = settings.parse(&parser).map_err(anyhow::Error::msg)?;
@@ -145,16 +148,18 @@ impl Session {
             lens_name,
             prescription: first.prescription,
             lens_argument,
+            hinted_film_diagonal,
             formats,
             out,
             exr,
             spp_done: 0,
             warning: None,
         };
-        let (settings, spec) = (session.settings.clone(), session.spec.clone());
+        let (settings, mut spec) = (session.settings.clone(), session.spec.clone());
         session
-            .switch(&settings, &spec)
+            .switch(&settings, &mut spec)
             .map_err(anyhow::Error::msg)?;
+        session.spec = spec;
         if let Some([x, y]) = focus_on {
             let focus = session
                 .focus_at_pixel(x as f64 + 0.5, y as f64 + 0.5)
@@ -205,7 +210,7 @@ impl Session {
     /// Switches to `next`; on a refusal (a bad value, a lens that cannot focus there) keeps the
     /// current settings and says why.
     pub fn apply(&mut self, next: LiveSettings) -> Result<(), String> {
-        let spec = next.parse(&self.parser)?;
+        let mut spec = next.parse(&self.parser)?;
         crate::job::outputs::check_values(&spec).map_err(|e| e.to_string())?;
         let (width, height) = (spec.width.unwrap_or(512), spec.height.unwrap_or(512));
         RunSize {
@@ -216,8 +221,8 @@ impl Session {
         }
         .check()
         .map_err(|e| e.to_string())?;
-        let (settings, current) = (self.settings.clone(), self.spec.clone());
-        match self.switch(&next, &spec) {
+        let (settings, mut current) = (self.settings.clone(), self.spec.clone());
+        match self.switch(&next, &mut spec) {
             Ok(()) => {
                 self.settings = next;
                 self.spec = spec;
@@ -225,7 +230,7 @@ impl Session {
             }
             Err(refusal) => {
                 // Back to what worked; it derived before, so it derives again.
-                if let Err(e) = self.switch(&settings, &current) {
+                if let Err(e) = self.switch(&settings, &mut current) {
                     return Err(format!("{refusal}; and restoring the settings failed: {e}"));
                 }
                 Err(refusal)
@@ -234,7 +239,9 @@ impl Session {
     }
 
     /// Writes the lens components and resources `spec` asks for, each only when it differs.
-    fn switch(&mut self, settings: &LiveSettings, spec: &JobSpec) -> Result<(), String> {
+    /// A film diagonal `spec` leaves open is filled in with the one the lens renders on (its
+    /// own format, as `realcam render` gives it), so the lens report and the state show it.
+    fn switch(&mut self, settings: &LiveSettings, spec: &mut JobSpec) -> Result<(), String> {
         let name = settings.get("lens").unwrap_or(&self.lens_name).to_string();
         let current_focus = *self
             .renderer
@@ -265,11 +272,12 @@ impl Session {
         // The diaphragm and the film movements are the session's, whichever lens is on.
         self.renderer.set_diaphragm(self.lens, diaphragm);
         self.renderer.set_movements(self.lens, spec.movements());
-        let film_diagonal = spec
-            .lens
-            .film_diagonal
-            .or(self.prescription.info.film_diagonal_mm)
-            .unwrap_or(35.0);
+        let film_diagonal = film_diagonal_for(
+            spec.lens.film_diagonal,
+            &self.prescription,
+            self.hinted_film_diagonal,
+        );
+        spec.lens.film_diagonal = Some(film_diagonal);
         self.renderer
             .set_film(film_diagonal, spec.lens.pupil_sampling);
         self.renderer.set_sample_plan(spec.spp);
@@ -437,6 +445,7 @@ impl Session {
                 }),
             ),
             ("pupil_sampling", json!(options.pupil_sampling)),
+            ("film_diagonal", json!(options.film_diagonal)),
         ];
         for (name, value) in effective {
             if json.get(name).is_none_or(Value::is_null) {
