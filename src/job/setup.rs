@@ -262,7 +262,7 @@ pub fn autofocus(renderer: &mut Renderer, world_from_camera: Mat4) -> FocusSetti
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::lens::bundled::load_lens;
+    use crate::lens::io::bundled::load_lens;
     use crate::lens::elements::film_distance_for;
     use crate::lens::focus::FocusMode;
 
