@@ -2,7 +2,7 @@
 //! scenes checked against transforms computed by hand, and corrupt files that must give an
 //! error naming the file (never a panic).
 
-mod support;
+use crate::support;
 
 use std::f32::consts::FRAC_PI_4;
 use std::path::Path;

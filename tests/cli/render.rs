@@ -1,7 +1,7 @@
 //! `realcam render` from the outside: lens runs and sweeps, stats, interruption and resume,
 //! shards, determinism across thread counts.
 
-mod support;
+use crate::support;
 
 use support::cli::{ok, realcam, refused};
 

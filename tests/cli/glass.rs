@@ -1,6 +1,6 @@
 //! `realcam glass` from the outside: the text and JSON a user and a script see, and errors.
 
-mod support;
+use crate::support;
 
 use support::cli::realcam_texts;
 

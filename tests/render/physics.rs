@@ -1,6 +1,6 @@
 //! Whole renders checked against physical facts computed independently of the renderer.
 
-mod support;
+use crate::support;
 
 use std::path::Path;
 

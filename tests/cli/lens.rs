@@ -1,6 +1,6 @@
 //! `realcam lens` from the outside: JSON keys, ray tracing over stdin, diagrams, bad files.
 
-mod support;
+use crate::support;
 
 use support::cli::realcam_texts as realcam;
 

@@ -2,7 +2,7 @@
 //! independently of the renderer: paraxial blur sizes, polygon areas and corner angles, the
 //! light a hexagon passes; and from the command line: bad values, fingerprints, lens runs.
 
-mod support;
+use crate::support;
 
 use support::cli::{ok, realcam, refused, refused_by_parser};
 

@@ -31,7 +31,7 @@ fn submit_script() -> PathBuf {
 /// Prints past the test harness's capture, so that a skip and the measurements show in
 /// `cargo test`'s output.
 fn report(text: &str) {
-    let _ = writeln!(std::io::stderr(), "farm_slurm: {text}");
+    let _ = writeln!(std::io::stderr(), "farm::slurm: {text}");
 }
 
 fn text(bytes: &[u8]) -> String {
@@ -169,7 +169,7 @@ impl Cluster {
         let host = fs::read_to_string("/proc/sys/kernel/hostname").unwrap();
         let host = host.trim().split('.').next().unwrap().to_string();
         let config = format!(
-            "# A one-node test cluster (tests/farm_slurm.rs).
+            "# A one-node test cluster (tests/farm/slurm.rs).
 ClusterName=realcamtest
 SlurmctldHost={host}(127.0.0.1)
 SlurmctldPort={ctld_port}

@@ -4,6 +4,7 @@
 use std::path::Path;
 
 use proptest::prelude::*;
+use proptest::test_runner::FileFailurePersistence;
 use realcam::batch::RayBatch;
 use realcam::lens::first_order::FirstOrder;
 use realcam::lens::focus::paraxial_film_distance;
@@ -56,7 +57,13 @@ fn mutate(text: &str, edits: &[(usize, u8, u8)]) -> String {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 200, ..ProptestConfig::default() })]
+    // Saved failing cases live beside this file (properties.proptest-regressions). proptest's
+    // default would put them under tests/proptest-regressions/ now that main.rs sits here.
+    #![proptest_config(ProptestConfig {
+        cases: 200,
+        failure_persistence: Some(Box::new(FileFailurePersistence::WithSource("proptest-regressions"))),
+        ..ProptestConfig::default()
+    })]
 
     #[test]
     fn arbitrary_text_never_panics(text in "\\PC{0,400}") {

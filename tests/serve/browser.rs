@@ -4,7 +4,7 @@
 //! film shift, and sees the image change each time. Skipped, saying so, when no Chromium is installed — unless
 //! `REALCAM_REQUIRE_CHROMIUM=1` (CI: `.ci/run` installs Debian's `chromium`).
 
-mod live_server;
+use crate::live_server;
 
 use std::fs::File;
 use std::io::{Read, Write};
@@ -310,8 +310,8 @@ fn the_page_changes_lens_and_focus_and_shows_the_new_image() {
     );
 }
 
-/// Takes README's screenshot: `REALCAM_SCREENSHOT=docs/serve.png cargo test --release --test
-/// serve_browser -- --ignored`.
+/// Takes README's screenshot: `REALCAM_SCREENSHOT=docs/serve.png cargo test --release --test serve
+/// browser::readme_screenshot -- --ignored`.
 #[test]
 #[ignore = "writes the README screenshot when REALCAM_SCREENSHOT names the file"]
 fn readme_screenshot() {

@@ -2,7 +2,7 @@
 //! lit only from behind, each get a warning naming the cause (exit 0, recorded in --stats);
 //! the same scenes lit properly get none. The scenes are built here by hand.
 
-mod support;
+use crate::support;
 
 use support::cli::realcam;
 

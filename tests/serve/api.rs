@@ -2,7 +2,7 @@
 //! bad requests that leave the render running, the lens path rules, click to focus, Save and
 //! Ctrl-C.
 
-mod live_server;
+use crate::live_server;
 
 use std::process::Command;
 use std::time::Duration;

@@ -4,7 +4,7 @@
 
 #![cfg(unix)]
 
-mod support;
+use crate::support;
 
 use support::cli::{command, ok, realcam, refused, stderr};
 

@@ -1,7 +1,7 @@
 //! One scene, many lenses: swapping lens entity sets and editing them never reloads the
 //! scene or rebuilds the BVH, and gives back exactly the image it gave before.
 
-mod support;
+use crate::support;
 
 use bevy_ecs::entity::Entity;
 use glam::Vec3;

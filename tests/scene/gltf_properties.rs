@@ -3,7 +3,7 @@
 //! indices either load or give an error naming the file; a scene that loads has only finite
 //! positions and in-range indices.
 
-mod support;
+use crate::support;
 
 use std::path::Path;
 

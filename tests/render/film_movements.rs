@@ -3,7 +3,7 @@
 //! focuses on the plane the hinge rule predicts, and the camera weight on a moved film is the
 //! irradiance integral over the rear element.
 
-mod support;
+use crate::support;
 
 use support::cli::realcam;
 

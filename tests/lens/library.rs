@@ -5,7 +5,7 @@
 //! lentil, the makers' marked values, the Zemax file's targets), not from realcam: see each
 //! lens file's `notes` and lenses/README.md for where each comes from.
 
-mod support;
+use crate::support;
 
 use support::cli::realcam_texts;
 

@@ -5,7 +5,7 @@
 //!
 //! The small bad files live in `tests/data/bad/` (see its README); large ones are made here.
 
-mod support;
+use crate::support;
 
 use std::io::Read;
 use std::path::{Path, PathBuf};

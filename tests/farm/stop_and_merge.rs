@@ -2,7 +2,7 @@
 //! delivered twice still saves the checkpoint, and `realcam merge` names the exact command that
 //! finishes a stopped shard — a command that works when run as printed.
 
-mod support;
+use crate::support;
 
 use support::cli::{ok, realcam};
 

@@ -2,7 +2,7 @@
 //! `realcam lens` reports, renders that part blue and red where the optics says they part, and
 //! lenses without glass data rendering exactly what they did before glass existed.
 
-mod support;
+use crate::support;
 
 use support::cli::realcam_texts;
 

@@ -15,7 +15,7 @@ const REALCAM: &str = env!("CARGO_BIN_EXE_realcam");
 const MANIFESTS: [&str; 3] = ["volumes.yaml", "shards.yaml", "merge.yaml"];
 
 fn report(text: &str) {
-    let _ = writeln!(std::io::stderr(), "farm_kubernetes: {text}");
+    let _ = writeln!(std::io::stderr(), "farm::kubernetes: {text}");
 }
 
 fn text(bytes: &[u8]) -> String {

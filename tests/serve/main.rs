@@ -1,0 +1,10 @@
+//! `realcam serve`: its JSON API over loopback, and its page in a headless browser.
+//!
+//! One test binary for the area (one module per topic) so that `cargo test` links the crate
+//! a handful of times, not once per file.
+
+#[path = "../live_server/mod.rs"]
+mod live_server;
+
+mod api;
+mod browser;
