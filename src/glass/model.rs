@@ -27,7 +27,7 @@
 //!
 //! Outside the catalogue's range of n_d and V_d the shape is taken at the nearest point of
 //! that range ([`N_D_RANGE`], [`V_D_RANGE`]); n_d and n_F − n_C stay exact. How close the model
-//! comes to the catalogue: `tests/glass_model.rs` (normal glasses within 3·10⁻⁴ over
+//! comes to the catalogue: `tests/lens/glass_model.rs` (normal glasses within 3·10⁻⁴ over
 //! 400–700 nm) and [`catalogue_deviation`].
 
 use super::catalogue::{CatalogueGlass, catalogue};
