@@ -37,7 +37,7 @@ fn lab() -> LiveLab {
     let spec = settings.parse(&parser).expect("render arguments");
     let formats = validate(&spec).unwrap();
     let job = Job::prepare(&spec, formats).unwrap();
-    let library = LensLibrary::new(Vec::new(), None, None).unwrap();
+    let library = LensLibrary::new(Vec::new(), None, Default::default()).unwrap();
     let (flag, cancel) = LiveLab::cancel_flag();
     let session = Session::new(job, settings, parser, library, cancel).unwrap();
     let lab = LiveLab::start(session, flag);

@@ -19,7 +19,7 @@ use crate::film::output::{
 };
 use crate::glass::FRAUNHOFER_D_NM;
 use crate::lens::diagram::draw_diagram;
-use crate::lens::io::bundled::load_lens;
+use crate::lens::io::bundled::read_lens;
 use crate::lens::io::export::export_text;
 use crate::lens::pupil_view::PupilViews;
 use crate::lens::report::LensReport;
@@ -71,7 +71,8 @@ pub fn run(args: &LensArgs) -> anyhow::Result<ExitCode> {
             args.wavelength
         );
     }
-    let prescription = load_lens(&args.file, args.lens.lens_format)?;
+    let settings = args.lens.settings();
+    let prescription = read_lens(&args.file, &settings.reading())?;
     for warning in &prescription.warnings {
         eprintln!("warning: {warning}");
     }
@@ -115,8 +116,7 @@ pub fn run(args: &LensArgs) -> anyhow::Result<ExitCode> {
         }
         None => None,
     };
-    let report =
-        LensReport::derive(prescription, &args.lens.settings())?.at_wavelength(args.wavelength)?;
+    let report = LensReport::derive(prescription, &settings)?.at_wavelength(args.wavelength)?;
     if let (Some(path), Some(format)) = (&args.pupil_view, pupil_view_format) {
         write_pupil_view(&report, path, format)?;
     }

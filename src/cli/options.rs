@@ -9,6 +9,7 @@ use super::values::{number, whole};
 
 use crate::lens::LensFormat;
 use crate::lens::focus::FocusMode;
+use crate::lens::io::GlassSubstitute;
 use crate::lens::pupil::PupilSampling;
 use crate::lens::settings::LensSettings;
 
@@ -68,6 +69,11 @@ pub struct LensOptions {
     /// row up, as seen from the film.
     #[arg(long, value_name = "FILE.png")]
     pub aperture_image: Option<PathBuf>,
+    /// Read a Zemax file's glass NAME as GLASS: a catalogue glass (S-TIM28, ohara:S-TIM28) or
+    /// a model glass N_D,V_D; the way round a glass realcam's catalogue lacks. Repeat it for
+    /// several glasses.
+    #[arg(long, value_name = "NAME=GLASS", allow_hyphen_values = true)]
+    pub glass: Vec<GlassSubstitute>,
 }
 
 impl LensOptions {
@@ -86,6 +92,7 @@ impl LensOptions {
             blade_rotation,
             blade_curvature,
             aperture_image,
+            glass,
         } = self.clone();
         LensSettings {
             focus_distance,
@@ -100,6 +107,7 @@ impl LensOptions {
             blade_rotation,
             blade_curvature,
             aperture_image,
+            glasses: glass,
         }
     }
 }

@@ -96,7 +96,7 @@ pub fn run(args: &ServeArgs) -> anyhow::Result<ExitCode> {
     let library = LensLibrary::new(
         args.render.lens.clone(),
         args.lens_dir.as_deref(),
-        render.lens.lens_format,
+        render.lens.reading(),
     )?;
     if let Some(threads) = render.threads {
         rayon::ThreadPoolBuilder::new()

@@ -171,7 +171,7 @@ pub fn read_checkpoint(path: &Path) -> anyhow::Result<(Image, CheckpointInfo)> {
         .first_valid_layer()
         .all_attributes()
         .from_file(path)
-        .with_context(|| format!("{}: not a readable OpenEXR checkpoint", path.display()))?;
+        .map_err(|e| not_readable(path, e))?;
     let layer = &file.layer_data;
     let Some(AttributeValue::Text(text)) = layer.attributes.other.get(&Text::from(ATTRIBUTE))
     else {
@@ -205,11 +205,20 @@ pub fn read_checkpoint(path: &Path) -> anyhow::Result<(Image, CheckpointInfo)> {
     Ok((image, info))
 }
 
+/// A checkpoint the EXR reader could not read. exr's errors repeat their source in their own
+/// text, so the message takes that text alone (a missing file is named once, not twice).
+fn not_readable(path: &Path, error: exr::error::Error) -> anyhow::Error {
+    anyhow::anyhow!(
+        "{}: not a readable OpenEXR checkpoint: {error}",
+        path.display()
+    )
+}
+
 /// Refuses a file whose header claims an image larger than realcam renders or than memory
 /// holds, before any pixel is read.
 fn check_size(path: &Path) -> anyhow::Result<()> {
-    let meta = exr::meta::MetaData::read_from_file(path, false)
-        .with_context(|| format!("{}: not a readable OpenEXR checkpoint", path.display()))?;
+    let meta =
+        exr::meta::MetaData::read_from_file(path, false).map_err(|e| not_readable(path, e))?;
     for header in &meta.headers {
         let (width, height) = (header.layer_size.width(), header.layer_size.height());
         if width > MAX_IMAGE_SIDE as usize || height > MAX_IMAGE_SIDE as usize {

@@ -173,19 +173,15 @@ pub(super) fn render_frame(
     let Resumed {
         image: start_image,
         remaining: samples,
-        sample_plan,
         spent,
     } = match &spec.output.resume {
         Some(path) => resume_from(path, &settings, spec.spp, spec.output.shard)?,
         None => Resumed {
             image: None,
             remaining: planned,
-            sample_plan: spec.spp,
             spent: None,
         },
     };
-    let settings = with_sample_plan(settings, sample_plan, spec.spp);
-    renderer.set_sample_plan(sample_plan);
     renderer.begin_film(start_image.as_ref())?;
     // Checkpoints this frame leaves spent once it is finished: the one it resumed and the one
     // it saved on the way.
@@ -416,37 +412,22 @@ fn settings_fingerprint(
     fingerprint
 }
 
-/// The settings key recording the sample plan (see [`SamplePlan`](crate::pipeline::SamplePlan))
-/// of a render continued past its first target.
-const SAMPLE_PLAN: &str = "sample_plan";
-
-/// `settings` with the sample plan, recorded only when it differs from the target spp (a
-/// render continued to more samples), so every other render keeps the fingerprint it always had.
-fn with_sample_plan(mut settings: Value, sample_plan: u32, spp: u32) -> Value {
-    if sample_plan != spp {
-        settings[SAMPLE_PLAN] = json!(sample_plan);
-    }
-    settings
-}
-
 /// Where a frame starts from.
 struct Resumed {
     /// The film so far (`None`: a fresh film).
     image: Option<Image>,
     /// The samples still to render.
     remaining: SampleSequence,
-    /// The samples stratified together: the target of the render that began the film.
-    sample_plan: u32,
     /// The checkpoint continued, which the finished frame leaves spent (a finished file resumed
     /// is not: it was no checkpoint).
     spent: Option<PathBuf>,
 }
 
 /// Continues the checkpoint at `path` after checking it belongs to this render. A whole frame's
-/// checkpoint continues to any `spp` at least the samples it holds: its samples keep the
-/// stratification of the render that began it ([`SamplePlan`](crate::pipeline::SamplePlan)),
-/// and the samples past that plan are independent, as a render's samples past its plan always
-/// are. A shard's continues to its own target only, which its partition depends on.
+/// checkpoint continues to any `spp` at least the samples it holds: sample *k* of a pixel is the
+/// same whatever the target (the camera's sequences are progressive), so the result is the
+/// render made at that spp directly. A shard's continues to its own target only, which its
+/// partition depends on.
 fn resume_from(
     path: &Path,
     settings: &Value,
@@ -480,7 +461,7 @@ fn resume_from(
     }
     // A whole frame may continue to another spp; a shard may not.
     let free: &[&str] = match shard {
-        None => &["spp", SAMPLE_PLAN],
+        None => &["spp"],
         Some(_) => &[],
     };
     let differing = differing_settings(&info.settings, settings, free);
@@ -533,16 +514,9 @@ fn resume_from(
             info.samples
         );
     }
-    let sample_plan = match info.settings.get(SAMPLE_PLAN).and_then(Value::as_u64) {
-        Some(plan) => u32::try_from(plan).with_context(|| {
-            format!("{}: damaged checkpoint: sample plan {plan}", path.display())
-        })?,
-        None => info.planned,
-    };
     Ok(Resumed {
         image: Some(image),
         remaining,
-        sample_plan,
         spent: (!info.remaining.is_empty()).then(|| path.to_path_buf()),
     })
 }

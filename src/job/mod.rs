@@ -26,8 +26,9 @@ use crate::lens::Prescription;
 use crate::lens::aperture::ApertureSetting;
 use crate::lens::diaphragm::Diaphragm;
 use crate::lens::elements::FocusSetting;
+use crate::lens::focus::FocusMode;
 use crate::lens::focus_probe::FocusOnPixel;
-use crate::lens::io::bundled::{DEFAULT_LENS, load_lens};
+use crate::lens::io::bundled::{DEFAULT_LENS, load_lens, read_lens};
 use crate::pipeline::{RenderSettings, Renderer, SceneInputs, SceneSource, SceneWarnings};
 use crate::scene::CameraHints;
 use crate::scene::default_scene::{DEFAULT_SCENE_GLB, DEFAULT_SCENE_PATH};
@@ -129,7 +130,7 @@ impl<'a> Job<'a> {
         };
         let prescriptions = names
             .iter()
-            .map(|name| load_lens(name, spec.lens.lens_format))
+            .map(|name| read_lens(name, &spec.lens.reading()))
             .collect::<Result<Vec<_>, _>>()?;
         for warning in prescriptions.iter().flat_map(|p| &p.warnings) {
             eprintln!("warning: {warning}");
@@ -196,7 +197,6 @@ impl<'a> Job<'a> {
         }
         .check()?;
         renderer.set_camera(world_from_camera);
-        renderer.set_sample_plan(spec.spp);
         renderer.set_film(lenses[0].film_diagonal, spec.lens.pupil_sampling);
         renderer.set_settings(RenderSettings {
             width,
@@ -393,6 +393,19 @@ pub fn lens_defaults(
     };
     let implied = spec.lens.focus_distance.is_none() && spec.lens.film_distance.is_none();
     let focus = spec.lens.focus(fallback);
+    // The mode chooses a film distance for a focus distance: with the film distance given,
+    // it has nothing to choose, which the user who asked for it should hear.
+    if let (FocusMode::Best, FocusSetting::FilmDistance(mm)) = (spec.lens.focus_mode, focus) {
+        let source = if spec.lens.film_distance.is_some() {
+            "--film-distance"
+        } else {
+            "the scene camera's film-distance hint"
+        };
+        eprintln!(
+            "note: {}: --focus-mode best chooses the film distance for a focus distance, but the film distance ({mm} mm) is set by {source}; give --focus-distance to focus in best mode",
+            prescription.name
+        );
+    }
     if implied {
         (within_focus_range(prescription, focus), aperture)
     } else {

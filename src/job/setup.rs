@@ -262,9 +262,9 @@ pub fn autofocus(renderer: &mut Renderer, world_from_camera: Mat4) -> FocusSetti
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::lens::io::bundled::load_lens;
     use crate::lens::elements::film_distance_for;
     use crate::lens::focus::FocusMode;
+    use crate::lens::io::bundled::load_lens;
 
     #[test]
     fn an_implied_focus_too_close_is_moved_out_to_the_closest_focus() {

@@ -28,7 +28,7 @@ use super::trace::Travel;
 use super::trace_batch::{Isa, Wavelengths, trace_batch, trace_batch_spectral};
 use crate::batch::RayBatch;
 use crate::sampling::sobol::owen_sobol;
-use crate::sampling::{CorrelatedMultiJitter, Rng, hash32};
+use crate::sampling::{Rng, hash32};
 use crate::spectral::sample_wavelength;
 
 /// Where the camera stands: the rigid transform from the camera frame (see above) to the world.
@@ -210,10 +210,6 @@ pub struct LensCamera<'a> {
     pub film: FilmGeometry,
     /// Rigid transform from the camera frame (see module docs) to the world.
     pub world_from_camera: Mat4,
-    /// The render's target spp: samples 0..this are stratified together; beyond it (or when
-    /// 0) samples are independent. Plans beyond [`CorrelatedMultiJitter::MAX_COUNT`] stratify
-    /// that many.
-    pub samples_per_pixel: u32,
     /// When set, every camera ray gets its own wavelength and is refracted with the lens's
     /// indices at it (a lens with glass data, dispersion on); `None`: all at the lens's own
     /// indices, as the lens file gives them.
@@ -242,8 +238,6 @@ struct Scratch {
     py: Vec<f32>,
     /// Film points' depth behind the rear-vertex plane on a tilted film.
     depth: Vec<f32>,
-    /// Pattern keys: film, pupil, wavelength.
-    keys: [Vec<u32>; 3],
     /// The camera sample: film jitter x, y; pupil u, v; wavelength (and an unused partner).
     u: [Vec<f32>; 6],
 }
@@ -280,9 +274,6 @@ impl LensCamera<'_> {
             scratch.py.push(y as f32);
         }
         let n = scratch.pixel.len();
-        for v in &mut scratch.keys {
-            v.resize(n, 0);
-        }
         for v in &mut scratch.u {
             v.resize(n, 0.0);
         }
@@ -365,53 +356,35 @@ impl LensCamera<'_> {
     }
 
     /// The camera sample (film jitter, pupil point, and in a spectral render the wavelength) of
-    /// `sample` in every scratch pixel. Film jitter: a correlated multi-jittered 2D pattern over
-    /// the planned samples, keyed per pixel; independent random numbers past the plan. Pupil
-    /// point: the same with a pattern of its own; in a spectral render, pupil point and
-    /// wavelength instead come together from a pixel's Owen-scrambled Sobol points, stratified
-    /// in the three dimensions jointly (the lens weight varies over the pupil and the film's
-    /// colour weights over the wavelength: only a joint pattern keeps their product from
-    /// adding both variances; see [`crate::sampling::sobol`]).
+    /// `sample` in every scratch pixel, from each pixel's Owen-scrambled Sobol points (see
+    /// [`crate::sampling::sobol`]). Film jitter and pupil point are each a 2D pattern of their
+    /// own; in a spectral render pupil point and wavelength come together, stratified in the
+    /// three dimensions jointly (the lens weight varies over the pupil and the film's colour
+    /// weights over the wavelength: only a joint pattern keeps their product from adding both
+    /// variances). The sequences are progressive: sample *k* is the same whatever the target
+    /// spp, so every prefix of a pixel's samples is well stratified, and a render continued to
+    /// more samples (a resumed checkpoint) is the render made at that spp directly.
     #[inline(always)]
     fn camera_samples(&self, sample: u32, seed: u64, scratch: &mut Scratch) {
-        let planned = self.samples_per_pixel.min(CorrelatedMultiJitter::MAX_COUNT);
         let spectral = self.dispersion.is_some();
         let [film_u, film_v, pupil_u, pupil_v, wave_u, _] = &mut scratch.u;
         let mut seed_keys = Rng::for_sample(seed ^ CAMERA_KEY, u32::MAX, u32::MAX);
         let (film_seed, pupil_seed) = (seed_keys.next_u32(), seed_keys.next_u32());
-        if sample < planned {
-            let [film_keys, pupil_keys, _] = &mut scratch.keys;
-            // hash32 is a bijection: distinct pixels get distinct keys, and the pupil key is
-            // a further hash of the film key, so the two patterns of a pixel are unrelated.
-            for ((&pixel, film), pupil) in scratch
-                .pixel
-                .iter()
-                .zip(film_keys.iter_mut())
-                .zip(pupil_keys.iter_mut())
-            {
-                *film = hash32(pixel ^ film_seed);
-                *pupil = hash32(*film ^ pupil_seed);
-            }
-            let pattern = CorrelatedMultiJitter::new(planned);
-            pattern.fill(sample, film_keys, film_u, film_v);
-            if !spectral {
-                pattern.fill(sample, pupil_keys, pupil_u, pupil_v);
-            }
-        } else {
-            for (i, &pixel) in scratch.pixel.iter().enumerate() {
-                let mut rng = Rng::for_sample(seed, pixel, sample);
-                [film_u[i], film_v[i]] = rng.next_2d();
-                [pupil_u[i], pupil_v[i]] = rng.next_2d();
-            }
-        }
-        if spectral {
-            let [.., wave_keys] = &mut scratch.keys;
-            for (i, &pixel) in scratch.pixel.iter().enumerate() {
+        // hash32 is a bijection: distinct pixels get distinct keys, and the pupil key is a
+        // further hash of the film key, so the patterns of a pixel are unrelated.
+        for (i, &pixel) in scratch.pixel.iter().enumerate() {
+            let film = hash32(pixel ^ film_seed);
+            film_u[i] = owen_sobol(sample, 0, film);
+            film_v[i] = owen_sobol(sample, 1, film);
+            if spectral {
                 let key = hash32(hash32(pixel ^ pupil_seed) ^ WAVELENGTH_KEY);
-                wave_keys[i] = key;
                 pupil_u[i] = owen_sobol(sample, 0, key);
                 pupil_v[i] = owen_sobol(sample, 1, key);
                 wave_u[i] = owen_sobol(sample, 2, key);
+            } else {
+                let pupil = hash32(film ^ pupil_seed);
+                pupil_u[i] = owen_sobol(sample, 0, pupil);
+                pupil_v[i] = owen_sobol(sample, 1, pupil);
             }
         }
     }

@@ -11,6 +11,7 @@ use crate::lens::aperture::ApertureSetting;
 use crate::lens::diaphragm::{ApertureMask, Blades, Diaphragm};
 use crate::lens::elements::FocusSetting;
 use crate::lens::focus::FocusMode;
+use crate::lens::io::{GlassSubstitute, ReadOptions};
 use crate::lens::pupil::PupilSampling;
 
 /// Largest film distance accepted. Film distances far beyond the focal length focus near the
@@ -45,9 +46,19 @@ pub struct LensSettings {
     pub blade_curvature: Option<f64>,
     /// Transmission mask image at the stop.
     pub aperture_image: Option<PathBuf>,
+    /// Glasses a lens file names, read as others (`--glass NAME=GLASS`).
+    pub glasses: Vec<GlassSubstitute>,
 }
 
 impl LensSettings {
+    /// How the lens files are read.
+    pub fn reading(&self) -> ReadOptions {
+        ReadOptions {
+            format: self.lens_format,
+            glasses: self.glasses.clone(),
+        }
+    }
+
     /// The focus the flags ask for, else `fallback`.
     pub fn focus(&self, fallback: FocusSetting) -> FocusSetting {
         match (self.film_distance, self.focus_distance) {

@@ -6,8 +6,8 @@
 use std::path::{Component, Path, PathBuf};
 
 use crate::lens::Prescription;
-use crate::lens::io::bundled::BUNDLED;
-use crate::lens::prescription::LensFormat;
+use crate::lens::io::ReadOptions;
+use crate::lens::io::bundled::{BUNDLED, read_lens};
 
 /// Where a lens of the library comes from.
 #[derive(Clone, Debug, PartialEq, Eq, serde::Serialize)]
@@ -41,7 +41,8 @@ pub struct LensLibrary {
     command_line: Vec<String>,
     /// `--lens-dir`, canonical.
     dir: Option<PathBuf>,
-    format: Option<LensFormat>,
+    /// How lens files are read (`--lens-format`, `--glass`).
+    reading: ReadOptions,
 }
 
 impl LensLibrary {
@@ -49,7 +50,7 @@ impl LensLibrary {
     pub fn new(
         command_line: Vec<String>,
         dir: Option<&Path>,
-        format: Option<LensFormat>,
+        reading: ReadOptions,
     ) -> anyhow::Result<LensLibrary> {
         let dir = match dir {
             Some(dir) => {
@@ -66,7 +67,7 @@ impl LensLibrary {
         Ok(LensLibrary {
             command_line,
             dir,
-            format,
+            reading,
         })
     }
 
@@ -110,13 +111,13 @@ impl LensLibrary {
             return Err("a lens name must be 1 to 512 characters".into());
         }
         if self.command_line.iter().any(|given| given == name) {
-            return crate::lens::io::bundled::load_lens(name, self.format)
+            return read_lens(name, &self.reading)
                 .map(|p| (p, name.to_string()))
                 .map_err(|e| e.to_string());
         }
         if let Some(bundled) = BUNDLED.iter().find(|b| b.name == name) {
             return bundled
-                .load(self.format)
+                .load(self.reading.format)
                 .map(|p| (p, name.to_string()))
                 .map_err(|e| e.to_string());
         }
@@ -126,7 +127,7 @@ impl LensLibrary {
             ));
         };
         let path = self.inside_dir(dir, name)?;
-        Prescription::load(&path, self.format)
+        Prescription::read(&path, &self.reading)
             .map(|p| (p, path.display().to_string()))
             .map_err(|e| e.to_string())
     }

@@ -280,7 +280,6 @@ impl Session {
         spec.lens.film_diagonal = Some(film_diagonal);
         self.renderer
             .set_film(film_diagonal, spec.lens.pupil_sampling);
-        self.renderer.set_sample_plan(spec.spp);
         self.renderer.update().map_err(|e| e.to_string())?;
         self.renderer
             .check_active_lens()

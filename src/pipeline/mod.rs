@@ -29,7 +29,7 @@ pub use crate::lens::camera::{CameraPose, FilmResolution};
 pub use pass::{generate_rays, shade, trace_rays, weight, write_film};
 pub use renderer::Renderer;
 pub use resources::{
-    PassCancel, PassState, PipelineFault, RenderSettings, RenderStats, SamplePlan, SceneBounds,
+    PassCancel, PassState, PipelineFault, RenderSettings, RenderStats, SceneBounds,
     SceneEnvironment, SceneInputs, SceneObject, SceneSource, SceneWarnings, TileBatch,
 };
 pub use scene::{build_bvh, build_lights, load_scene};

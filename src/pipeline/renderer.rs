@@ -11,8 +11,7 @@ use glam::Mat4;
 
 use super::render_schedule;
 use super::resources::{
-    PassState, PipelineFault, RenderSettings, RenderStats, SamplePlan, SceneEnvironment,
-    SceneSource, TileBatch,
+    PassState, PipelineFault, RenderSettings, RenderStats, SceneEnvironment, SceneSource, TileBatch,
 };
 use crate::film::samples::SampleSequence;
 use crate::film::{FilmTile, Image, tiles};
@@ -113,12 +112,6 @@ impl Renderer {
     /// Makes `lens` the lens the next render uses.
     pub fn set_active_lens(&mut self, lens: Entity) {
         activate_lens(&mut self.world, lens);
-    }
-
-    /// Declares the render's target samples per pixel, over which camera samples are
-    /// stratified (see [`SamplePlan`]).
-    pub fn set_sample_plan(&mut self, samples_per_pixel: u32) {
-        self.world.insert_resource(SamplePlan { samples_per_pixel });
     }
 
     /// Places the camera: `world_from_camera` is rigid, the camera looks down its −Z.

@@ -86,14 +86,6 @@ pub struct PassState {
     pub sample: u32,
 }
 
-/// How many samples each pixel will get in all (a render's target spp). Camera samples
-/// 0..count are stratified together (correlated multi-jitter); the plan must stay the same
-/// across an interrupted render's resume and across shards, which it does: it is the target.
-#[derive(Resource, Clone, Copy, Debug, PartialEq, Eq)]
-pub struct SamplePlan {
-    pub samples_per_pixel: u32,
-}
-
 /// A flag another thread raises to abandon the pass under way (a live session whose settings
 /// changed): the pass stages skip their remaining tiles and the film keeps none of the pass.
 #[derive(Resource, Clone, Debug, Default)]

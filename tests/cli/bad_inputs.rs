@@ -799,6 +799,14 @@ fn merge_refuses_bad_partials_naming_them() {
         assert_refused(&run, file, phrases);
         assert_empty(&out_dir, file);
     }
+    // A missing file is named once, not by the EXR reader and again by its source.
+    let run = merge(&[&a, &dir.path().join("gone.exr")], &[]);
+    assert_eq!(
+        run.stderr.matches("No such file").count(),
+        1,
+        "{}",
+        run.stderr
+    );
     let run = merge(
         &[&b],
         &[

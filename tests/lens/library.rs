@@ -403,7 +403,10 @@ fn lenses_command_lists_every_bundled_lens() {
     assert!(line.contains("JP 1992-015611 Example 1"), "{line}");
     // The field-of-view column says which frame it is for: full frame, not the render's
     // default 35 mm diagonal.
-    assert!(stdout.lines().next().unwrap().contains("FoV on 36×24"), "{stdout}");
+    assert!(
+        stdout.lines().next().unwrap().contains("FoV on 36×24"),
+        "{stdout}"
+    );
     assert!(stdout.contains("43.3 mm diagonal"), "{stdout}");
 }
 

@@ -147,7 +147,6 @@ fn a_cancelled_pass_leaves_the_film_untouched() {
     use std::sync::Arc;
     use std::sync::atomic::{AtomicBool, Ordering};
     let (mut renderer, _) = duck_through_dgauss();
-    renderer.set_sample_plan(3);
     let reference = render(&mut renderer);
 
     let flag = Arc::new(AtomicBool::new(false));

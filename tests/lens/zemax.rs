@@ -480,3 +480,55 @@ fn unrepresentable_zemax_files_are_refused_clearly() {
     let e = Prescription::load(&path, None).unwrap_err().to_string();
     assert!(e.contains("truncated"), "{e}");
 }
+
+/// A glass realcam's catalogue lacks (Ohara's moulded L-TIM28_MOLD) is read as the glass
+/// `--glass NAME=GLASS` names, with the lens otherwise as the file gives it: the same lens as
+/// the file edited by hand to name S-TIM28.
+#[test]
+fn a_glass_the_catalogue_lacks_is_read_as_the_one_given() {
+    use realcam::lens::io::{GlassSubstitute, ReadOptions};
+
+    let original = data("zmx/US08427765-1.ZMX");
+    let refusal = Prescription::load(&original, None).unwrap_err().to_string();
+    assert!(
+        refusal.contains("give --glass L-TIM28_MOLD=GLASS"),
+        "{refusal}"
+    );
+    let reading = |substitute: &str| ReadOptions {
+        format: None,
+        glasses: vec![substitute.parse::<GlassSubstitute>().unwrap()],
+    };
+    let substituted = Prescription::read(&original, &reading("l-tim28_mold=S-TIM28")).unwrap();
+    let edited = load("US08427765-1-S-TIM28.zmx");
+    assert_eq!(substituted.rows.len(), edited.rows.len());
+    for (a, b) in substituted.rows.iter().zip(&edited.rows) {
+        assert!(a.same_optics(b), "{a:?}\nvs\n{b:?}");
+        assert_eq!(a.glass, b.glass);
+    }
+    // A model glass through an n_d and V_d: the surface's index is that n_d.
+    let model = Prescription::read(&original, &reading("L-TIM28_MOLD=1.69,31.1")).unwrap();
+    assert!(model.rows.iter().any(|r| r.base.index == 1.69));
+    // A malformed or unknown substitute is refused naming it.
+    for (bad, named) in [
+        ("L-TIM28_MOLD", "NAME=GLASS"),
+        ("L-TIM28_MOLD=", "give both"),
+        ("L-TIM28_MOLD=NO-SUCH-GLASS", "NO-SUCH-GLASS"),
+        ("L-TIM28_MOLD=0.5,30", "0.5,30"),
+    ] {
+        let error = bad.parse::<GlassSubstitute>().unwrap_err();
+        assert!(error.contains(named), "{bad}: {error}");
+    }
+    // The command line takes it for `realcam lens` (and `render`, which shares the option).
+    let (code, stdout, stderr) = crate::support::cli::realcam_texts(
+        &[
+            "lens",
+            "tests/data/zmx/US08427765-1.ZMX",
+            "--glass",
+            "L-TIM28_MOLD=S-TIM28",
+            "--json",
+        ],
+        None,
+    );
+    assert_eq!(code, 0, "{stderr}");
+    assert!(stdout.contains("S-TIM28"), "{stdout}");
+}

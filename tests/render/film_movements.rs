@@ -71,7 +71,6 @@ impl Shot<'_> {
         renderer.set_environment(Environment::Uniform(Vec3::splat(0.5)));
         renderer.load_scene(self.scene).unwrap();
         renderer.set_camera(Mat4::IDENTITY);
-        renderer.set_sample_plan(self.spp);
         renderer.set_film(self.diagonal, self.sampling);
         renderer.set_settings(RenderSettings {
             width: self.width,

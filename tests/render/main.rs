@@ -9,5 +9,6 @@ mod support;
 
 mod black_images;
 mod bokeh;
+mod example;
 mod film_movements;
 mod physics;

@@ -4,6 +4,7 @@
 
 use std::path::{Path, PathBuf};
 
+use super::ReadOptions;
 use crate::lens::prescription::{LensFormat, Prescription, PrescriptionError};
 
 /// A lens built into the binary.
@@ -96,9 +97,15 @@ pub fn load_lens(
     spec: &str,
     format: Option<LensFormat>,
 ) -> Result<Prescription, PrescriptionError> {
+    read_lens(spec, &ReadOptions::format(format))
+}
+
+/// As [`load_lens`], reading a file as `options` say.
+pub fn read_lens(spec: &str, options: &ReadOptions) -> Result<Prescription, PrescriptionError> {
+    let format = options.format;
     let path = Path::new(spec);
     if path.exists() {
-        return Prescription::load(path, format);
+        return Prescription::read(path, options);
     }
     match find_bundled(spec) {
         Some(bundled) => bundled.load(format),

@@ -21,13 +21,95 @@ pub mod zemax;
 
 use std::io::Read;
 use std::path::Path;
+use std::str::FromStr;
 
 use self::zemax::MAX_ZEMAX_BYTES;
 use super::prescription::{LensFormat, Prescription, PrescriptionError};
+use crate::glass::{Glass, catalogue};
 
 /// Prescription files larger than this are refused before reading: the largest real lens
 /// prescriptions have a few dozen rows.
 pub const MAX_FILE_BYTES: u64 = 1 << 20;
+
+/// What a lens file may leave open, given to its reader: the layout of a `.dat` table's
+/// thickness column, and glasses to read in place of names the file gives.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct ReadOptions {
+    /// Layout of a `.dat` table's thickness column, when it cannot be detected.
+    pub format: Option<LensFormat>,
+    /// `--glass NAME=GLASS`: a Zemax file's glass `NAME` read as `GLASS`.
+    pub glasses: Vec<GlassSubstitute>,
+}
+
+impl ReadOptions {
+    /// Only the `.dat` layout.
+    pub fn format(format: Option<LensFormat>) -> ReadOptions {
+        ReadOptions {
+            format,
+            glasses: Vec::new(),
+        }
+    }
+}
+
+/// A glass a lens file names, read as another (`--glass NAME=GLASS`): the way round a name
+/// realcam's catalogue lacks (a maker's moulded or newest glass), or a melt to try instead.
+#[derive(Clone, Debug, PartialEq)]
+pub struct GlassSubstitute {
+    name: String,
+    pub glass: Glass,
+}
+
+impl GlassSubstitute {
+    /// Whether this substitute stands in for the file's glass `name` (case-insensitive, as
+    /// Zemax names are).
+    pub fn replaces(&self, name: &str) -> bool {
+        self.name.eq_ignore_ascii_case(name)
+    }
+
+    pub fn name(&self) -> &str {
+        &self.name
+    }
+}
+
+impl FromStr for GlassSubstitute {
+    type Err = String;
+
+    /// `NAME=GLASS`, where GLASS is a catalogue glass (`S-TIM28`, `ohara:S-TIM28`) or a model
+    /// glass `N_D,V_D`.
+    fn from_str(text: &str) -> Result<Self, Self::Err> {
+        let Some((name, glass)) = text.split_once('=') else {
+            return Err(format!(
+                "'{text}' is not NAME=GLASS (e.g. L-TIM28_MOLD=S-TIM28, or NAME=1.69,31.1)"
+            ));
+        };
+        let (name, glass) = (name.trim(), glass.trim());
+        if name.is_empty() || glass.is_empty() {
+            return Err(format!(
+                "'{text}': give both the file's glass name and the glass to read it as"
+            ));
+        }
+        let numbers: Vec<&str> = glass.split(',').map(str::trim).collect();
+        let glass = match numbers.as_slice() {
+            [n_d, v_d] if n_d.parse::<f64>().is_ok() => {
+                let (Ok(n_d), Ok(v_d)) = (n_d.parse::<f64>(), v_d.parse::<f64>()) else {
+                    return Err(format!(
+                        "'{glass}': a model glass is N_D,V_D (e.g. 1.69,31.1)"
+                    ));
+                };
+                Glass::model(n_d, v_d).map_err(|e| format!("'{glass}': {e}"))?
+            }
+            _ => Glass::Catalogue(
+                catalogue()
+                    .find(glass)
+                    .map_err(|e| format!("'{glass}': {e}"))?,
+            ),
+        };
+        Ok(GlassSubstitute {
+            name: name.to_string(),
+            glass,
+        })
+    }
+}
 
 // The readers are inherent methods so every caller keeps asking the model type for a lens;
 // they live here so that the model depends on no file format.
@@ -37,6 +119,11 @@ impl Prescription {
         path: &Path,
         format: Option<LensFormat>,
     ) -> Result<Prescription, PrescriptionError> {
+        Prescription::read(path, &ReadOptions::format(format))
+    }
+
+    /// Reads and validates a prescription file as `options` say.
+    pub fn read(path: &Path, options: &ReadOptions) -> Result<Prescription, PrescriptionError> {
         let error = |message: String| PrescriptionError {
             file: path.to_path_buf(),
             line: None,
@@ -60,7 +147,7 @@ impl Prescription {
                     "is more than {MAX_ZEMAX_BYTES} bytes: too large for a Zemax lens file"
                 )));
             }
-            return zemax::read_zemax(&bytes, path);
+            return zemax::read_zemax(&bytes, path, &options.glasses);
         }
         if bytes.len() as u64 > MAX_FILE_BYTES {
             return Err(error(format!(
@@ -70,7 +157,7 @@ impl Prescription {
         let text = String::from_utf8(bytes).map_err(|_| {
             error("is not a text file (invalid UTF-8); expected a .dat table of rows 'radius thickness index aperture', a realcam .toml or a Zemax .zmx".into())
         })?;
-        Prescription::parse(&text, path, format)
+        Prescription::parse_with(&text, path, options)
     }
 
     /// Parses lens-file text; `source` names it in errors, gives the lens its name, and by its
@@ -81,9 +168,19 @@ impl Prescription {
         source: &Path,
         format: Option<LensFormat>,
     ) -> Result<Prescription, PrescriptionError> {
+        Prescription::parse_with(text, source, &ReadOptions::format(format))
+    }
+
+    /// As [`parse`](Self::parse), with all of `options`.
+    pub fn parse_with(
+        text: &str,
+        source: &Path,
+        options: &ReadOptions,
+    ) -> Result<Prescription, PrescriptionError> {
+        let format = options.format;
         match extension(source).as_str() {
             "toml" => toml::read_lens_file(text, source),
-            "zmx" => zemax::read_zemax(text.as_bytes(), source),
+            "zmx" => zemax::read_zemax(text.as_bytes(), source, &options.glasses),
             _ if looks_like_json(text) => Err(PrescriptionError {
                 file: source.to_path_buf(),
                 line: None,

@@ -12,7 +12,7 @@ use crate::lens::movements::FilmMovements;
 use crate::lens::pupil::ExitPupil;
 use crate::pipeline::Stage;
 use crate::pipeline::resources::{
-    PassCancel, PassState, PipelineFault, RenderSettings, RenderStats, SamplePlan, TileBatch,
+    PassCancel, PassState, PipelineFault, RenderSettings, RenderStats, TileBatch,
 };
 
 type ActiveLensQuery<'w, 's> = Query<
@@ -38,7 +38,6 @@ pub fn generate_rays(
     settings: Res<RenderSettings>,
     film_format: Res<FilmFormat>,
     pass: Res<PassState>,
-    plan: Option<Res<SamplePlan>>,
     cancel: Option<Res<PassCancel>>,
     mut tiles: Query<(&FilmTile, &mut TileBatch)>,
     mut stats: ResMut<RenderStats>,
@@ -57,7 +56,6 @@ pub fn generate_rays(
         film: FilmGeometry::new(settings.width, settings.height, film_format.diagonal_mm)
             .moved(movements.copied().unwrap_or_default()),
         world_from_camera: pose.0,
-        samples_per_pixel: plan.map_or(0, |p| p.samples_per_pixel),
         dispersion: geometry
             .system
             .dispersion

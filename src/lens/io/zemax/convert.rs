@@ -10,6 +10,7 @@ use super::parse::{ZemaxSurface, ZemaxSystem};
 use crate::glass::{FRAUNHOFER_D_NM, Glass, catalogue};
 use crate::lens::clear_aperture::{self, FieldPoint};
 use crate::lens::info::LensInfo;
+use crate::lens::io::GlassSubstitute;
 use crate::lens::prescription::{
     LensFormat, Prescription, PrescriptionError, SurfaceBase, SurfaceRow,
 };
@@ -54,8 +55,9 @@ pub(super) fn convert(
     system: &ZemaxSystem,
     surfaces: &[ZemaxSurface],
     source: &Path,
+    substitutes: &[GlassSubstitute],
 ) -> Result<Prescription, PrescriptionError> {
-    let conversion = Conversion::new(system, surfaces, source)?;
+    let conversion = Conversion::new(system, surfaces, source, substitutes)?;
     for surface in conversion.lens {
         conversion.refuse_surface(surface)?;
     }
@@ -81,6 +83,8 @@ struct Conversion<'a> {
     source: &'a Path,
     /// Millimetres per file unit.
     scale: f64,
+    /// Glasses to read in place of the names the file gives (`--glass NAME=GLASS`).
+    substitutes: &'a [GlassSubstitute],
 }
 
 impl<'a> Conversion<'a> {
@@ -90,6 +94,7 @@ impl<'a> Conversion<'a> {
         system: &'a ZemaxSystem,
         surfaces: &'a [ZemaxSurface],
         source: &'a Path,
+        substitutes: &'a [GlassSubstitute],
     ) -> Result<Conversion<'a>, PrescriptionError> {
         let error = |line: Option<usize>, message: String| PrescriptionError {
             file: source.to_path_buf(),
@@ -130,6 +135,7 @@ impl<'a> Conversion<'a> {
             lens: &surfaces[1..surfaces.len() - 1],
             source,
             scale,
+            substitutes,
         })
     }
 
@@ -277,11 +283,18 @@ impl<'a> Conversion<'a> {
                 .map(Medium::Glass)
                 .map_err(|e| at(format!("glass code {name}: {e}")));
         }
+        if let Some(substitute) = self.substitutes.iter().find(|s| s.replaces(name)) {
+            return Ok(Medium::Glass(substitute.glass));
+        }
         let makers: Vec<&str> = self.system.catalogues.iter().map(String::as_str).collect();
         catalogue()
             .find_preferring(name, &makers)
             .map(|id| Medium::Glass(Glass::Catalogue(id)))
-            .map_err(|e| at(format!("GLAS {name}: {e}")))
+            .map_err(|e| {
+                at(format!(
+                    "GLAS {name}: {e}; to read it as another glass, give --glass {name}=GLASS (a catalogue glass, or N_D,V_D)"
+                ))
+            })
     }
 
     /// The lens's rows in millimetres, and for each whether the file leaves its clear aperture

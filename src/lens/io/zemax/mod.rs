@@ -25,6 +25,7 @@ mod parse;
 
 use std::path::Path;
 
+use super::GlassSubstitute;
 use crate::lens::prescription::{Prescription, PrescriptionError};
 
 /// Zemax files larger than this are refused before reading (real ones, merit functions and
@@ -32,7 +33,11 @@ use crate::lens::prescription::{Prescription, PrescriptionError};
 pub const MAX_ZEMAX_BYTES: u64 = 16 << 20;
 
 /// Reads a `.zmx` file's bytes (any of its encodings) into a validated prescription.
-pub fn read_zemax(bytes: &[u8], source: &Path) -> Result<Prescription, PrescriptionError> {
+pub fn read_zemax(
+    bytes: &[u8],
+    source: &Path,
+    substitutes: &[GlassSubstitute],
+) -> Result<Prescription, PrescriptionError> {
     let error = |line: Option<usize>, message: String| PrescriptionError {
         file: source.to_path_buf(),
         line,
@@ -40,7 +45,7 @@ pub fn read_zemax(bytes: &[u8], source: &Path) -> Result<Prescription, Prescript
     };
     let text = decode::decode(bytes).map_err(|m| error(None, m))?;
     let (system, surfaces) = parse::parse(&text).map_err(|(line, m)| error(line, m))?;
-    convert::convert(&system, &surfaces, source)
+    convert::convert(&system, &surfaces, source, substitutes)
 }
 
 /// True when `bytes` look like a Zemax file (its keywords, in any of its encodings): lets a
