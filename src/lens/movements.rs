@@ -246,14 +246,10 @@ pub fn check_coverage(
     if movements.is_tilted() && !dark.is_empty() {
         let lost = tilt_loss(system, film_z, movements, w, h);
         if lost > MAX_TILT_LOSS {
-            let corners = if dark.is_empty() {
-                String::new()
-            } else {
-                format!(" (no light reaches its {})", corner_list(&dark))
-            };
             return Err(format!(
-                "tilt {tx},{ty}° (shift {sx},{sy} mm) is beyond what this lens can cover: it darkens {:.1} % of the frame that the untilted film has light on{corners}; use a smaller tilt or shift",
-                lost * 100.0
+                "tilt {tx},{ty}° (shift {sx},{sy} mm) is beyond what this lens can cover: it darkens {:.1} % of the frame that the untilted film has light on (no light reaches its {}); use a smaller tilt or shift",
+                lost * 100.0,
+                corner_list(&dark)
             ));
         }
     }

@@ -163,7 +163,7 @@ async function start() {
     $(name).addEventListener("change", (e) => change("/api/settings", { [name]: e.target.value }));
   }
   $("spp_target_input").addEventListener("change", (e) => change("/api/settings", { spp: Number(e.target.value) }));
-  $("image").addEventListener("click", async (e) => {
+  $("image").addEventListener("click", (e) => {
     const box = e.target.getBoundingClientRect();
     const [w, h] = [state.width, state.height];
     // The picture is letterboxed inside the element (object-fit: contain).
