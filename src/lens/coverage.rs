@@ -1,14 +1,17 @@
-//! Whether the lens covers the moved film: derived on the lens entity, like its geometry and
-//! pupil, whenever the lens, its film placement, its [`FilmMovements`] or the film change.
+//! Whether the lens covers the film, moved or not: derived on the lens entity, like its
+//! geometry and pupil, whenever the lens, its film placement, its [`FilmMovements`] or the film
+//! change.
 //!
-//! The verdict is [`check_coverage`]'s: a tilted film that reaches into the lens or leaves the
-//! image circle cannot be rendered (the lens gets a [`LensFault`] saying why, which the
-//! renderer's `check_active_lens` reports); a shifted frame whose corners leave the image
-//! circle renders with those corners black, and the lens carries the warning.
+//! The verdict is [`check_coverage`]'s: a tilt that drives the film into the lens, or darkens
+//! a real part of what the untilted film has light on, cannot be rendered (the lens gets a
+//! [`LensFault`] saying why, which the renderer's `check_active_lens` reports); a
+//! frame whose corners lie outside the image circle — a film larger than the lens covers, or a
+//! frame shifted out of it — renders with those corners black, tilted or not, and the lens
+//! carries the warning.
 
 use bevy_ecs::change_detection::DetectChanges;
 use bevy_ecs::component::Component;
-use bevy_ecs::entity::Entity;
+use bevy_ecs::entity::{Entity, EntityHashSet};
 use bevy_ecs::lifecycle::RemovedComponents;
 use bevy_ecs::system::{Commands, Query, Res};
 use bevy_ecs::world::Ref;
@@ -17,13 +20,13 @@ use super::camera::{FilmGeometry, FilmResolution};
 use super::elements::{FilmFormat, FilmPlacement, Lens, LensFault, LensGeometry};
 use super::movements::{FilmMovements, check_coverage};
 
-/// What the film movements of a lens leave of its image: a component of a lens entity with
-/// [`FilmMovements`].
+/// What the lens leaves of the frame on its film, moved or not: a component of every lens
+/// entity with a geometry and a film placement.
 #[derive(Component, Clone, Debug, PartialEq)]
 pub enum FilmCoverage {
-    /// The lens covers the moved frame.
+    /// The lens covers the frame.
     Covered,
-    /// A shifted frame's corners leave the image circle and render black: the warning.
+    /// The frame's corners lie outside the image circle and render black: the warning.
     DarkCorners(String),
     /// The lens cannot cover the tilted frame; the lens carries a [`LensFault`] with this.
     Uncovered(String),
@@ -47,13 +50,13 @@ type CoverageQuery<'w, 's> = Query<
         &'static Lens,
         Ref<'static, LensGeometry>,
         Ref<'static, FilmPlacement>,
-        Ref<'static, FilmMovements>,
+        Option<Ref<'static, FilmMovements>>,
         Option<&'static FilmCoverage>,
     ),
 >;
 
-/// Checks the coverage of every moved lens whose inputs changed; takes the verdict off a lens
-/// whose movements were taken away.
+/// Checks the coverage of every lens whose inputs changed, a lens whose movements were taken
+/// away included (its film is then judged unmoved).
 pub fn check_film_coverage(
     mut commands: Commands,
     lenses: CoverageQuery,
@@ -61,20 +64,18 @@ pub fn check_film_coverage(
     resolution: Res<FilmResolution>,
     film: Res<FilmFormat>,
 ) {
-    for entity in unmoved.read() {
-        if let Ok(mut lens) = commands.get_entity(entity) {
-            lens.remove::<FilmCoverage>();
-        }
-    }
+    let unmoved: EntityHashSet = unmoved.read().collect();
     let film_changed = resolution.is_changed() || film.is_changed();
     for (entity, lens, geometry, placement, movements, previous) in &lenses {
         if !(film_changed
             || geometry.is_changed()
             || placement.is_changed()
-            || movements.is_changed())
+            || movements.as_ref().is_some_and(Ref::is_changed)
+            || unmoved.contains(&entity))
         {
             continue;
         }
+        let movements = movements.as_deref().copied().unwrap_or(FilmMovements::NONE);
         // Values out of range are the pupil bounds' fault to report, not a coverage question.
         if movements.validate().is_err() {
             continue;

@@ -11,7 +11,7 @@
 //! | [`place_film`] | [`FilmPlacement`] (film distance) | the geometry or the focus changes |
 //! | [`focus_on_pixel`](super::focus_probe::focus_on_pixel) | [`FilmPlacement`], [`FocusProbe`] for a lens with [`FocusOnPixel`] | the geometry, focus target, movements, camera, film or scene changes |
 //! | [`bound_exit_pupil`] | [`ExitPupil`] bounds | the placement, the [`FilmMovements`] or the [`FilmFormat`] changes |
-//! | [`check_film_coverage`](super::coverage::check_film_coverage) | [`FilmCoverage`](super::coverage::FilmCoverage) (and a [`LensFault`] for a tilt the lens cannot cover) on a lens with [`FilmMovements`] | the placement, the movements, the film format or the image size changes |
+//! | [`check_film_coverage`](super::coverage::check_film_coverage) | [`FilmCoverage`](super::coverage::FilmCoverage) (and a [`LensFault`] for a tilt the lens cannot cover) | the placement, the [`FilmMovements`], the film format or the image size changes |
 //!
 //! A lens that cannot be used (bad edit, impossible focus) gets a [`LensFault`] instead.
 //!

@@ -187,10 +187,24 @@ pub fn light_reaches(system: &LensSystem, point: [f64; 3]) -> bool {
     !passing_rear_points(system, point).is_empty()
 }
 
-/// Whether the lens covers a moved frame of `width_mm` × `height_mm` with its frame centre
-/// `film_distance` behind the rear vertex: an error when a tilted film would reach into the
-/// lens or leaves the image circle (the lens cannot cover that tilt); for a shifted, untilted
-/// frame whose corners leave the image circle, a warning (a dark corner is the user's call).
+/// Film-plane points per side of the frame at which [`check_coverage`] measures what a tilt
+/// loses (cell centres, so 1/256 of the frame each).
+const COVERAGE_GRID: usize = 16;
+
+/// The share of the frame a tilt may darken, of what the same film untilted has light on,
+/// before it is refused. Below it the tilt only moves the edge of the image circle a little (a
+/// hundredth of a degree on a film larger than the image circle moves it by a grid point or
+/// two), and the dark corners are a warning as they are untilted.
+pub const MAX_TILT_LOSS: f64 = 0.02;
+
+/// Whether the lens covers a moved (or unmoved) frame of `width_mm` × `height_mm` with its
+/// frame centre `film_distance` behind the rear vertex.
+///
+/// A tilt is judged by what it loses: it is an error when the tilted film would reach into
+/// the lens, or when it darkens more than [`MAX_TILT_LOSS`] of the frame where the same film
+/// untilted (shift kept) has light. Otherwise corners outside the image circle are a warning,
+/// the same tilted or not: a frame larger than the image circle, or shifted out of it, renders
+/// with those corners black (the user's call).
 pub fn check_coverage(
     system: &LensSystem,
     film_distance: f64,
@@ -198,9 +212,6 @@ pub fn check_coverage(
     width_mm: f64,
     height_mm: f64,
 ) -> Result<Option<String>, String> {
-    if movements.is_none() {
-        return Ok(None);
-    }
     let film_z = system.rear_z() + film_distance;
     let (w, h) = (width_mm / 2.0, height_mm / 2.0);
     let corners = [[-w, -h], [w, -h], [-w, h], [w, h]];
@@ -222,27 +233,64 @@ pub fn check_coverage(
         .filter(|(p, _)| !light_reaches(system, **p))
         .map(|(_, name)| name)
         .collect();
+    let [sx, sy] = movements.shift_mm;
+    let corner_list = |dark: &[&str]| {
+        format!(
+            "{} corner{}",
+            dark.join(", "),
+            if dark.len() == 1 { "" } else { "s" }
+        )
+    };
+    // A tilted frame whose corners all have light has it everywhere (the image circle is
+    // round about the axis and the corners lie farthest out), so only a dark corner is measured.
+    if movements.is_tilted() && !dark.is_empty() {
+        let lost = tilt_loss(system, film_z, movements, w, h);
+        if lost > MAX_TILT_LOSS {
+            return Err(format!(
+                "tilt {tx},{ty}° (shift {sx},{sy} mm) is beyond what this lens can cover: it darkens {:.1} % of the frame that the untilted film has light on (no light reaches its {}); use a smaller tilt or shift",
+                lost * 100.0,
+                corner_list(&dark)
+            ));
+        }
+    }
     if dark.is_empty() {
         return Ok(None);
     }
-    let [sx, sy] = movements.shift_mm;
-    if movements.is_tilted() {
-        return Err(format!(
-            "tilt {tx},{ty}° (shift {sx},{sy} mm) is beyond what this lens can cover: no light reaches the frame's {} corner{}; use a smaller tilt or shift",
-            dark.join(", "),
-            if dark.len() == 1 { "" } else { "s" }
-        ));
-    }
+    let cause = if movements.shift_mm == [0.0; 2] {
+        format!(
+            "the {width_mm:.1} × {height_mm:.1} mm film is larger than the lens covers: it puts"
+        )
+    } else {
+        format!("shift {sx},{sy} mm moves")
+    };
     Ok(Some(format!(
-        "shift {sx},{sy} mm moves the frame's {} corner{} out of the lens's image circle: {} black",
-        dark.join(", "),
-        if dark.len() == 1 { "" } else { "s" },
+        "{cause} the frame's {} out of the lens's image circle: {} black",
+        corner_list(&dark),
         if dark.len() == 1 {
             "it will be"
         } else {
             "they will be"
         }
     )))
+}
+
+/// The share of a `2w` × `2h` mm frame (its centre at `film_z`) that has light with the film
+/// untilted but none with the tilt of `movements`, point for point in the film plane; the
+/// shift is the same in both.
+fn tilt_loss(system: &LensSystem, film_z: f64, movements: &FilmMovements, w: f64, h: f64) -> f64 {
+    let untilted = FilmMovements {
+        tilt_deg: [0.0; 2],
+        ..*movements
+    };
+    let cell = |i: usize, half: f64| -half + (i as f64 + 0.5) / COVERAGE_GRID as f64 * 2.0 * half;
+    let lost = (0..COVERAGE_GRID * COVERAGE_GRID)
+        .map(|i| (cell(i % COVERAGE_GRID, w), cell(i / COVERAGE_GRID, h)))
+        .filter(|&(a, b)| {
+            light_reaches(system, untilted.film_point(a, b, film_z))
+                && !light_reaches(system, movements.film_point(a, b, film_z))
+        })
+        .count();
+    lost as f64 / (COVERAGE_GRID * COVERAGE_GRID) as f64
 }
 
 #[cfg(test)]

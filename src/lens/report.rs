@@ -403,4 +403,20 @@ mod tests {
         );
         assert!(!summary.contains("Paraxial"), "{summary}");
     }
+
+    /// A colour figure the lens cannot give is null, not zero: dgauss.50mm's chief ray does not
+    /// reach 70 % of a 70 mm film's half-diagonal (24.5 mm, outside its image circle).
+    #[test]
+    fn lateral_colour_outside_the_image_circle_is_null() {
+        let settings = LensSettings {
+            film_diagonal: Some(70.0),
+            ..LensSettings::default()
+        };
+        let report =
+            LensReport::derive(load_lens("dgauss.50mm", None).unwrap(), &settings).unwrap();
+        let colour = report.chromatic_json();
+        assert_eq!(colour["lateral_colour_film_height_mm"], 24.5);
+        assert!(colour["lateral_colour_mm"].is_null(), "{colour}");
+        assert!(report.summary().contains("lateral colour      n/a"));
+    }
 }

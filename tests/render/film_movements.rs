@@ -14,11 +14,11 @@ use realcam::film::Image;
 use realcam::lens::LensSystem;
 use realcam::lens::aperture::ApertureSetting;
 use realcam::lens::camera::FilmGeometry;
-use realcam::lens::elements::{FocusSetting, Lens, LensGeometry, build_geometry};
+use realcam::lens::elements::{FilmPlacement, FocusSetting, Lens, LensGeometry, build_geometry};
 use realcam::lens::focus::{FocusMode, best_film_distance, paraxial_film_distance};
 use realcam::lens::focus_probe::{FocusOnPixel, FocusProbe};
 use realcam::lens::io::bundled::load_lens;
-use realcam::lens::movements::{FilmMovements, check_coverage};
+use realcam::lens::movements::{FilmMovements, check_coverage, light_reaches};
 use realcam::lens::pupil::{ExitPupil, PupilSampling};
 use realcam::lens::trace::{Ray, Travel, normalize, trace};
 use realcam::pipeline::{RenderSettings, Renderer};
@@ -503,8 +503,9 @@ fn tilted_film_focuses_on_the_plane_the_hinge_rule_predicts() {
     assert!(on_plane(film_z - 1500.0) < 0.0 && on_plane(film_z - 20000.0) > 0.0);
 }
 
-/// Coverage: a frame shifted out of the image circle is a warning, a tilt the lens cannot
-/// cover (or that drives the film into the lens) an error.
+/// Coverage: a frame shifted out of the image circle is a warning, tilted or not; a tilt that
+/// darkens a real part of what the untilted frame has light on (or that drives the film into
+/// the lens) an error.
 #[test]
 fn coverage_warns_for_shift_and_refuses_an_uncoverable_tilt() {
     let geometry = dgauss(ApertureSetting::Full);
@@ -526,8 +527,37 @@ fn coverage_warns_for_shift_and_refuses_an_uncoverable_tilt() {
         far.contains("image circle") && far.contains("corner"),
         "{far}"
     );
-    let error = shifted([40.0, 0.0], [2.0, 0.0]).unwrap_err();
-    assert!(error.contains("beyond what this lens can cover"), "{error}");
+    // A small tilt loses nothing the shift had not lost: the same warning, not a refusal.
+    assert_eq!(shifted([40.0, 0.0], [2.0, 0.0]), Ok(Some(far.clone())));
+    // Swung 30° with its far side out near the edge of the image circle, a frame loses light
+    // the untilted frame has: refused.
+    let (shift, tilt) = ([10.0, 0.0], [0.0, -30.0]);
+    let error = shifted(shift, tilt).unwrap_err();
+    assert!(
+        error.contains("beyond what this lens can cover") && error.contains("% of the frame"),
+        "{error}"
+    );
+    // The lens itself says so: on a grid of its own over the frame, edges included, points
+    // with light untilted have none tilted.
+    let film_z = system.rear_z() + film_distance;
+    let (untilted, tilted) = (
+        FilmMovements {
+            shift_mm: shift,
+            tilt_deg: [0.0; 2],
+        },
+        FilmMovements {
+            shift_mm: shift,
+            tilt_deg: tilt,
+        },
+    );
+    let lost = (0..=12)
+        .flat_map(|i| (0..=12).map(move |j| (i as f64 / 12.0 - 0.5, j as f64 / 12.0 - 0.5)))
+        .filter(|&(u, v)| {
+            light_reaches(system, untilted.film_point(u * w, v * h, film_z))
+                && !light_reaches(system, tilted.film_point(u * w, v * h, film_z))
+        })
+        .count();
+    assert!(lost > 3, "{lost} of 169 points lost: {error}");
     // A large format steeply tilted: its edge swings into the lens.
     let steep = FilmMovements {
         tilt_deg: [0.0, 59.0],
@@ -539,8 +569,9 @@ fn coverage_warns_for_shift_and_refuses_an_uncoverable_tilt() {
 }
 
 /// The same verdicts derived on the lens entity (no caller has to ask): an uncoverable tilt
-/// faults the lens until the tilt is taken back, dark corners are a warning on it, and taking
-/// the movements away takes the verdict away.
+/// faults the lens until the tilt is taken back, dark corners are a warning on it, tilted or
+/// not, and taking the movements away judges the unmoved film (a film larger than the lens
+/// covers warns without any movement).
 #[test]
 fn coverage_is_derived_on_the_lens_entity() {
     use realcam::lens::coverage::FilmCoverage;
@@ -579,13 +610,15 @@ fn coverage_is_derived_on_the_lens_entity() {
     let (coverage, active) = moved([40.0, 0.0], [0.0, 0.0]);
     assert!(
         coverage
+            .as_ref()
             .unwrap()
             .warning()
             .unwrap()
             .contains("image circle")
     );
     assert!(active.is_ok());
-    let (coverage, active) = moved([40.0, 0.0], [2.0, 0.0]);
+    assert_eq!(moved([40.0, 0.0], [2.0, 0.0]), (coverage, Ok(())));
+    let (coverage, active) = moved([10.0, 0.0], [0.0, -30.0]);
     assert!(matches!(coverage, Some(FilmCoverage::Uncovered(_))));
     assert!(
         active
@@ -598,8 +631,96 @@ fn coverage_is_derived_on_the_lens_entity() {
     );
     renderer.world.entity_mut(lens).remove::<FilmMovements>();
     renderer.update().unwrap();
-    assert!(renderer.world.get::<FilmCoverage>(lens).is_none());
+    assert_eq!(
+        renderer.world.get::<FilmCoverage>(lens),
+        Some(&FilmCoverage::Covered)
+    );
     assert!(renderer.check_active_lens().is_ok());
+    // A 70 mm film, unmoved: its corners lie outside dgauss.50mm's image circle (no light
+    // reaches a point 35 mm off the axis), so it renders with a warning.
+    renderer.set_film(70.0, PupilSampling::Bounds);
+    renderer.update().unwrap();
+    let system = &renderer.world.get::<LensGeometry>(lens).unwrap().system;
+    let film_z = system.rear_z()
+        + renderer
+            .world
+            .get::<FilmPlacement>(lens)
+            .unwrap()
+            .film_distance;
+    assert!(!light_reaches(
+        system,
+        [35.0 * 36.0 / 43.27, 35.0 * 24.0 / 43.27, film_z]
+    ));
+    let warning = renderer
+        .world
+        .get::<FilmCoverage>(lens)
+        .unwrap()
+        .warning()
+        .unwrap();
+    assert!(
+        warning.contains("larger than the lens covers") && warning.contains("image circle"),
+        "{warning}"
+    );
+    assert!(renderer.check_active_lens().is_ok());
+}
+
+/// The default scene's 70 mm film is larger than dgauss.50mm covers (its corners are dark by
+/// design): every render of it warns so, tilted or not, and a tilt is refused only for what it
+/// loses — README's `--tilt 8,0 --focus-on 256,400` (here scaled to 64 pixels) renders.
+#[test]
+fn default_scene_tilts_are_judged_by_what_they_lose() {
+    let dir = tempfile::tempdir().unwrap();
+    let render = |extra: &[&str]| {
+        let mut args = vec![
+            "render",
+            "--width",
+            "64",
+            "--height",
+            "64",
+            "--spp",
+            "1",
+            "--max-depth",
+            "1",
+            "--out",
+            "x.png",
+        ];
+        args.extend(extra);
+        let output = realcam(dir.path(), &args);
+        let stderr = String::from_utf8_lossy(&output.stderr).into_owned();
+        (output.status.success(), stderr)
+    };
+    let dark_corners = |stderr: &str| -> Vec<String> {
+        stderr
+            .lines()
+            .filter(|line| {
+                line.starts_with("warning: ") && line.contains("out of the lens's image circle")
+            })
+            .map(str::to_string)
+            .collect()
+    };
+    let (ok, stderr) = render(&[]);
+    assert!(ok, "{stderr}");
+    let untilted = dark_corners(&stderr);
+    assert_eq!(untilted.len(), 1, "{stderr}");
+    assert!(
+        untilted[0].contains("larger than the lens covers") && untilted[0].contains("corners"),
+        "{stderr}"
+    );
+    for tilt in [
+        &["--tilt", "0.01,0"][..],
+        &["--tilt", "8,0", "--focus-on", "32,50"],
+    ] {
+        let (ok, stderr) = render(tilt);
+        assert!(ok, "{tilt:?}: {stderr}");
+        assert_eq!(dark_corners(&stderr), untilted, "{tilt:?}: {stderr}");
+    }
+    // A steep tilt darkens a real part of what the untilted film has light on: refused.
+    let (ok, stderr) = render(&["--tilt", "40,0"]);
+    assert!(!ok, "{stderr}");
+    assert!(
+        stderr.contains("tilt 40,0° (shift 0,0 mm) is beyond what this lens can cover: it darkens"),
+        "{stderr}"
+    );
 }
 
 /// From the command line: --focus-on with two lenses and an aperture sweep prints and records
@@ -669,7 +790,12 @@ fn cli_focus_on_with_lenses_sweeps_and_movements() {
             vec!["--shift", "1e308,0"],
             "--shift 1e308,0 mm: each component must be a number of mm between −1000 and 1000",
         ),
-        (vec!["--tilt", "0,40", "--film-diagonal", "60"], "tilt"),
+        // A tilt that darkens a real part of what the untilted 70 mm film has light on (the
+        // film is larger than the lens covers: that alone is a warning).
+        (
+            vec!["--tilt", "40,0", "--film-diagonal", "70"],
+            "beyond what this lens can cover",
+        ),
     ] {
         let mut args: Vec<&str> = common.to_vec();
         args.extend(extra.iter().copied());

@@ -544,11 +544,11 @@ fn blades_shift_and_tilt_change_live_and_stay_through_a_lens_swap() {
         "six straight blades open a regular hexagon: 3√3/2π of the circle; {diaphragm}"
     );
 
-    // A tilted film larger than the lens covers, a tilt past 60°, a malformed pair: refused,
-    // the settings stay.
+    // A tilt that darkens a real part of what the untilted film has light on, a tilt past 60°,
+    // a malformed pair: refused, the settings stay.
     for (bad, says) in [
         (
-            json!({"film_diagonal": 70}),
+            json!({"film_diagonal": 70, "tilt": [40, 0]}),
             "beyond what this lens can cover",
         ),
         (json!({"tilt": [75, 0]}), "tilt"),
@@ -605,6 +605,67 @@ fn blades_shift_and_tilt_change_live_and_stay_through_a_lens_swap() {
     );
     served.wait_until_done();
     assert_eq!(served.get("/api/image.png").body, plain_png);
+}
+
+/// The default scene's 70 mm film is larger than dgauss.50mm covers: the state warns of it from
+/// the start, and a tilt that loses nothing more is accepted with the same warning (it was once
+/// refused, blamed on the tilt).
+#[test]
+fn a_film_larger_than_the_lens_covers_warns_tilted_or_not() {
+    let served = Served::start(SMALL);
+    let start = served.wait_until_done();
+    let warning = start["warning"].as_str().unwrap_or_default();
+    assert!(
+        warning.contains("larger than the lens covers") && warning.contains("image circle"),
+        "{start}"
+    );
+    for tilt in [json!([0.01, 0]), json!([8, 0])] {
+        let reply = served.post("/api/settings", &json!({ "tilt": tilt }));
+        assert_eq!(
+            reply.status,
+            200,
+            "{tilt}: {}",
+            String::from_utf8_lossy(&reply.body)
+        );
+        assert_eq!(reply.json()["warning"], start["warning"], "{tilt}");
+    }
+}
+
+/// A refused lens leaves everything on the lens shown: the state (from which the page sets its
+/// picker after every answer), `/api/lenses`' `current`, the lens report and the image.
+#[test]
+fn a_refused_lens_leaves_the_state_on_the_lens_shown() {
+    let served = Served::start(SMALL);
+    served.wait_until_done();
+    // Nearer than telephoto.250mm can focus (dgauss.50mm can).
+    let near = served.post("/api/settings", &json!({"focus_distance": 0.3}));
+    assert_eq!(near.status, 200, "{}", String::from_utf8_lossy(&near.body));
+    let before = served.wait_until_done();
+    let image = served.get("/api/image.png").body;
+    let refused = served.post("/api/settings", &json!({"lens": "telephoto.250mm"}));
+    assert_eq!(refused.status, 400);
+    let error = refused.json()["error"].as_str().unwrap().to_string();
+    assert!(
+        error.contains("telephoto.250mm") && error.contains("closest this lens can focus"),
+        "{error}"
+    );
+    let after = served.state();
+    for name in ["lens", "focus_distance", "generation", "lens_info"] {
+        assert_eq!(after[name], before[name], "{name}");
+    }
+    let lenses = served.get("/api/lenses").json();
+    assert_eq!(lenses["current"], before["lens"]);
+    // The page can put its picker back: the lens shown is one of the picker's options.
+    assert!(
+        lenses["lenses"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .any(|l| l["name"] == after["lens"]),
+        "{lenses}"
+    );
+    assert_eq!(served.get("/api/lens.json").json(), lens_cli_json(&after));
+    assert_eq!(served.get("/api/image.png").body, image);
 }
 
 #[test]

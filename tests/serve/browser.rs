@@ -1,7 +1,7 @@
 //! The page of `realcam serve` in a real browser: headless Chromium, driven over the DevTools
 //! protocol on a pipe (`--remote-debugging-pipe`), loads the page, picks another lens in the
 //! lens picker, types a focus distance, clicks the image to focus, sets diaphragm blades and a
-//! film shift, and sees the image change each time. Skipped, saying so, when no Chromium is installed — unless
+//! film shift, and sees the image change each time; a refused lens puts the picker back. Skipped, saying so, when no Chromium is installed — unless
 //! `REALCAM_REQUIRE_CHROMIUM=1` (CI: `.ci/run` installs Debian's `chromium`).
 
 use crate::live_server;
@@ -308,6 +308,56 @@ fn the_page_changes_lens_and_focus_and_shows_the_new_image() {
         (stats["bvh_builds"].as_u64(), stats["scene_loads"].as_u64()),
         (Some(1), Some(1))
     );
+}
+
+/// A refused lens at a narrow width: the picker goes back to the lens the image shows, and the
+/// error is in sight while the picker is (the controls then sit below the image).
+#[test]
+fn a_refused_lens_puts_the_picker_back_and_the_error_in_sight() {
+    let Some(chromium) =
+        chromium_or_skip("a_refused_lens_puts_the_picker_back_and_the_error_in_sight")
+    else {
+        return;
+    };
+    let served = Served::start(SMALL);
+    let mut browser = Browser::launch(&chromium, 800, 900);
+    browser.open(&served.url());
+    browser.wait_for_page();
+    assert_eq!(browser.evaluate(HELPERS), json!(true));
+    let outcome = browser.evaluate(
+        r##"(async () => {
+          await settled("the first render");
+          const focus = document.getElementById("focus_distance");
+          focus.value = "0.3";
+          focus.dispatchEvent(new Event("change"));
+          await until(() => state.focus_distance === 0.3, "the focus change");
+          await settled("the render focused at 0.3 m");
+          const shown = state.lens;
+          const lens = document.getElementById("lens");
+          lens.scrollIntoView();
+          lens.value = "telephoto.250mm";
+          lens.dispatchEvent(new Event("change"));
+          const message = document.getElementById("message");
+          await until(() => message.textContent !== "", "the refusal");
+          await until(() => lens.value === shown, "the picker going back");
+          const box = message.getBoundingClientRect();
+          return { shown, picked: lens.value, stateLens: state.lens, text: message.textContent,
+            inView: box.height > 0 && box.top >= 0 && box.bottom <= window.innerHeight,
+            narrow: window.innerWidth <= 800, scrolled: window.scrollY > 0 };
+        })()"##,
+    );
+    assert_eq!(outcome["narrow"], true, "{outcome}");
+    assert_eq!(outcome["scrolled"], true, "{outcome}");
+    assert_eq!(outcome["picked"], outcome["shown"], "{outcome}");
+    assert_eq!(outcome["stateLens"], outcome["shown"], "{outcome}");
+    assert!(
+        outcome["text"]
+            .as_str()
+            .unwrap()
+            .contains("closest this lens can focus"),
+        "{outcome}"
+    );
+    assert_eq!(outcome["inView"], true, "{outcome}");
 }
 
 /// Takes README's screenshot: `REALCAM_SCREENSHOT=docs/serve.png cargo test --release --test serve

@@ -27,7 +27,9 @@ async function api(path, body) {
 
 function message(text) { $("message").textContent = text || ""; }
 
-function show(newState) {
+// Shows a state; the control being edited keeps what is typed in it, unless `reset` (the
+// server refused it: it shows what the server has).
+function show(newState, reset = false) {
   if (state && newState.revision < state.revision) return;
   state = newState;
   refreshImage(state.generation);
@@ -35,7 +37,7 @@ function show(newState) {
   // numbers (pixels, blades) are shown as they are.
   const readable = (value) => Number.isInteger(value) ? value : Number(value.toPrecision(4));
   const shown = (input, value) => {
-    if (document.activeElement !== input) input.value = typeof value === "number" ? readable(value) : value ?? "";
+    if (reset || document.activeElement !== input) input.value = typeof value === "number" ? readable(value) : value ?? "";
   };
   for (const name of NUMBERS) shown($(name), state[name]);
   for (const name of PAIRS) {
@@ -46,7 +48,7 @@ function show(newState) {
   for (const name of ["focus_mode", "dispersion"]) {
     if (state[name]) $(name).value = state[name];
   }
-  if (document.activeElement !== $("spp_target_input")) $("spp_target_input").value = state.spp;
+  if (reset || document.activeElement !== $("spp_target_input")) $("spp_target_input").value = state.spp;
   if ($("lens").value !== state.lens) $("lens").value = state.lens;
   $("spp").textContent = state.spp_done;
   $("spp-target").textContent = state.spp_target;
@@ -84,8 +86,11 @@ async function refreshLens() {
     ];
     const colour = info.chromatic;
     if (colour) {
-      rows.push(["axial colour (F−C)", number(colour.axial_colour_mm * 1000, 1) + " µm"]);
-      rows.push(["lateral colour (F−C)", number(colour.lateral_colour_mm * 1000, 1) + " µm at "
+      // A figure the lens report could not compute (null: no chief ray reaches that height,
+      // which lies outside the image circle) is n/a, never a zero.
+      const micrometres = (mm) => (mm === null || mm === undefined ? "n/a" : number(mm * 1000, 1) + " µm");
+      rows.push(["axial colour (F−C)", micrometres(colour.axial_colour_mm)]);
+      rows.push(["lateral colour (F−C)", micrometres(colour.lateral_colour_mm) + " at "
         + number(colour.lateral_colour_film_height_mm, 1) + " mm"]);
       const glasses = [...new Set(colour.glasses.filter((g) => g.glass).map((g) => g.glass))];
       rows.push(["glasses", glasses.length ? glasses.join(", ") : "none named"]);
@@ -100,9 +105,15 @@ function diaphragmText(d) {
   return (d.shape || "shaped") + fraction;
 }
 
-async function change(settings) {
+// Sends a change and shows its answer. A refused change leaves the server on the settings it
+// had, so the controls go back to them (the published state), or a refused lens would stay
+// picked while the image is still the old lens's.
+async function change(path, body) {
   message("");
-  try { show(await api("/api/settings", settings)); } catch (e) { message(e.message); }
+  try { show(await api(path, body)); } catch (e) {
+    message(e.message);
+    try { show(await api("/api/state"), true); } catch (_) { /* the next event tries again */ }
+  }
 }
 
 function refreshImage(generation) {
@@ -135,34 +146,34 @@ async function start() {
   }
   show(await api("/api/state"));
 
-  $("lens").addEventListener("change", (e) => change({ lens: e.target.value }));
+  $("message").addEventListener("click", () => message(""));
+  $("lens").addEventListener("change", (e) => change("/api/settings", { lens: e.target.value }));
   for (const name of NUMBERS) {
     $(name).addEventListener("change", (e) => {
       const v = e.target.value.trim();
-      change({ [name]: v === "" ? null : Number(v) });
+      change("/api/settings", { [name]: v === "" ? null : Number(v) });
     });
   }
   for (const name of PAIRS) {
     const changed = () => {
       const [x, y] = [$(name + "_x").value.trim(), $(name + "_y").value.trim()];
-      change({ [name]: x === "" && y === "" ? null : [Number(x || 0), Number(y || 0)] });
+      change("/api/settings", { [name]: x === "" && y === "" ? null : [Number(x || 0), Number(y || 0)] });
     };
     $(name + "_x").addEventListener("change", changed);
     $(name + "_y").addEventListener("change", changed);
   }
   for (const name of ["focus_mode", "dispersion"]) {
-    $(name).addEventListener("change", (e) => change({ [name]: e.target.value }));
+    $(name).addEventListener("change", (e) => change("/api/settings", { [name]: e.target.value }));
   }
-  $("spp_target_input").addEventListener("change", (e) => change({ spp: Number(e.target.value) }));
-  $("image").addEventListener("click", async (e) => {
+  $("spp_target_input").addEventListener("change", (e) => change("/api/settings", { spp: Number(e.target.value) }));
+  $("image").addEventListener("click", (e) => {
     const box = e.target.getBoundingClientRect();
     const [w, h] = [state.width, state.height];
     // The picture is letterboxed inside the element (object-fit: contain).
     const scale = Math.min(box.width / w, box.height / h);
     const x = (e.clientX - box.left - (box.width - w * scale) / 2) / scale;
     const y = (e.clientY - box.top - (box.height - h * scale) / 2) / scale;
-    message("");
-    try { show(await api("/api/focus", { x, y })); } catch (err) { message(err.message); }
+    change("/api/focus", { x, y });
   });
   $("save").addEventListener("click", async () => {
     try {
