@@ -404,18 +404,23 @@ mod tests {
         assert!(!summary.contains("Paraxial"), "{summary}");
     }
 
-    /// A colour figure the lens cannot give is null, not zero: dgauss.50mm's chief ray does not
-    /// reach 70 % of a 70 mm film's half-diagonal (24.5 mm, outside its image circle).
+    /// A colour figure the lens cannot give is null, not zero: fisheye.10mm's image circle
+    /// (about 26 mm across) does not reach 70 % of a 43.3 mm film's half-diagonal (15.2 mm).
     #[test]
     fn lateral_colour_outside_the_image_circle_is_null() {
         let settings = LensSettings {
-            film_diagonal: Some(70.0),
+            film_diagonal: Some(43.3),
             ..LensSettings::default()
         };
         let report =
-            LensReport::derive(load_lens("dgauss.50mm", None).unwrap(), &settings).unwrap();
+            LensReport::derive(load_lens("fisheye.10mm", None).unwrap(), &settings).unwrap();
+        let (circle, _) = report.image_circle().unwrap();
         let colour = report.chromatic_json();
-        assert_eq!(colour["lateral_colour_film_height_mm"], 24.5);
+        let height = colour["lateral_colour_film_height_mm"].as_f64().unwrap();
+        assert!(
+            (height - 0.7 * 43.3 / 2.0).abs() < 1e-9 && height > circle,
+            "{colour}"
+        );
         assert!(colour["lateral_colour_mm"].is_null(), "{colour}");
         assert!(report.summary().contains("lateral colour      n/a"));
     }
