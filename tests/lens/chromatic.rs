@@ -6,7 +6,7 @@ use crate::support;
 
 use support::cli::realcam_texts;
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use glam::{Mat4, Vec3};
 use realcam::film::Image;
@@ -171,12 +171,6 @@ fn lenses_without_glass_render_as_dispersion_off() {
         pictures[0] != pictures[2],
         "a spectral render draws wavelengths: it differs"
     );
-}
-
-fn data(path: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("tests/data")
-        .join(path)
 }
 
 /// A small white emitter off axis, through a dense-flint singlet behind its stop: in the
