@@ -15,7 +15,7 @@ use crate::glass::model::{self, BuchdahlModel, CHECK_RANGE_NM, catalogue_deviati
 use crate::glass::partial::NORMAL_LINE_G_F;
 use crate::glass::{
     CatalogueGlass, FRAUNHOFER_C_NM, FRAUNHOFER_D_NM, FRAUNHOFER_F_NM, GlassId, GlassStatus, Maker,
-    SPECTRAL_LINES, abbe_number, catalogue,
+    SPECTRAL_LINES, abbe_number, catalogue, looks_numeric,
 };
 
 #[derive(Args, Debug, Clone)]
@@ -127,12 +127,6 @@ pub fn run(args: &GlassArgs) -> anyhow::Result<ExitCode> {
         }
         _ => Ok(ExitCode::SUCCESS),
     }
-}
-
-/// Whether GLASS is a number pair rather than a name (no catalogue name starts with a digit).
-fn looks_numeric(text: &str) -> bool {
-    text.trim_start()
-        .starts_with(|c: char| c.is_ascii_digit() || c == '.' || c == '-' || c == '+')
 }
 
 /// "N_D" or "N_D,V_D", checked to be a glass's values.

@@ -117,6 +117,9 @@ pub fn run(args: &LensArgs) -> anyhow::Result<ExitCode> {
         None => None,
     };
     let report = LensReport::derive(prescription, &settings)?.at_wavelength(args.wavelength)?;
+    for message in settings.mask_messages(report.geometry.system.diaphragm.as_ref()) {
+        eprintln!("{message}");
+    }
     if let (Some(path), Some(format)) = (&args.pupil_view, pupil_view_format) {
         write_pupil_view(&report, path, format)?;
     }

@@ -149,6 +149,13 @@ impl Glass {
     }
 }
 
+/// Whether `text` gives numbers (an n_d, or n_d,V_d for a model glass) rather than a glass's
+/// name: glass names start with a letter.
+pub fn looks_numeric(text: &str) -> bool {
+    text.trim_start()
+        .starts_with(|c: char| c.is_ascii_digit() || c == '.' || c == '-' || c == '+')
+}
+
 impl fmt::Display for Glass {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.write_str(&self.label())

@@ -17,11 +17,11 @@ use bevy_ecs::entity::Entity;
 use glam::Mat4;
 
 use crate::diagnosis::exposure_warning;
-use crate::film::Image;
 use crate::film::contact_sheet::{Thumbnail, contact_sheet};
 use crate::film::footprint::RunSize;
 use crate::film::format::{DEFAULT_JPEG_QUALITY, Tone, encode_rgb8};
 use crate::film::output::{auto_exposure, shown, to_srgb8, write_output};
+use crate::film::{DEFAULT_IMAGE_SIDE, Image};
 use crate::lens::Prescription;
 use crate::lens::aperture::ApertureSetting;
 use crate::lens::diaphragm::Diaphragm;
@@ -95,6 +95,9 @@ impl<'a> Job<'a> {
     pub fn prepare(spec: &'a JobSpec, formats: Formats) -> anyhow::Result<Job<'a>> {
         let start = Instant::now();
         let diaphragm = spec.lens.diaphragm()?;
+        for message in spec.lens.mask_messages(diaphragm.as_ref()) {
+            eprintln!("{message}");
+        }
         let mut renderer = Renderer::new();
         let source = match &spec.scene {
             Some(path) => SceneSource {
@@ -179,8 +182,14 @@ impl<'a> Job<'a> {
             })
             .collect();
 
-        let width = spec.width.or(placement.hints.width).unwrap_or(512);
-        let height = spec.height.or(placement.hints.height).unwrap_or(512);
+        let width = spec
+            .width
+            .or(placement.hints.width)
+            .unwrap_or(DEFAULT_IMAGE_SIDE);
+        let height = spec
+            .height
+            .or(placement.hints.height)
+            .unwrap_or(DEFAULT_IMAGE_SIDE);
         if let Some([x, y]) = spec.focus_on
             && (x >= width || y >= height)
         {

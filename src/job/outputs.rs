@@ -22,7 +22,7 @@ pub struct Formats {
     pub contact_sheet: Option<ImageFormat>,
 }
 
-/// Checks the numbers the flags give (counts, sizes, exposure, lens settings).
+/// Checks the numbers the spec gives (counts, sizes, exposure, lens settings).
 pub fn check_values(spec: &JobSpec) -> anyhow::Result<()> {
     spec.lens.validate()?;
     if let Some(movements) = spec.movements() {
@@ -72,12 +72,12 @@ pub fn check_values(spec: &JobSpec) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// Checks the flags and the output paths before anything is loaded or rendered; returns the
+/// Checks the spec's values and output paths before anything is loaded or rendered; returns the
 /// formats the outputs' names ask for.
 pub fn validate(spec: &JobSpec) -> anyhow::Result<Formats> {
     check_values(spec)?;
     let frames = frame_count(spec.lenses.len(), spec.focus_sweep, spec.stop_sweep())?;
-    let outputs = outputs(spec);
+    let outputs = spec.output.files();
     for (i, (_, a)) in outputs.iter().enumerate() {
         if outputs[..i].iter().any(|(_, b)| a == b) {
             bail!(
@@ -197,28 +197,12 @@ pub fn validate(spec: &JobSpec) -> anyhow::Result<Formats> {
     Ok(formats)
 }
 
-/// The run's output files with their options (frames of sweeps and lens runs are suffixed
-/// copies of these).
-pub(crate) fn outputs(spec: &JobSpec) -> Vec<(&'static str, &Path)> {
-    [
-        ("--out", Some(spec.output.out.as_path())),
-        ("--exr", spec.output.exr.as_deref()),
-        ("--stats", spec.output.stats.as_deref()),
-        ("--contact-sheet", spec.output.contact_sheet.as_deref()),
-        ("--checkpoint", spec.output.checkpoint.as_deref()),
-        ("--partial", spec.output.partial.as_deref()),
-    ]
-    .into_iter()
-    .filter_map(|(option, path)| Some((option, path?)))
-    .collect()
-}
-
 /// Outputs must not replace the scene's buffers or textures (`--out scene.bin`).
 pub(crate) fn refuse_overwriting_scene_files(
     spec: &JobSpec,
     scene_files: &[PathBuf],
 ) -> anyhow::Result<()> {
-    for (_, output) in outputs(spec) {
+    for (_, output) in spec.output.files() {
         if let Some(input) = scene_files.iter().find(|input| same_file(output, input)) {
             bail!(
                 "{}: the output would overwrite an input file ({}, which the scene reads); choose another output path",

@@ -12,6 +12,7 @@ use std::path::{Path, PathBuf};
 use glam::Vec3;
 
 use super::plan::{Shard, Sweep};
+use crate::film::DEFAULT_IMAGE_SIDE;
 use crate::lens::elements::Dispersion;
 use crate::lens::movements::FilmMovements;
 use crate::lens::settings::LensSettings;
@@ -32,7 +33,7 @@ pub struct JobSpec {
     pub environment: Option<EnvironmentSpec>,
     /// Samples per pixel.
     pub spp: u32,
-    /// Image size in pixels; `None`: the scene camera's, else [`DEFAULT_IMAGE_SIDE`](crate::film::DEFAULT_IMAGE_SIDE).
+    /// Image size in pixels; `None`: the scene camera's, else [`DEFAULT_IMAGE_SIDE`].
     pub width: Option<u32>,
     pub height: Option<u32>,
     /// The seed of every sample sequence.
@@ -128,23 +129,6 @@ pub struct OutputSpec {
 }
 
 impl OutputSpec {
-    /// Writes `out` and nothing else.
-    pub fn image(out: impl Into<PathBuf>) -> OutputSpec {
-        OutputSpec {
-            out: out.into(),
-            exr: None,
-            exposure: None,
-            quality: None,
-            stats: None,
-            contact_sheet: None,
-            checkpoint: None,
-            checkpoint_every: None,
-            resume: None,
-            shard: None,
-            partial: None,
-        }
-    }
-
     /// The output files with the options that name them (frames of sweeps and lens runs are
     /// suffixed copies of these).
     pub fn files(&self) -> Vec<(&'static str, &Path)> {
@@ -163,34 +147,17 @@ impl OutputSpec {
 }
 
 impl JobSpec {
-    /// The built-in scene through the default lens, `spp` samples per pixel, to `out`: the
-    /// defaults of `realcam render`.
-    pub fn new(out: impl Into<PathBuf>) -> JobSpec {
-        JobSpec {
-            scene: None,
-            lenses: Vec::new(),
-            lens: LensSettings::default(),
-            view: ViewSpec::default(),
-            environment: None,
-            spp: 64,
-            width: None,
-            height: None,
-            seed: 0,
-            threads: None,
-            max_depth: 8,
-            dispersion: Dispersion::On,
-            focus_on: None,
-            movements: FilmMovements::default(),
-            focus_sweep: None,
-            aperture_sweep: None,
-            f_number_sweep: None,
-            output: OutputSpec::image(out),
-        }
-    }
-
     /// The stop sweep, by diameter or by f-number: the frames each focus gets.
     pub fn stop_sweep(&self) -> Option<Sweep> {
         self.aperture_sweep.or(self.f_number_sweep)
+    }
+
+    /// The image size the spec gives, each side [`DEFAULT_IMAGE_SIDE`] where it gives none.
+    pub fn size_or_default(&self) -> (u32, u32) {
+        (
+            self.width.unwrap_or(DEFAULT_IMAGE_SIDE),
+            self.height.unwrap_or(DEFAULT_IMAGE_SIDE),
+        )
     }
 
     /// The film movements, `None` when there are none.

@@ -191,8 +191,8 @@ pub fn light_reaches(system: &LensSystem, point: [f64; 3]) -> bool {
 /// loses (cell centres, so 1/256 of the frame each).
 const COVERAGE_GRID: usize = 16;
 
-/// The share of the frame a tilt may darken, of what the same film untilted has light on,
-/// before it is refused. Below it the tilt only moves the edge of the image circle a little (a
+/// The share of the whole frame a tilt may darken (points where the same film untilted has
+/// light and the tilted one has none) before it is refused. Below it the tilt only moves the edge of the image circle a little (a
 /// hundredth of a degree on a film larger than the image circle moves it by a grid point or
 /// two), and the dark corners are a warning as they are untilted.
 pub const MAX_TILT_LOSS: f64 = 0.02;
@@ -247,7 +247,7 @@ pub fn check_coverage(
         let lost = tilt_loss(system, film_z, movements, w, h);
         if lost > MAX_TILT_LOSS {
             return Err(format!(
-                "tilt {tx},{ty}° (shift {sx},{sy} mm) is beyond what this lens can cover: it darkens {:.1} % of the frame that the untilted film has light on (no light reaches its {}); use a smaller tilt or shift",
+                "tilt {tx},{ty}° (shift {sx},{sy} mm) is beyond what this lens can cover: it darkens {:.1} % of the frame where the untilted film has light (no light reaches its {}); use a smaller tilt or shift",
                 lost * 100.0,
                 corner_list(&dark)
             ));

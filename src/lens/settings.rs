@@ -59,7 +59,7 @@ impl LensSettings {
         }
     }
 
-    /// The focus the flags ask for, else `fallback`.
+    /// The focus these settings ask for, else `fallback`.
     pub fn focus(&self, fallback: FocusSetting) -> FocusSetting {
         match (self.film_distance, self.focus_distance) {
             (Some(mm), _) => FocusSetting::FilmDistance(mm),
@@ -77,7 +77,7 @@ impl LensSettings {
         }
     }
 
-    /// The aperture the flags ask for, else `fallback`.
+    /// The aperture these settings ask for, else `fallback`.
     pub fn aperture(&self, fallback: ApertureSetting) -> ApertureSetting {
         match (self.aperture, self.f_number) {
             (Some(mm), _) => ApertureSetting::Diameter(mm),
@@ -86,27 +86,44 @@ impl LensSettings {
         }
     }
 
-    /// The diaphragm the flags ask for (`None`: the stop's circle); reads the mask image.
+    /// The diaphragm these settings ask for (`None`: the stop's circle); reads the mask image.
     pub fn diaphragm(&self) -> anyhow::Result<Option<Diaphragm>> {
         let blades = self.blades_setting()?;
         let mask = match &self.aperture_image {
             Some(path) => {
                 let mask = ApertureMask::load(path).map_err(anyhow::Error::msg)?;
-                eprintln!("note: aperture image {}: {}", path.display(), mask.reading);
-                if mask.width != mask.height {
-                    eprintln!(
-                        "warning: --aperture-image {}: {}×{} pixels is not square; it is stretched over the stop's diameter",
-                        path.display(),
-                        mask.width,
-                        mask.height
-                    );
-                }
                 Some(Arc::new(mask))
             }
             None => None,
         };
         let diaphragm = Diaphragm { blades, mask };
         Ok((!diaphragm.is_circular()).then_some(diaphragm))
+    }
+
+    /// What the user should hear of the mask in `diaphragm` (how the image was read; a
+    /// warning when it is not square): for a front end to print once, not on every change that
+    /// re-derives the lens.
+    pub fn mask_messages(&self, diaphragm: Option<&Diaphragm>) -> Vec<String> {
+        let (Some(path), Some(mask)) = (
+            &self.aperture_image,
+            diaphragm.and_then(|d| d.mask.as_deref()),
+        ) else {
+            return Vec::new();
+        };
+        let mut messages = vec![format!(
+            "note: aperture image {}: {}",
+            path.display(),
+            mask.reading
+        )];
+        if mask.width != mask.height {
+            messages.push(format!(
+                "warning: --aperture-image {}: {}×{} pixels is not square; it is stretched over the stop's diameter",
+                path.display(),
+                mask.width,
+                mask.height
+            ));
+        }
+        messages
     }
 
     fn blades_setting(&self) -> anyhow::Result<Option<Blades>> {

@@ -117,7 +117,7 @@ impl LensLibrary {
         }
         if let Some(bundled) = BUNDLED.iter().find(|b| b.name == name) {
             return bundled
-                .load(self.reading.format)
+                .read(&self.reading)
                 .map(|p| (p, name.to_string()))
                 .map_err(|e| e.to_string());
         }

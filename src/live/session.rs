@@ -212,7 +212,7 @@ impl Session {
     pub fn apply(&mut self, next: LiveSettings) -> Result<(), String> {
         let mut spec = next.parse(&self.parser)?;
         crate::job::outputs::check_values(&spec).map_err(|e| e.to_string())?;
-        let (width, height) = (spec.width.unwrap_or(512), spec.height.unwrap_or(512));
+        let (width, height) = spec.size_or_default();
         RunSize {
             width,
             height,
@@ -349,10 +349,7 @@ impl Session {
 
     /// The image's size in pixels.
     pub fn size(&self) -> (u32, u32) {
-        (
-            self.spec.width.unwrap_or(512),
-            self.spec.height.unwrap_or(512),
-        )
+        self.spec.size_or_default()
     }
 
     /// How much coarser than the image the first pass after a change is.

@@ -1,5 +1,5 @@
 //! The render world's resources and the components the stages share: what a front end sets
-//! (scene, settings, sample plan, cancel flag), what the scene stages leave behind, and what
+//! (scene, settings, cancel flag), what the scene stages leave behind, and what
 //! the pass stages hand each other and count.
 
 use std::path::PathBuf;

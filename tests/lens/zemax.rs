@@ -505,6 +505,37 @@ fn a_glass_the_catalogue_lacks_is_read_as_the_one_given() {
         assert!(a.same_optics(b), "{a:?}\nvs\n{b:?}");
         assert_eq!(a.glass, b.glass);
     }
+    assert!(
+        substituted.warnings.is_empty(),
+        "{:?}",
+        substituted.warnings
+    );
+    // A substitute the file has no use for, and one for a lens file that names its own
+    // glasses, are said to be unused rather than passing silently.
+    let typo = Prescription::read(
+        &original,
+        &ReadOptions {
+            format: None,
+            glasses: vec![
+                "L-TIM28_MOLD=S-TIM28".parse().unwrap(),
+                "L-TIM82_MOLD=S-TIM28".parse().unwrap(),
+            ],
+        },
+    )
+    .unwrap();
+    assert!(
+        typo.warnings
+            .iter()
+            .any(|w| w.contains("names no glass L-TIM82_MOLD")),
+        "{:?}",
+        typo.warnings
+    );
+    let dat = realcam::lens::io::bundled::read_lens("dgauss.50mm", &reading("F5=S-TIM28")).unwrap();
+    assert!(
+        dat.warnings.iter().any(|w| w.contains("read as it stands")),
+        "{:?}",
+        dat.warnings
+    );
     // A model glass through an n_d and V_d: the surface's index is that n_d.
     let model = Prescription::read(&original, &reading("L-TIM28_MOLD=1.69,31.1")).unwrap();
     assert!(model.rows.iter().any(|r| r.base.index == 1.69));
@@ -514,6 +545,7 @@ fn a_glass_the_catalogue_lacks_is_read_as_the_one_given() {
         ("L-TIM28_MOLD=", "give both"),
         ("L-TIM28_MOLD=NO-SUCH-GLASS", "NO-SUCH-GLASS"),
         ("L-TIM28_MOLD=0.5,30", "0.5,30"),
+        ("L-TIM28_MOLD=1.69", "a model glass is N_D,V_D"),
     ] {
         let error = bad.parse::<GlassSubstitute>().unwrap_err();
         assert!(error.contains(named), "{bad}: {error}");

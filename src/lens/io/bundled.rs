@@ -20,10 +20,15 @@ pub struct BundledLens {
 impl BundledLens {
     /// Parses the lens (`format` overrides a `.dat` table's layout detection).
     pub fn load(&self, format: Option<LensFormat>) -> Result<Prescription, PrescriptionError> {
-        Prescription::parse(
+        self.read(&ReadOptions::format(format))
+    }
+
+    /// The lens, read as `options` say.
+    pub fn read(&self, options: &ReadOptions) -> Result<Prescription, PrescriptionError> {
+        Prescription::parse_with(
             self.text,
             &PathBuf::from(format!("lenses/{}", self.file)),
-            format,
+            options,
         )
     }
 
@@ -102,13 +107,12 @@ pub fn load_lens(
 
 /// As [`load_lens`], reading a file as `options` say.
 pub fn read_lens(spec: &str, options: &ReadOptions) -> Result<Prescription, PrescriptionError> {
-    let format = options.format;
     let path = Path::new(spec);
     if path.exists() {
         return Prescription::read(path, options);
     }
     match find_bundled(spec) {
-        Some(bundled) => bundled.load(format),
+        Some(bundled) => bundled.read(options),
         None => Err(PrescriptionError {
             file: path.to_path_buf(),
             line: None,

@@ -25,7 +25,7 @@ use std::str::FromStr;
 
 use self::zemax::MAX_ZEMAX_BYTES;
 use super::prescription::{LensFormat, Prescription, PrescriptionError};
-use crate::glass::{Glass, catalogue};
+use crate::glass::{Glass, catalogue, looks_numeric};
 
 /// Prescription files larger than this are refused before reading: the largest real lens
 /// prescriptions have a few dozen rows.
@@ -88,21 +88,23 @@ impl FromStr for GlassSubstitute {
                 "'{text}': give both the file's glass name and the glass to read it as"
             ));
         }
-        let numbers: Vec<&str> = glass.split(',').map(str::trim).collect();
-        let glass = match numbers.as_slice() {
-            [n_d, v_d] if n_d.parse::<f64>().is_ok() => {
-                let (Ok(n_d), Ok(v_d)) = (n_d.parse::<f64>(), v_d.parse::<f64>()) else {
-                    return Err(format!(
-                        "'{glass}': a model glass is N_D,V_D (e.g. 1.69,31.1)"
-                    ));
-                };
-                Glass::model(n_d, v_d).map_err(|e| format!("'{glass}': {e}"))?
-            }
-            _ => Glass::Catalogue(
+        let glass = if looks_numeric(glass) {
+            let numbers: Vec<Option<f64>> = glass
+                .split(',')
+                .map(|t| t.trim().parse::<f64>().ok())
+                .collect();
+            let [Some(n_d), Some(v_d)] = numbers[..] else {
+                return Err(format!(
+                    "'{glass}': a model glass is N_D,V_D (e.g. 1.69,31.1)"
+                ));
+            };
+            Glass::model(n_d, v_d).map_err(|e| format!("'{glass}': {e}"))?
+        } else {
+            Glass::Catalogue(
                 catalogue()
                     .find(glass)
                     .map_err(|e| format!("'{glass}': {e}"))?,
-            ),
+            )
         };
         Ok(GlassSubstitute {
             name: name.to_string(),
@@ -178,16 +180,25 @@ impl Prescription {
         options: &ReadOptions,
     ) -> Result<Prescription, PrescriptionError> {
         let format = options.format;
-        match extension(source).as_str() {
+        let extension = extension(source);
+        if extension == "zmx" {
+            return zemax::read_zemax(text.as_bytes(), source, &options.glasses);
+        }
+        let mut prescription = match extension.as_str() {
             "toml" => toml::read_lens_file(text, source),
-            "zmx" => zemax::read_zemax(text.as_bytes(), source, &options.glasses),
             _ if looks_like_json(text) => Err(PrescriptionError {
                 file: source.to_path_buf(),
                 line: None,
                 message: JSON_LENS_FILE.into(),
             }),
             _ => dat::parse_dat(text, source, format),
+        }?;
+        if !options.glasses.is_empty() {
+            prescription.warnings.push(
+                "--glass renames the glasses of Zemax files; this lens file names its glasses itself, so it is read as it stands".into(),
+            );
         }
+        Ok(prescription)
     }
 }
 

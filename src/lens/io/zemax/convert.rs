@@ -70,6 +70,9 @@ pub(super) fn convert(
     }
     let mut prescription = conversion.validate(rows)?;
     prescription.info = conversion.info();
+    prescription
+        .warnings
+        .extend(conversion.unused_substitutes());
     Ok(prescription)
 }
 
@@ -244,6 +247,29 @@ impl<'a> Conversion<'a> {
             ));
         }
         Ok(())
+    }
+
+    /// A warning for each `--glass` substitute whose name no surface's `GLAS` gives: a typo
+    /// would otherwise pass silently.
+    fn unused_substitutes(&self) -> Vec<String> {
+        self.substitutes
+            .iter()
+            .filter(|substitute| {
+                !self.lens.iter().any(|s| {
+                    s.glass
+                        .as_ref()
+                        .and_then(|(tokens, _)| tokens.first())
+                        .is_some_and(|name| substitute.replaces(name))
+                })
+            })
+            .map(|substitute| {
+                format!(
+                    "--glass {}=…: the file names no glass {}; nothing was substituted",
+                    substitute.name(),
+                    substitute.name()
+                )
+            })
+            .collect()
     }
 
     /// The medium after surface `s`: air, a constant index, a model glass (`___BLANK`, a glass
