@@ -36,8 +36,7 @@ use frame::{Outcome, remove_spent_checkpoints, render_frame, write_frame_images}
 use outputs::{Formats, refuse_overwriting_scene_files};
 use plan::{FrameRequest, frame_count, plan_frames};
 use setup::{
-    Placement, autofocus, choose_environment, film_diagonal_for, frame_scene, place_camera,
-    within_focus_range,
+    Placement, autofocus, choose_environment, frame_scene, place_camera, within_focus_range,
 };
 use spec::JobSpec;
 use stats::stats_json;
@@ -81,7 +80,7 @@ pub struct Job<'a> {
 /// A lens of the run: its prescription, entity, film and the defaults its frames start from.
 pub struct RunLens {
     pub prescription: Prescription,
-    /// The film diagonal (mm) its frames render on ([`film_diagonal_for`]).
+    /// The film diagonal (mm) its frames render on ([`LensSettings::film_diagonal_for`](crate::lens::settings::LensSettings::film_diagonal_for)).
     pub film_diagonal: f64,
     pub entity: Entity,
     pub focus: FocusSetting,
@@ -139,9 +138,8 @@ impl<'a> Job<'a> {
             eprintln!("warning: {warning}");
         }
         let hinted_film_diagonal = placement.hints.film_diagonal_mm;
-        let film_diagonal = |lens: &Prescription| {
-            film_diagonal_for(spec.lens.film_diagonal, lens, hinted_film_diagonal)
-        };
+        let film_diagonal =
+            |lens: &Prescription| spec.lens.film_diagonal_for(lens, hinted_film_diagonal);
         let (world_from_camera, framed_focus) = if placement.frame_bounds {
             // One camera for the whole run: placed for the first lens.
             let aperture = spec.lens.aperture(ApertureSetting::Full);

@@ -13,20 +13,6 @@ use crate::pipeline::{Renderer, SceneBounds};
 use crate::scene::{CameraHints, MaterialLibrary, PunctualLight, SceneCamera, look_at};
 use crate::shade::Environment;
 
-/// Film diagonal (mm) when neither the job, the lens nor the scene's camera gives one.
-pub const DEFAULT_FILM_DIAGONAL_MM: f64 = 35.0;
-
-/// The film a lens renders on: `requested` (`--film-diagonal`), else the format the lens was
-/// designed for (a phone lens's is a few mm), else the scene camera's `hinted` one, else
-/// [`DEFAULT_FILM_DIAGONAL_MM`]. Each lens of a run, and each lens a live session swaps in, gets
-/// its own, so a lens renders the same picture beside others as alone.
-pub fn film_diagonal_for(requested: Option<f64>, lens: &Prescription, hinted: Option<f64>) -> f64 {
-    requested
-        .or(lens.info.film_diagonal_mm)
-        .or(hinted)
-        .unwrap_or(DEFAULT_FILM_DIAGONAL_MM)
-}
-
 /// The camera placement chosen for a render.
 pub struct Placement {
     pub world_from_camera: Mat4,
@@ -182,11 +168,7 @@ pub fn frame_scene(
     if bounds.is_empty() {
         bail!("the scene has no geometry to look at");
     }
-    let lens = Lens {
-        name: prescription.name.clone(),
-        source: prescription.source.clone(),
-        format: prescription.format,
-    };
+    let lens = Lens::of(prescription);
     let geometry =
         build_geometry(&lens, &prescription.rows, aperture).map_err(anyhow::Error::msg)?;
     let efl = geometry.first_order.focal_length;
@@ -217,11 +199,7 @@ pub fn within_focus_range(prescription: &Prescription, focus: FocusSetting) -> F
     let FocusSetting::Distance { metres, mode } = focus else {
         return focus;
     };
-    let lens = Lens {
-        name: prescription.name.clone(),
-        source: prescription.source.clone(),
-        format: prescription.format,
-    };
+    let lens = Lens::of(prescription);
     // A lens that does not derive is reported when its frame is rendered.
     let Ok(geometry) = build_geometry(&lens, &prescription.rows, ApertureSetting::Full) else {
         return focus;
@@ -269,11 +247,7 @@ mod tests {
     #[test]
     fn an_implied_focus_too_close_is_moved_out_to_the_closest_focus() {
         let lens = load_lens("dgauss.50mm", None).unwrap();
-        let element = Lens {
-            name: lens.name.clone(),
-            source: lens.source.clone(),
-            format: lens.format,
-        };
+        let element = Lens::of(&lens);
         let geometry = build_geometry(&element, &lens.rows, ApertureSetting::Full).unwrap();
         // The thick-lens closest conjugate: L = EFL·(2 + A + D) from the rear vertex.
         let m = geometry.first_order.system;

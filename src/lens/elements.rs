@@ -53,6 +53,17 @@ pub struct Lens {
     pub format: LensFormat,
 }
 
+impl Lens {
+    /// The lens entity's naming of `prescription`.
+    pub fn of(prescription: &Prescription) -> Lens {
+        Lens {
+            name: prescription.name.clone(),
+            source: prescription.source.clone(),
+            format: prescription.format,
+        }
+    }
+}
+
 /// One surface of a lens: a child entity of its [`Lens`].
 #[derive(Component, Clone, Copy, Debug, PartialEq)]
 pub struct LensSurface {
@@ -135,10 +146,13 @@ pub struct FilmFormat {
     pub pupil_sampling: PupilSampling,
 }
 
+/// Film diagonal (mm) when neither the job, the lens nor the scene's camera gives one.
+pub const DEFAULT_FILM_DIAGONAL_MM: f64 = 35.0;
+
 impl Default for FilmFormat {
     fn default() -> Self {
         FilmFormat {
-            diagonal_mm: 35.0,
+            diagonal_mm: DEFAULT_FILM_DIAGONAL_MM,
             pupil_sampling: PupilSampling::Bounds,
         }
     }
@@ -225,11 +239,7 @@ pub fn spawn_lens(
     focus: FocusSetting,
     aperture: ApertureSetting,
 ) -> Entity {
-    let lens = Lens {
-        name: prescription.name.clone(),
-        source: prescription.source.clone(),
-        format: prescription.format,
-    };
+    let lens = Lens::of(prescription);
     let mut entity = world.spawn((lens, focus, aperture));
     entity.with_children(|children| {
         for (order, row) in prescription.rows.iter().enumerate() {

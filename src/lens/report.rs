@@ -44,10 +44,7 @@ impl LensReport {
     ) -> anyhow::Result<LensReport> {
         options.validate()?;
         let focus = options.focus(FocusSetting::default());
-        let film_diagonal = options
-            .film_diagonal
-            .or(prescription.info.film_diagonal_mm)
-            .unwrap_or(35.0);
+        let film_diagonal = options.film_diagonal_for(&prescription, None);
         // The lens's own derivation systems on a world of its own: the report needs no scene.
         let mut world = World::new();
         world.init_resource::<LensDerivationStats>();

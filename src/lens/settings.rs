@@ -6,13 +6,14 @@
 use std::path::PathBuf;
 use std::sync::Arc;
 
-use crate::lens::LensFormat;
 use crate::lens::aperture::ApertureSetting;
 use crate::lens::diaphragm::{ApertureMask, Blades, Diaphragm};
+use crate::lens::elements::DEFAULT_FILM_DIAGONAL_MM;
 use crate::lens::elements::FocusSetting;
 use crate::lens::focus::FocusMode;
 use crate::lens::io::{GlassSubstitute, ReadOptions};
 use crate::lens::pupil::PupilSampling;
+use crate::lens::{LensFormat, Prescription};
 
 /// Largest film distance accepted. Film distances far beyond the focal length focus near the
 /// front focal point at huge magnification; 100 m is beyond any real bellows, and keeps the
@@ -51,6 +52,16 @@ pub struct LensSettings {
 }
 
 impl LensSettings {
+    /// The film a lens renders on: `film_diagonal` (`--film-diagonal`), else the format the
+    /// lens was designed for (a phone lens's is a few mm), else the scene camera's `hinted`
+    /// one, else [`DEFAULT_FILM_DIAGONAL_MM`]. Each lens of a run, and each lens a live session
+    /// swaps in, gets its own, so a lens renders the same picture beside others as alone.
+    pub fn film_diagonal_for(&self, lens: &Prescription, hinted: Option<f64>) -> f64 {
+        self.film_diagonal
+            .or(lens.info.film_diagonal_mm)
+            .or(hinted)
+            .unwrap_or(DEFAULT_FILM_DIAGONAL_MM)
+    }
     /// How the lens files are read.
     pub fn reading(&self) -> ReadOptions {
         ReadOptions {

@@ -17,7 +17,6 @@ use crate::film::format::{ImageFormat, Tone};
 use crate::film::output::{auto_exposure, write_image};
 use crate::job::frame::set_if_changed;
 use crate::job::outputs::Formats;
-use crate::job::setup::film_diagonal_for;
 use crate::job::spec::JobSpec;
 use crate::job::{Job, tone};
 use crate::lens::Prescription;
@@ -272,11 +271,9 @@ impl Session {
         // The diaphragm and the film movements are the session's, whichever lens is on.
         self.renderer.set_diaphragm(self.lens, diaphragm);
         self.renderer.set_movements(self.lens, spec.movements());
-        let film_diagonal = film_diagonal_for(
-            spec.lens.film_diagonal,
-            &self.prescription,
-            self.hinted_film_diagonal,
-        );
+        let film_diagonal = spec
+            .lens
+            .film_diagonal_for(&self.prescription, self.hinted_film_diagonal);
         spec.lens.film_diagonal = Some(film_diagonal);
         self.renderer
             .set_film(film_diagonal, spec.lens.pupil_sampling);

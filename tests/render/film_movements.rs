@@ -243,12 +243,7 @@ fn irradiance_integral(system: &LensSystem, point: [f64; 3], normal: [f64; 3]) -
 
 fn dgauss(aperture: ApertureSetting) -> LensGeometry {
     let prescription = load_lens("dgauss.50mm", None).unwrap();
-    let lens = Lens {
-        name: prescription.name.clone(),
-        source: prescription.source.clone(),
-        format: prescription.format,
-    };
-    build_geometry(&lens, &prescription.rows, aperture).unwrap()
+    build_geometry(&Lens::of(&prescription), &prescription.rows, aperture).unwrap()
 }
 
 /// The camera weight's mean over pupil samples (rays the lens blocks weigh 0) against the
