@@ -16,6 +16,16 @@ fn exr_pixels(path: &Path) -> Vec<f32> {
     image::open(path).unwrap().to_rgb32f().into_raw()
 }
 
+/// Renders `args` to `NAME.png` and `NAME.exr` in `dir`, asserting success, and returns the
+/// EXR's pixels.
+fn rendered_exr(dir: &Path, name: &str, args: &[&str]) -> Vec<f32> {
+    let (png, exr) = (format!("{name}.png"), format!("{name}.exr"));
+    let mut all = vec!["render", "--out", png.as_str(), "--exr", exr.as_str()];
+    all.extend(args);
+    ok(&realcam(dir, &all));
+    exr_pixels(&dir.join(exr))
+}
+
 const SMALL: [&str; 6] = ["--width", "24", "--height", "16", "--max-depth", "2"];
 
 #[test]
@@ -425,23 +435,10 @@ fn interrupted_render_resumes_to_the_uninterrupted_image() {
         String::from_utf8_lossy(&output.stderr)
     );
 
-    let mut resume = vec![
-        "render",
-        "--out",
-        "cut.png",
-        "--exr",
-        "resumed.exr",
-        "--resume",
-        "cut.checkpoint.exr",
-    ];
-    resume.extend(common);
-    ok(&realcam(dir.path(), &resume));
-    let mut whole = vec!["render", "--out", "whole.png", "--exr", "whole.exr"];
-    whole.extend(common);
-    ok(&realcam(dir.path(), &whole));
+    let resume = [&["--resume", "cut.checkpoint.exr"][..], &common].concat();
     assert_eq!(
-        exr_pixels(&dir.path().join("resumed.exr")),
-        exr_pixels(&dir.path().join("whole.exr"))
+        rendered_exr(dir.path(), "resumed", &resume),
+        rendered_exr(dir.path(), "whole", &common)
     );
 }
 
@@ -495,13 +492,11 @@ fn a_stopped_render_continues_to_more_samples() {
         "a finished resume removes its checkpoint"
     );
 
-    let mut direct = vec!["render", "--out", "direct.png", "--exr", "direct.exr"];
-    direct.extend(common);
-    direct[6] = more;
-    ok(&realcam(dir.path(), &direct));
+    let mut direct = common.to_vec();
+    direct[1] = more; // --spp
     assert_eq!(
         exr_pixels(&dir.path().join("more.exr")),
-        exr_pixels(&dir.path().join("direct.exr"))
+        rendered_exr(dir.path(), "direct", &direct)
     );
 }
 
