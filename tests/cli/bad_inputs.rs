@@ -799,8 +799,31 @@ fn merge_refuses_bad_partials_naming_them() {
         assert_refused(&run, file, phrases);
         assert_empty(&out_dir, file);
     }
-    // A missing file is named once, not by the EXR reader and again by its source.
-    let run = merge(&[&a, &dir.path().join("gone.exr")], &[]);
+    // A missing file is named once, not by the EXR reader and again by its source: for merge,
+    // and for a render resuming from it.
+    let gone = dir.path().join("gone.exr");
+    let run = merge(&[&a, &gone], &[]);
+    assert_eq!(
+        run.stderr.matches("No such file").count(),
+        1,
+        "{}",
+        run.stderr
+    );
+    let resume: [&std::ffi::OsStr; 11] = [
+        "render".as_ref(),
+        "--spp".as_ref(),
+        "1".as_ref(),
+        "--width".as_ref(),
+        "8".as_ref(),
+        "--height".as_ref(),
+        "8".as_ref(),
+        "--resume".as_ref(),
+        gone.as_os_str(),
+        "--out".as_ref(),
+        out.as_os_str(),
+    ];
+    let run = realcam(&resume);
+    assert_eq!(run.code, 1, "{}", run.stderr);
     assert_eq!(
         run.stderr.matches("No such file").count(),
         1,
