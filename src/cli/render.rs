@@ -16,7 +16,7 @@ use super::options::LensOptions;
 use super::values::{number, parse_pair, parse_pixel, parse_vec3, whole};
 use super::{Cli, Command};
 use crate::film::{MAX_IMAGE_SIDE, MAX_SPP};
-use crate::job::plan::{Shard, Sweep};
+use crate::job::plan::{Shard, StopSweep, Sweep};
 use crate::job::spec::{EnvironmentSpec, JobSpec, OutputSpec, ViewSpec};
 use crate::job::{Job, Progress, outputs::validate};
 use crate::lens::elements::Dispersion;
@@ -222,8 +222,9 @@ impl RenderArgs {
                 tilt_deg: tilt.unwrap_or_default(),
             },
             focus_sweep,
-            aperture_sweep,
-            f_number_sweep,
+            stop_sweep: aperture_sweep
+                .map(StopSweep::Diameter)
+                .or(f_number_sweep.map(StopSweep::FNumber)),
             output: OutputSpec {
                 out,
                 exr,

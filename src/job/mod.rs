@@ -34,7 +34,7 @@ use crate::scene::CameraHints;
 use crate::scene::default_scene::{DEFAULT_SCENE_GLB, DEFAULT_SCENE_PATH};
 use frame::{Outcome, remove_spent_checkpoints, render_frame, write_frame_images};
 use outputs::{Formats, refuse_overwriting_scene_files};
-use plan::{FrameRequest, frame_count, plan_frames};
+use plan::{FrameRequest, StopSweep, frame_count, plan_frames};
 use setup::{
     Placement, autofocus, choose_environment, frame_scene, place_camera, within_focus_range,
 };
@@ -199,7 +199,11 @@ impl<'a> Job<'a> {
         RunSize {
             width,
             height,
-            frames: frame_count(lenses.len(), spec.focus_sweep, spec.stop_sweep())?,
+            frames: frame_count(
+                lenses.len(),
+                spec.focus_sweep,
+                spec.stop_sweep.map(StopSweep::sweep),
+            )?,
             contact_sheet: spec.output.contact_sheet.is_some(),
         }
         .check()?;
@@ -254,8 +258,7 @@ impl<'a> Job<'a> {
             aperture: &aperture,
             focus_sweep: spec.focus_sweep,
             focus_mode: spec.lens.focus_mode,
-            aperture_sweep: spec.aperture_sweep,
-            f_number_sweep: spec.f_number_sweep,
+            stop_sweep: spec.stop_sweep,
             out: &spec.output.out,
             exr: spec.output.exr.as_deref(),
         });

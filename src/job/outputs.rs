@@ -4,7 +4,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::bail;
 
-use super::plan::frame_count;
+use super::plan::{StopSweep, frame_count};
 use super::spec::JobSpec;
 use crate::film::format::{
     Accepts, ImageFormat, check_tone_options, output_format, require_extension,
@@ -76,7 +76,11 @@ pub fn check_values(spec: &JobSpec) -> anyhow::Result<()> {
 /// formats the outputs' names ask for.
 pub fn validate(spec: &JobSpec) -> anyhow::Result<Formats> {
     check_values(spec)?;
-    let frames = frame_count(spec.lenses.len(), spec.focus_sweep, spec.stop_sweep())?;
+    let frames = frame_count(
+        spec.lenses.len(),
+        spec.focus_sweep,
+        spec.stop_sweep.map(StopSweep::sweep),
+    )?;
     let outputs = spec.output.files();
     for (i, (_, a)) in outputs.iter().enumerate() {
         if outputs[..i].iter().any(|(_, b)| a == b) {

@@ -117,22 +117,53 @@ pub const MAX_FRAMES: usize = 10_000;
 pub fn frame_count(
     lenses: usize,
     focus_sweep: Option<Sweep>,
-    aperture_sweep: Option<Sweep>,
+    stop_sweep: Option<Sweep>,
 ) -> anyhow::Result<usize> {
     let per_lens = |sweep: Option<Sweep>| sweep.map_or(1, |s| s.frames as usize);
     let frames = lenses
         .max(1)
         .saturating_mul(per_lens(focus_sweep))
-        .saturating_mul(per_lens(aperture_sweep));
+        .saturating_mul(per_lens(stop_sweep));
     if frames > MAX_FRAMES {
         anyhow::bail!(
             "this run would render {frames} frames ({} lens(es) × {} focus × {} stop settings), more than realcam's limit of {MAX_FRAMES} per run; split it into several runs",
             lenses.max(1),
             per_lens(focus_sweep),
-            per_lens(aperture_sweep)
+            per_lens(stop_sweep)
         );
     }
     Ok(frames)
+}
+
+/// A stop sweep: frames from one stop to another, evenly in stops, named by the stop's
+/// diameter (mm, `--aperture-sweep`) or by the f-number (`--f-number-sweep`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum StopSweep {
+    Diameter(Sweep),
+    FNumber(Sweep),
+}
+
+impl StopSweep {
+    /// The range and frame count, whatever names the stops.
+    pub fn sweep(self) -> Sweep {
+        match self {
+            StopSweep::Diameter(sweep) | StopSweep::FNumber(sweep) => sweep,
+        }
+    }
+
+    /// The stops of the sweep's frames: a stop is a factor of √2 in diameter or f-number, so
+    /// even steps in stops are geometric in either.
+    fn settings(self) -> Vec<ApertureSetting> {
+        let setting = match self {
+            StopSweep::Diameter(_) => ApertureSetting::Diameter,
+            StopSweep::FNumber(_) => ApertureSetting::FNumber,
+        };
+        self.sweep()
+            .values(Spacing::Geometric)
+            .into_iter()
+            .map(setting)
+            .collect()
+    }
 }
 
 /// One image the run renders.
@@ -155,9 +186,7 @@ pub struct FrameRequest<'a> {
     pub aperture: &'a [ApertureSetting],
     pub focus_sweep: Option<Sweep>,
     pub focus_mode: FocusMode,
-    pub aperture_sweep: Option<Sweep>,
-    /// Used when there is no `aperture_sweep`.
-    pub f_number_sweep: Option<Sweep>,
+    pub stop_sweep: Option<StopSweep>,
     pub out: &'a Path,
     pub exr: Option<&'a Path>,
 }
@@ -181,19 +210,9 @@ pub fn plan_frames(request: &FrameRequest) -> Vec<Frame> {
                 .collect(),
             None => vec![request.focus[lens]],
         };
-        // Stops step evenly in stops, whether named by diameter or by f-number.
-        let stops = |sweep: Sweep, setting: fn(f64) -> ApertureSetting| {
-            sweep
-                .values(Spacing::Geometric)
-                .into_iter()
-                .map(setting)
-                .collect()
-        };
-        let apertures: Vec<ApertureSetting> = match (request.aperture_sweep, request.f_number_sweep)
-        {
-            (Some(sweep), _) => stops(sweep, ApertureSetting::Diameter),
-            (None, Some(sweep)) => stops(sweep, ApertureSetting::FNumber),
-            (None, None) => vec![request.aperture[lens]],
+        let apertures: Vec<ApertureSetting> = match request.stop_sweep {
+            Some(sweep) => sweep.settings(),
+            None => vec![request.aperture[lens]],
         };
         let sequence = focuses.len() * apertures.len() > 1;
         for (number, (focus, aperture)) in focuses
@@ -214,7 +233,9 @@ pub fn plan_frames(request: &FrameRequest) -> Vec<Frame> {
                     String::new()
                 },
                 match aperture {
-                    ApertureSetting::FNumber(n) if request.f_number_sweep.is_some() => {
+                    ApertureSetting::FNumber(n)
+                        if matches!(request.stop_sweep, Some(StopSweep::FNumber(_))) =>
+                    {
                         format!("-f{}", f_number_label(n))
                     }
                     _ => String::new(),
@@ -311,8 +332,7 @@ mod tests {
             aperture: &aperture,
             focus_sweep: Some("1:10:3".parse().unwrap()),
             focus_mode: FocusMode::Paraxial,
-            aperture_sweep: None,
-            f_number_sweep: None,
+            stop_sweep: None,
             out: Path::new("out/render.png"),
             exr: None,
         };
@@ -337,8 +357,7 @@ mod tests {
             aperture: &[ApertureSetting::Full],
             focus_sweep: None,
             focus_mode: FocusMode::Paraxial,
-            aperture_sweep: None,
-            f_number_sweep: Some("2:16:4".parse().unwrap()),
+            stop_sweep: Some(StopSweep::FNumber("2:16:4".parse().unwrap())),
             out: Path::new("out/stops.png"),
             exr: Some(Path::new("out/stops.exr")),
         };
@@ -369,7 +388,7 @@ mod tests {
             Some(Path::new("out/stops-001-f4.exr"))
         );
         let odd = FrameRequest {
-            f_number_sweep: Some("1.4:2.8:3".parse().unwrap()),
+            stop_sweep: Some(StopSweep::FNumber("1.4:2.8:3".parse().unwrap())),
             ..request
         };
         // 1.4·√2 = 1.98: named to a tenth.

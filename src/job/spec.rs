@@ -11,7 +11,7 @@ use std::path::{Path, PathBuf};
 
 use glam::Vec3;
 
-use super::plan::{Shard, Sweep};
+use super::plan::{Shard, StopSweep, Sweep};
 use crate::film::DEFAULT_IMAGE_SIDE;
 use crate::lens::elements::Dispersion;
 use crate::lens::movements::FilmMovements;
@@ -50,11 +50,8 @@ pub struct JobSpec {
     pub movements: FilmMovements,
     /// A rack focus: frames from near to far.
     pub focus_sweep: Option<Sweep>,
-    /// A stop sweep: frames from one stop diameter to another.
-    pub aperture_sweep: Option<Sweep>,
-    /// A stop sweep by f-number: frames from one real f-number to another. At most one of the
-    /// two sweeps.
-    pub f_number_sweep: Option<Sweep>,
+    /// A stop sweep: frames from one stop to another, by diameter or by f-number.
+    pub stop_sweep: Option<StopSweep>,
     /// What is written, and where.
     pub output: OutputSpec,
 }
@@ -147,11 +144,6 @@ impl OutputSpec {
 }
 
 impl JobSpec {
-    /// The stop sweep, by diameter or by f-number: the frames each focus gets.
-    pub fn stop_sweep(&self) -> Option<Sweep> {
-        self.aperture_sweep.or(self.f_number_sweep)
-    }
-
     /// The image size the spec gives, each side [`DEFAULT_IMAGE_SIDE`] where it gives none.
     pub fn size_or_default(&self) -> (u32, u32) {
         (
