@@ -1,5 +1,6 @@
 //! `realcam serve`: a live lens lab in the browser (see [`crate::live`] and [`crate::server`]).
 
+use std::io::Write;
 use std::net::{IpAddr, Ipv4Addr, SocketAddr};
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -126,7 +127,13 @@ pub fn run(args: &ServeArgs) -> anyhow::Result<ExitCode> {
         IpAddr::V6(ip) => format!("[{ip}]"),
         ip => ip.to_string(),
     };
-    println!("realcam serve: http://{host}:{}/", bound.port());
+    // The address is for whoever reads it; with nobody reading (`realcam serve | head -0`)
+    // the lab still serves, so a closed standard output is no error here (nor a panic).
+    let _ = writeln!(
+        std::io::stdout(),
+        "realcam serve: http://{host}:{}/",
+        bound.port()
+    );
     eprintln!("serving the live lens lab; Ctrl-C stops");
     server.serve(|| interrupt.requested().is_some());
     lab.stop();

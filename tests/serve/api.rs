@@ -733,3 +733,44 @@ fn serve_refuses_batch_options_and_bad_addresses() {
         assert!(stderr.contains(why), "{args:?}: {stderr}");
     }
 }
+
+/// `realcam serve | head -0`: nobody reads the printed address, and the lab serves on and stops
+/// cleanly on Ctrl-C instead of panicking at that print.
+#[test]
+fn a_closed_standard_output_does_not_stop_the_lab() {
+    use std::io::Read;
+    use std::process::Stdio;
+    use std::time::Instant;
+
+    let dir = tempfile::tempdir().unwrap();
+    let mut child = Command::new(env!("CARGO_BIN_EXE_realcam"))
+        .arg("serve")
+        .args(["--port", "0"])
+        .args(SMALL)
+        .current_dir(dir.path())
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    drop(child.stdout.take()); // the reader goes away before the address is printed
+    let mut stderr = child.stderr.take().unwrap();
+    let mut said = String::new();
+    let start = Instant::now();
+    let mut buffer = [0u8; 4096];
+    while !said.contains("serving the live lens lab") {
+        assert!(start.elapsed() < Duration::from_secs(60), "{said}");
+        match stderr.read(&mut buffer).unwrap() {
+            0 => break,
+            n => said.push_str(&String::from_utf8_lossy(&buffer[..n])),
+        }
+    }
+    assert!(said.contains("serving the live lens lab"), "{said}");
+    unsafe {
+        libc::kill(child.id() as i32, libc::SIGINT);
+    }
+    let status = child.wait().unwrap();
+    stderr.read_to_string(&mut said).unwrap();
+    assert!(status.success(), "{status}: {said}");
+    assert!(!said.contains("panicked"), "{said}");
+}
