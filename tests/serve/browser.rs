@@ -230,6 +230,17 @@ window.pixels = () => {
 true
 "#;
 
+/// `realcam serve ARGS` with its page loaded in a `width` × `height` window and the test
+/// helpers ([`HELPERS`]) in place.
+fn open_page(chromium: &PathBuf, args: &[&str], width: u32, height: u32) -> (Served, Browser) {
+    let served = Served::start(args);
+    let mut browser = Browser::launch(chromium, width, height);
+    browser.open(&served.url());
+    browser.wait_for_page();
+    assert_eq!(browser.evaluate(HELPERS), json!(true));
+    (served, browser)
+}
+
 #[test]
 fn the_page_changes_lens_and_focus_and_shows_the_new_image() {
     let Some(chromium) =
@@ -237,11 +248,7 @@ fn the_page_changes_lens_and_focus_and_shows_the_new_image() {
     else {
         return;
     };
-    let served = Served::start(SMALL);
-    let mut browser = Browser::launch(&chromium, 1400, 860);
-    browser.open(&served.url());
-    browser.wait_for_page();
-    assert_eq!(browser.evaluate(HELPERS), json!(true));
+    let (served, mut browser) = open_page(&chromium, SMALL, 1400, 860);
 
     let outcome = browser.evaluate(
         r##"(async () => {
@@ -319,11 +326,7 @@ fn a_refused_lens_puts_the_picker_back_and_the_error_in_sight() {
     else {
         return;
     };
-    let served = Served::start(SMALL);
-    let mut browser = Browser::launch(&chromium, 800, 900);
-    browser.open(&served.url());
-    browser.wait_for_page();
-    assert_eq!(browser.evaluate(HELPERS), json!(true));
+    let (_served, mut browser) = open_page(&chromium, SMALL, 800, 900);
     let outcome = browser.evaluate(
         r##"(async () => {
           await settled("the first render");
@@ -369,11 +372,12 @@ fn readme_screenshot() {
         return;
     };
     let chromium = find_chromium().expect("chromium");
-    let served = Served::start(&["--spp", "32", "--f-number", "2", "--blades", "6"]);
-    let mut browser = Browser::launch(&chromium, 1500, 1010);
-    browser.open(&served.url());
-    browser.wait_for_page();
-    browser.evaluate(HELPERS);
+    let (_served, mut browser) = open_page(
+        &chromium,
+        &["--spp", "32", "--f-number", "2", "--blades", "6"],
+        1500,
+        1010,
+    );
     browser.evaluate(
         r#"(async () => {
           await settled("the render");
