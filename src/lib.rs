@@ -10,6 +10,7 @@ pub mod cli;
 pub mod diagnosis;
 pub mod film;
 pub mod glass;
+pub mod gpu;
 pub mod job;
 pub mod lens;
 pub mod live;

@@ -1,0 +1,209 @@
+//! Buffers, readback and compute kernels, with wgpu's validation errors returned as values.
+
+use wgpu::util::DeviceExt;
+
+use super::context::{GpuContext, GpuUnavailable};
+
+/// A storage buffer holding `data` (read-only or read-write in the kernel as its binding says).
+/// An empty slice becomes one zeroed element: WGSL has no zero-sized bindings, and a kernel
+/// given a count of 0 never reads it.
+pub fn storage_buffer<T: bytemuck::Pod>(context: &GpuContext, label: &str, data: &[T]) -> wgpu::Buffer {
+    let zero = [T::zeroed()];
+    let data = if data.is_empty() { &zero[..] } else { data };
+    context
+        .device
+        .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some(label),
+            contents: bytemuck::cast_slice(data),
+            usage: wgpu::BufferUsages::STORAGE
+                | wgpu::BufferUsages::COPY_SRC
+                | wgpu::BufferUsages::COPY_DST,
+        })
+}
+
+/// A zeroed read-write storage buffer of `len` elements of `T` (at least one).
+pub fn zeroed_buffer<T: bytemuck::Pod>(context: &GpuContext, label: &str, len: usize) -> wgpu::Buffer {
+    context.device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some(label),
+        size: (len.max(1) * size_of::<T>()) as u64,
+        usage: wgpu::BufferUsages::STORAGE
+            | wgpu::BufferUsages::COPY_SRC
+            | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    })
+}
+
+/// A uniform buffer holding one `T`.
+pub fn uniform_buffer<T: bytemuck::Pod>(context: &GpuContext, label: &str, value: &T) -> wgpu::Buffer {
+    context
+        .device
+        .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some(label),
+            contents: bytemuck::bytes_of(value),
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+        })
+}
+
+/// The first `len` elements of `buffer`, copied back after all submitted work is done.
+pub fn read_buffer<T: bytemuck::Pod>(
+    context: &GpuContext,
+    buffer: &wgpu::Buffer,
+    len: usize,
+) -> Result<Vec<T>, GpuUnavailable> {
+    let size = (len * size_of::<T>()) as u64;
+    if size == 0 {
+        return Ok(Vec::new());
+    }
+    let staging = context.device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("readback"),
+        size,
+        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    });
+    let mut encoder = context
+        .device
+        .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("readback") });
+    encoder.copy_buffer_to_buffer(buffer, 0, &staging, 0, size);
+    context.queue.submit([encoder.finish()]);
+    let slice = staging.slice(..);
+    let (sender, receiver) = std::sync::mpsc::channel();
+    slice.map_async(wgpu::MapMode::Read, move |result| {
+        let _ = sender.send(result);
+    });
+    context
+        .device
+        .poll(wgpu::PollType::wait_indefinitely())
+        .map_err(|e| GpuUnavailable(format!("the GPU stopped answering: {e}")))?;
+    receiver
+        .recv()
+        .map_err(|_| GpuUnavailable("the GPU readback was dropped".into()))?
+        .map_err(|e| GpuUnavailable(format!("could not read a GPU buffer back: {e}")))?;
+    let values = {
+        let view = slice
+            .get_mapped_range()
+            .map_err(|e| GpuUnavailable(format!("could not read a GPU buffer back: {e}")))?;
+        bytemuck::cast_slice::<u8, T>(&view).to_vec()
+    };
+    staging.unmap();
+    Ok(values)
+}
+
+/// A compute kernel: `entry` of the WGSL `source`, its bind group layouts derived from the
+/// source. A shader that fails validation is an error naming the kernel, not a panic.
+pub fn kernel(
+    context: &GpuContext,
+    label: &str,
+    source: &str,
+    entry: &str,
+) -> Result<wgpu::ComputePipeline, GpuUnavailable> {
+    let scope = context.device.push_error_scope(wgpu::ErrorFilter::Validation);
+    let module = context
+        .device
+        .create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some(label),
+            source: wgpu::ShaderSource::Wgsl(source.into()),
+        });
+    let pipeline = context
+        .device
+        .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some(label),
+            layout: None,
+            module: &module,
+            entry_point: Some(entry),
+            compilation_options: Default::default(),
+            cache: None,
+        });
+    match pollster::block_on(scope.pop()) {
+        None => Ok(pipeline),
+        Some(error) => Err(GpuUnavailable(format!("the GPU kernel {label} is invalid: {error}"))),
+    }
+}
+
+/// A bind group for group `group` of `pipeline`, binding `buffers` in order to bindings 0, 1, ….
+pub fn bind_buffers(
+    context: &GpuContext,
+    pipeline: &wgpu::ComputePipeline,
+    group: u32,
+    buffers: &[&wgpu::Buffer],
+) -> wgpu::BindGroup {
+    let entries: Vec<wgpu::BindGroupEntry> = buffers
+        .iter()
+        .enumerate()
+        .map(|(binding, buffer)| wgpu::BindGroupEntry {
+            binding: binding as u32,
+            resource: buffer.as_entire_binding(),
+        })
+        .collect();
+    context.device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: None,
+        layout: &pipeline.get_bind_group_layout(group),
+        entries: &entries,
+    })
+}
+
+/// Runs `pipeline` over `workgroups` with `bind_groups` (group i = the i-th), and waits for it.
+pub fn dispatch(
+    context: &GpuContext,
+    pipeline: &wgpu::ComputePipeline,
+    bind_groups: &[&wgpu::BindGroup],
+    workgroups: [u32; 3],
+) -> Result<(), GpuUnavailable> {
+    let scope = context.device.push_error_scope(wgpu::ErrorFilter::Validation);
+    let mut encoder = context
+        .device
+        .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
+    {
+        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor::default());
+        pass.set_pipeline(pipeline);
+        for (group, bind_group) in bind_groups.iter().enumerate() {
+            pass.set_bind_group(group as u32, *bind_group, &[]);
+        }
+        pass.dispatch_workgroups(workgroups[0], workgroups[1], workgroups[2]);
+    }
+    context.queue.submit([encoder.finish()]);
+    if let Some(error) = pollster::block_on(scope.pop()) {
+        return Err(GpuUnavailable(format!("a GPU dispatch failed: {error}")));
+    }
+    context
+        .device
+        .poll(wgpu::PollType::wait_indefinitely())
+        .map_err(|e| GpuUnavailable(format!("the GPU stopped answering: {e}")))?;
+    Ok(())
+}
+
+/// Workgroups of `size` threads covering `n` items.
+pub fn workgroups_for(n: usize, size: u32) -> u32 {
+    (n as u32).div_ceil(size).max(1)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_kernel_doubles_every_element_and_reads_back() {
+        let Some(context) = GpuContext::for_tests() else {
+            return;
+        };
+        let source = "@group(0) @binding(0) var<storage, read_write> values: array<f32>;\n\
+            @compute @workgroup_size(64) fn main(@builtin(global_invocation_id) id: vec3u) {\n\
+            if id.x < arrayLength(&values) { values[id.x] = 2.0 * values[id.x]; } }";
+        let pipeline = kernel(&context, "double", source, "main").unwrap();
+        let input: Vec<f32> = (0..1000).map(|i| i as f32).collect();
+        let buffer = storage_buffer(&context, "values", &input);
+        let group = bind_buffers(&context, &pipeline, 0, &[&buffer]);
+        dispatch(&context, &pipeline, &[&group], [workgroups_for(1000, 64), 1, 1]).unwrap();
+        let output: Vec<f32> = read_buffer(&context, &buffer, 1000).unwrap();
+        assert!(output.iter().enumerate().all(|(i, &v)| v == 2.0 * i as f32));
+    }
+
+    #[test]
+    fn an_invalid_shader_is_an_error_naming_the_kernel() {
+        let Some(context) = GpuContext::for_tests() else {
+            return;
+        };
+        let error = kernel(&context, "broken", "fn main() { let x: f32 = true; }", "main")
+            .unwrap_err();
+        assert!(error.0.contains("broken"), "{error}");
+    }
+}

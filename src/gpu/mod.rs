@@ -1,0 +1,15 @@
+//! The GPU backend: the pass stages (GenerateRays → Trace → Shade → Weight → WriteFilm) as
+//! WGSL compute kernels on wgpu (Vulkan on Linux, Metal on macOS, DX12 on Windows; headless).
+//!
+//! The ECS stays the orchestration: the scene is loaded and its BVH built on the CPU once and
+//! uploaded; the lens is derived on the CPU by the lens systems (change detection) and uploaded
+//! as one small buffer; the kernels draw the same sample sequences as the CPU path, so the two
+//! devices render the same estimator.
+//!
+//! - [`context`]: finding an adapter and opening a device (`realcam devices` lists them).
+//! - [`compute`]: buffers, readback and kernels with errors as values, never panics.
+
+pub mod compute;
+pub mod context;
+
+pub use context::{AdapterSummary, GpuContext, GpuUnavailable, adapters};
