@@ -7,7 +7,11 @@ use super::context::{GpuContext, GpuUnavailable};
 /// A storage buffer holding `data` (read-only or read-write in the kernel as its binding says).
 /// An empty slice becomes one zeroed element: WGSL has no zero-sized bindings, and a kernel
 /// given a count of 0 never reads it.
-pub fn storage_buffer<T: bytemuck::Pod>(context: &GpuContext, label: &str, data: &[T]) -> wgpu::Buffer {
+pub fn storage_buffer<T: bytemuck::Pod>(
+    context: &GpuContext,
+    label: &str,
+    data: &[T],
+) -> wgpu::Buffer {
     let zero = [T::zeroed()];
     let data = if data.is_empty() { &zero[..] } else { data };
     context
@@ -22,7 +26,11 @@ pub fn storage_buffer<T: bytemuck::Pod>(context: &GpuContext, label: &str, data:
 }
 
 /// A zeroed read-write storage buffer of `len` elements of `T` (at least one).
-pub fn zeroed_buffer<T: bytemuck::Pod>(context: &GpuContext, label: &str, len: usize) -> wgpu::Buffer {
+pub fn zeroed_buffer<T: bytemuck::Pod>(
+    context: &GpuContext,
+    label: &str,
+    len: usize,
+) -> wgpu::Buffer {
     context.device.create_buffer(&wgpu::BufferDescriptor {
         label: Some(label),
         size: (len.max(1) * size_of::<T>()) as u64,
@@ -34,7 +42,11 @@ pub fn zeroed_buffer<T: bytemuck::Pod>(context: &GpuContext, label: &str, len: u
 }
 
 /// A uniform buffer holding one `T`.
-pub fn uniform_buffer<T: bytemuck::Pod>(context: &GpuContext, label: &str, value: &T) -> wgpu::Buffer {
+pub fn uniform_buffer<T: bytemuck::Pod>(
+    context: &GpuContext,
+    label: &str,
+    value: &T,
+) -> wgpu::Buffer {
     context
         .device
         .create_buffer_init(&wgpu::util::BufferInitDescriptor {
@@ -62,7 +74,9 @@ pub fn read_buffer<T: bytemuck::Pod>(
     });
     let mut encoder = context
         .device
-        .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("readback") });
+        .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+            label: Some("readback"),
+        });
     encoder.copy_buffer_to_buffer(buffer, 0, &staging, 0, size);
     context.queue.submit([encoder.finish()]);
     let slice = staging.slice(..);
@@ -96,7 +110,9 @@ pub fn kernel(
     source: &str,
     entry: &str,
 ) -> Result<wgpu::ComputePipeline, GpuUnavailable> {
-    let scope = context.device.push_error_scope(wgpu::ErrorFilter::Validation);
+    let scope = context
+        .device
+        .push_error_scope(wgpu::ErrorFilter::Validation);
     let module = context
         .device
         .create_shader_module(wgpu::ShaderModuleDescriptor {
@@ -115,7 +131,114 @@ pub fn kernel(
         });
     match pollster::block_on(scope.pop()) {
         None => Ok(pipeline),
-        Some(error) => Err(GpuUnavailable(format!("the GPU kernel {label} is invalid: {error}"))),
+        Some(error) => Err(GpuUnavailable(format!(
+            "the GPU kernel {label} is invalid: {error}"
+        ))),
+    }
+}
+
+/// How a kernel sees one buffer of a [`Bindings`] set.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Access {
+    Uniform,
+    ReadOnly,
+    ReadWrite,
+}
+
+/// One bind group with its layout: the buffers of one part of the renderer (the lens, the
+/// scene, the shading data, a pass's film), bound to bindings 0, 1, … in order. Kernels are
+/// made with explicit layouts ([`kernel_with`]) so that a kernel may leave bindings unused.
+#[derive(Debug)]
+pub struct Bindings {
+    pub layout: wgpu::BindGroupLayout,
+    pub group: wgpu::BindGroup,
+}
+
+impl Bindings {
+    pub fn new(context: &GpuContext, label: &str, buffers: &[(&wgpu::Buffer, Access)]) -> Bindings {
+        let layout_entries: Vec<wgpu::BindGroupLayoutEntry> = buffers
+            .iter()
+            .enumerate()
+            .map(|(binding, (_, access))| wgpu::BindGroupLayoutEntry {
+                binding: binding as u32,
+                visibility: wgpu::ShaderStages::COMPUTE,
+                ty: wgpu::BindingType::Buffer {
+                    ty: match access {
+                        Access::Uniform => wgpu::BufferBindingType::Uniform,
+                        Access::ReadOnly => wgpu::BufferBindingType::Storage { read_only: true },
+                        Access::ReadWrite => wgpu::BufferBindingType::Storage { read_only: false },
+                    },
+                    has_dynamic_offset: false,
+                    min_binding_size: None,
+                },
+                count: None,
+            })
+            .collect();
+        let layout = context
+            .device
+            .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                label: Some(label),
+                entries: &layout_entries,
+            });
+        let entries: Vec<wgpu::BindGroupEntry> = buffers
+            .iter()
+            .enumerate()
+            .map(|(binding, (buffer, _))| wgpu::BindGroupEntry {
+                binding: binding as u32,
+                resource: buffer.as_entire_binding(),
+            })
+            .collect();
+        let group = context
+            .device
+            .create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some(label),
+                layout: &layout,
+                entries: &entries,
+            });
+        Bindings { layout, group }
+    }
+}
+
+/// A compute kernel with explicit bind group layouts (group i = `layouts[i]`); see [`kernel`].
+pub fn kernel_with(
+    context: &GpuContext,
+    label: &str,
+    source: &str,
+    entry: &str,
+    layouts: &[&wgpu::BindGroupLayout],
+) -> Result<wgpu::ComputePipeline, GpuUnavailable> {
+    let scope = context
+        .device
+        .push_error_scope(wgpu::ErrorFilter::Validation);
+    let layouts: Vec<Option<&wgpu::BindGroupLayout>> = layouts.iter().copied().map(Some).collect();
+    let layout = context
+        .device
+        .create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some(label),
+            bind_group_layouts: &layouts,
+            immediate_size: 0,
+        });
+    let module = context
+        .device
+        .create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some(label),
+            source: wgpu::ShaderSource::Wgsl(source.into()),
+        });
+    let pipeline = context
+        .device
+        .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some(label),
+            layout: Some(&layout),
+            module: &module,
+            entry_point: Some(entry),
+            compilation_options: Default::default(),
+            cache: None,
+        });
+    match pollster::block_on(scope.pop()) {
+        None => Ok(pipeline),
+        Some(error) => Err(GpuUnavailable(format!(
+            "the GPU kernel {label} is invalid: {error}"
+        ))),
     }
 }
 
@@ -134,11 +257,13 @@ pub fn bind_buffers(
             resource: buffer.as_entire_binding(),
         })
         .collect();
-    context.device.create_bind_group(&wgpu::BindGroupDescriptor {
-        label: None,
-        layout: &pipeline.get_bind_group_layout(group),
-        entries: &entries,
-    })
+    context
+        .device
+        .create_bind_group(&wgpu::BindGroupDescriptor {
+            label: None,
+            layout: &pipeline.get_bind_group_layout(group),
+            entries: &entries,
+        })
 }
 
 /// Runs `pipeline` over `workgroups` with `bind_groups` (group i = the i-th), and waits for it.
@@ -148,7 +273,9 @@ pub fn dispatch(
     bind_groups: &[&wgpu::BindGroup],
     workgroups: [u32; 3],
 ) -> Result<(), GpuUnavailable> {
-    let scope = context.device.push_error_scope(wgpu::ErrorFilter::Validation);
+    let scope = context
+        .device
+        .push_error_scope(wgpu::ErrorFilter::Validation);
     let mut encoder = context
         .device
         .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
@@ -192,9 +319,34 @@ mod tests {
         let input: Vec<f32> = (0..1000).map(|i| i as f32).collect();
         let buffer = storage_buffer(&context, "values", &input);
         let group = bind_buffers(&context, &pipeline, 0, &[&buffer]);
-        dispatch(&context, &pipeline, &[&group], [workgroups_for(1000, 64), 1, 1]).unwrap();
+        dispatch(
+            &context,
+            &pipeline,
+            &[&group],
+            [workgroups_for(1000, 64), 1, 1],
+        )
+        .unwrap();
         let output: Vec<f32> = read_buffer(&context, &buffer, 1000).unwrap();
         assert!(output.iter().enumerate().all(|(i, &v)| v == 2.0 * i as f32));
+    }
+
+    #[test]
+    fn explicit_layouts_allow_unused_bindings() {
+        let Some(context) = GpuContext::for_tests() else {
+            return;
+        };
+        let source = "@group(0) @binding(1) var<storage, read_write> out: array<u32>;\n\
+            @compute @workgroup_size(1) fn main() { out[0] = 7u; }";
+        let unused = storage_buffer(&context, "unused", &[1u32]);
+        let out = zeroed_buffer::<u32>(&context, "out", 1);
+        let bindings = Bindings::new(
+            &context,
+            "set",
+            &[(&unused, Access::ReadOnly), (&out, Access::ReadWrite)],
+        );
+        let pipeline = kernel_with(&context, "seven", source, "main", &[&bindings.layout]).unwrap();
+        dispatch(&context, &pipeline, &[&bindings.group], [1, 1, 1]).unwrap();
+        assert_eq!(read_buffer::<u32>(&context, &out, 1).unwrap(), vec![7]);
     }
 
     #[test]
@@ -202,8 +354,13 @@ mod tests {
         let Some(context) = GpuContext::for_tests() else {
             return;
         };
-        let error = kernel(&context, "broken", "fn main() { let x: f32 = true; }", "main")
-            .unwrap_err();
+        let error = kernel(
+            &context,
+            "broken",
+            "fn main() { let x: f32 = true; }",
+            "main",
+        )
+        .unwrap_err();
         assert!(error.0.contains("broken"), "{error}");
     }
 }

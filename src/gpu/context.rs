@@ -75,8 +75,13 @@ pub fn adapters() -> Vec<AdapterSummary> {
     let mut found: Vec<wgpu::AdapterInfo> =
         pollster::block_on(instance().enumerate_adapters(wgpu::Backends::PRIMARY))
             .iter()
-            .filter(|adapter| adapter.get_downlevel_capabilities().is_webgpu_compliant()
-                || adapter.get_downlevel_capabilities().flags.contains(wgpu::DownlevelFlags::COMPUTE_SHADERS))
+            .filter(|adapter| {
+                adapter.get_downlevel_capabilities().is_webgpu_compliant()
+                    || adapter
+                        .get_downlevel_capabilities()
+                        .flags
+                        .contains(wgpu::DownlevelFlags::COMPUTE_SHADERS)
+            })
             .map(|adapter| adapter.get_info())
             .collect();
     found.sort_by_key(|info| preference(info.device_type));
@@ -114,7 +119,8 @@ impl GpuContext {
     /// million-triangle scene needs storage buffers far above WebGPU's defaults.
     pub fn open() -> Result<GpuContext, GpuUnavailable> {
         let instance = instance();
-        let mut candidates = pollster::block_on(instance.enumerate_adapters(wgpu::Backends::PRIMARY));
+        let mut candidates =
+            pollster::block_on(instance.enumerate_adapters(wgpu::Backends::PRIMARY));
         candidates.sort_by_key(|adapter| preference(adapter.get_info().device_type));
         let adapter = candidates
             .into_iter()
