@@ -2,7 +2,9 @@
 """realcam against peer renderers, side by side, on the same scene and settings.
 
     python3 benches/peers/compare.py [--spp 64] [--size 320] [--repeat 1] [--skip-install]
-                                     [--scenes helmet,spheres]
+                                     [--scenes helmet,spheres] [--device cpu[,gpu]] [--threads N]
+                                     [--peers all|none|LIST] [--realcam PATH] [--work DIR]
+                                     [--skip-convert] [--timeout SECONDS] [--results FILE]
 
 Installs what it needs (idempotent): rs_pbrt (`cargo install rs_pbrt --locked`, a Rust port
 of pbrt-v3 with its realistic camera), Mitsuba 3 (`pip install mitsuba`; its llvm variant
@@ -13,18 +15,34 @@ prints camera samples per second (width × height × spp / render seconds, all c
 ratios, each renderer's fixed set-up time (scene, BVH, lens; excluded from the rate) and, for
 realcam and Mitsuba, the scene load + BVH build alone.
 
-realcam runs twice: as a user gets it (dgauss.50mm has glass data, so each camera ray carries
-one wavelength through the dispersive lens: spectral) and with `--dispersion off` (every ray at
-the lens file's n_d indices, RGB throughout like the peers). The thin-lens peers render RGB
-with no lens at all, so `--dispersion off` is the like-for-like figure; the spectral one is
-what the default costs.
+realcam runs twice per device: as a user gets it (dgauss.50mm has glass data, so each camera
+ray carries one wavelength through the dispersive lens: spectral) and with `--dispersion off`
+(every ray at the lens file's n_d indices, RGB throughout like the peers). The thin-lens peers
+render RGB with no lens at all, so `--dispersion off` is the like-for-like figure; the spectral
+one is what the default costs. `--device cpu,gpu` renders each scene on both of realcam's
+devices: rows "realcam" and "realcam --dispersion off" (the CPU, as before) and "realcam
+--device gpu" and "realcam --device gpu --dispersion off"; `--device` is passed to realcam,
+`--threads N` to its CPU renders. A device realcam cannot render on is reported per row and the
+rest go on.
 
 The settings: 320 × 320, 64 spp, path depth 5 (pbrt's maxdepth; Mitsuba's max_depth is one
 more, as it counts the camera segment), matte albedo 0.5, a white uniform sky of radiance 1,
 the camera 4.5 m in front of the helmet looking at it, focused at 4.5 m; dgauss.50mm at an
 8 mm stop on a 35 mm-diagonal film for realcam and rs_pbrt; Mitsuba's thin lens gets the same
-horizontal field of view and entrance pupil. A peer that cannot be installed or run is
-reported as such and the rest go on. Results also go to target/peers/results.json.
+horizontal field of view and entrance pupil. The peers (`--peers all`, the default; `none` for
+realcam alone; or a comma list of rs_pbrt, scalar_rgb, llvm_ad_rgb, cuda_ad_rgb): rs_pbrt,
+Mitsuba's scalar_rgb and llvm_ad_rgb, and Mitsuba's cuda_ad_rgb (thin lens, the same settings
+as the llvm row) where `mitsuba` imports, lists that variant and a CUDA device answers. A peer
+that cannot be installed or run is reported as such and the rest go on.
+
+For a machine without Rust, network or the shared scenes (a GPU machine): `--realcam PATH`
+renders with that binary instead of running `cargo build --release`; `--work DIR` is where the
+converted scenes are (default target/peers); `--skip-convert` uses the `<work>/<scene>.glb` an
+earlier run wrote, with no numpy, pygltflib or shared scenes (`<scene>.ply`, read by the peers
+alone, is written from the .glb where it is missing); `--timeout S` stops any one render after
+S seconds, says so and goes on (once a realcam GPU render has timed out, the scene's remaining
+GPU rows are skipped). Results (each row's median, the rows that failed and why, the settings)
+go to `<work>/results.json`, or to `--results FILE`.
 """
 
 import argparse
@@ -32,19 +50,22 @@ import json
 import os
 import shutil
 import statistics
+import struct
 import subprocess
 import sys
 import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[2]
-WORK = ROOT / "target" / "peers"
+WORK = ROOT / "target" / "peers"  # --work replaces it
 SHARED = Path(os.environ.get("REALCAM_SHARED", ROOT.parent / "shared"))
 # name → (file under shared/scenes, longest side to fit the scene to in metres, or None to keep it)
 SCENES = {
     "helmet": ("DamagedHelmet/DamagedHelmet.glb", None),
     "spheres": ("MetalRoughSpheresNoTextures/MetalRoughSpheresNoTextures.gltf", 2.0),
 }
+DEVICES = ("cpu", "gpu")
+PEERS = ("rs_pbrt", "scalar_rgb", "llvm_ad_rgb", "cuda_ad_rgb")
 LENS = "dgauss.50mm"
 STOP_MM = 8.0
 FILM_DIAGONAL_MM = 35.0
@@ -60,12 +81,30 @@ LLVM_CANDIDATES = [
 ]
 
 
+class TimedOut(RuntimeError):
+    """A render stopped at --timeout."""
+
+
 def say(message: str) -> None:
     print(f"[peers] {message}", flush=True)
 
 
 def run(command: list[str], **kwargs) -> subprocess.CompletedProcess:
     return subprocess.run(command, text=True, capture_output=True, **kwargs)
+
+
+def run_render(command: list[str], timeout: float | None, what: str, **kwargs) -> subprocess.CompletedProcess:
+    """`run` with --timeout: a render past it is killed, with whatever it started, and raises
+    TimedOut."""
+    with subprocess.Popen(command, text=True, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                          start_new_session=True, **kwargs) as process:
+        try:
+            stdout, stderr = process.communicate(timeout=timeout)
+        except subprocess.TimeoutExpired:
+            os.killpg(process.pid, 9)
+            process.communicate()
+            raise TimedOut(f"{what} timed out after {timeout:g} s (--timeout): stopped") from None
+    return subprocess.CompletedProcess(command, process.returncode, stdout, stderr)
 
 
 def cargo_bin(name: str) -> str | None:
@@ -131,6 +170,32 @@ def build_realcam() -> str:
     return str(ROOT / "target" / "release" / "realcam")
 
 
+def mitsuba_variants() -> list[str] | None:
+    """Mitsuba's variants, or None where `mitsuba` does not import (asked in a child process:
+    a Mitsuba process holds one variant, and the renders run in their own)."""
+    result = run([sys.executable, "-c", "import json, mitsuba; print(json.dumps(mitsuba.variants()))"])
+    if result.returncode != 0:
+        return None
+    try:
+        return json.loads(result.stdout.strip().splitlines()[-1])
+    except (ValueError, IndexError):
+        return None
+
+
+def cuda_devices() -> int:
+    """How many CUDA devices the driver reports (0 where there is no driver)."""
+    import ctypes
+
+    try:
+        cuda = ctypes.CDLL("libcuda.so.1")
+    except OSError:
+        return 0
+    count = ctypes.c_int(0)
+    if cuda.cuInit(0) != 0 or cuda.cuDeviceGetCount(ctypes.byref(count)) != 0:
+        return 0
+    return count.value
+
+
 # ---------------------------------------------------------------- scene set-up
 
 
@@ -162,6 +227,44 @@ def distance(a: list[float], b: list[float]) -> float:
     return sum((x - y) ** 2 for x, y in zip(a, b)) ** 0.5
 
 
+def read_matte_glb(glb: Path) -> tuple[bytes, bytes, int]:
+    """(positions as little-endian f32 triples, indices as little-endian u32, triangle count) of
+    a .glb that convert.write_matte_glb wrote (one mesh: accessor 0 positions, 1 indices)."""
+    data = glb.read_bytes()
+    magic, _, _ = struct.unpack_from("<4sII", data, 0)
+    json_length, json_type = struct.unpack_from("<I4s", data, 12)
+    if magic != b"glTF" or json_type != b"JSON":
+        raise ValueError(f"{glb} is not a binary glTF")
+    document = json.loads(data[20:20 + json_length])
+    binary_start = 20 + json_length + 8
+    views, accessors = document["bufferViews"], document["accessors"]
+    parts = []
+    for accessor in accessors[:2]:
+        view = views[accessor["bufferView"]]
+        start = binary_start + view.get("byteOffset", 0) + accessor.get("byteOffset", 0)
+        parts.append(data[start:start + view["byteLength"]])
+    return parts[0], parts[1], accessors[1]["count"] // 3
+
+
+def ply_from_glb(glb: Path, ply: Path) -> None:
+    """The peers' PLY (as convert.write_ply writes it) from the converted .glb, without numpy."""
+    positions, indices, triangles = read_matte_glb(glb)
+    header = (
+        "ply\nformat binary_little_endian 1.0\n"
+        f"element vertex {len(positions) // 12}\nproperty float x\nproperty float y\nproperty float z\n"
+        f"element face {triangles}\nproperty list uchar int vertex_indices\nend_header\n"
+    )
+    # Each face record: the count 3 (one byte), then its three indices (u32 < 2³¹, so as i32).
+    faces = bytearray(13 * triangles)
+    faces[0::13] = b"\x03" * triangles
+    for byte in range(12):
+        faces[1 + byte::13] = indices[byte::12]
+    with open(ply, "wb") as out:
+        out.write(header.encode("ascii"))
+        out.write(positions)
+        out.write(faces)
+
+
 def write_pbrt_scene(path: Path, ply: Path, size: int, spp: int) -> None:
     shutil.copy(ROOT / "lenses" / f"{LENS}.dat", path.parent / f"{LENS}.dat")
     eye, target = " ".join(map(str, EYE)), " ".join(map(str, TARGET))
@@ -187,14 +290,14 @@ WorldEnd
 # ---------------------------------------------------------------- renderers
 
 
-def time_rs_pbrt(rs_pbrt: str, ply: Path, size: int, spp: int) -> dict:
+def time_rs_pbrt(rs_pbrt: str, ply: Path, size: int, spp: int, timeout: float | None) -> dict:
     """Two runs, at 1 spp and at `spp`: the difference is the sampling, the rest set-up."""
     seconds = {}
     for n in (1, spp):
         scene = WORK / f"{ply.stem}.rs_pbrt_{n}spp.pbrt"
         write_pbrt_scene(scene, ply, size, n)
         start = time.perf_counter()
-        result = run([rs_pbrt, "--path", scene.name], cwd=WORK)
+        result = run_render([rs_pbrt, "--path", scene.name], timeout, "rs_pbrt", cwd=WORK)
         seconds[n] = time.perf_counter() - start
         if result.returncode != 0:
             raise RuntimeError(f"rs_pbrt failed: {(result.stderr or result.stdout)[-1500:]}")
@@ -207,17 +310,18 @@ def time_rs_pbrt(rs_pbrt: str, ply: Path, size: int, spp: int) -> dict:
     }
 
 
-def time_mitsuba(variant: str, ply: Path, size: int, spp: int, settings: dict) -> dict:
+def time_mitsuba(variant: str, ply: Path, size: int, spp: int, settings: dict, timeout: float | None) -> dict:
     env = dict(os.environ)
     if variant.startswith("llvm"):
         libllvm = find_libllvm()
         if not libllvm:
             raise RuntimeError("libLLVM 19 not found (apt-get install libllvm19)")
         env["DRJIT_LIBLLVM_PATH"] = libllvm
-    result = run(
+    result = run_render(
         [sys.executable, str(Path(__file__).with_name("mitsuba_run.py")), variant, str(ply),
          str(size), str(size), str(spp), str(DEPTH + 1), json.dumps(settings),
          str(ply.with_suffix(f".mitsuba_{variant}.exr"))],
+        timeout, f"Mitsuba {variant}",
         env=env,
     )
     if result.returncode != 0:
@@ -225,48 +329,87 @@ def time_mitsuba(variant: str, ply: Path, size: int, spp: int, settings: dict) -
     return json.loads(result.stdout.strip().splitlines()[-1])
 
 
-def time_realcam(realcam: str, glb: Path, size: int, spp: int, dispersion: bool) -> dict:
-    stats = WORK / "realcam_stats.json"
+def time_realcam(realcam: str, glb: Path, size: int, spp: int, dispersion: bool, device: str,
+                 threads: int | None, timeout: float | None) -> dict:
+    tag = f"{device}{'' if dispersion else '.rgb'}"
+    stats = WORK / f"realcam_stats.{glb.stem}.{tag}.json"
+    stats.unlink(missing_ok=True)
     look_from, look_at = ",".join(map(str, EYE)), ",".join(map(str, TARGET))
-    result = run(
-        [realcam, "render", str(glb), "--lens", LENS, "--aperture", str(STOP_MM),
-         "--film-diagonal", str(FILM_DIAGONAL_MM), "--look-from", look_from, "--look-at", look_at,
-         "--env", "1,1,1", "--width", str(size), "--height", str(size), "--spp", str(spp),
-         "--max-depth", str(DEPTH), "--dispersion", "on" if dispersion else "off",
-         "--out", str(glb.with_suffix(".realcam.png")), "--stats", str(stats)],
-    )
+    command = [
+        realcam, "render", str(glb), "--lens", LENS, "--aperture", str(STOP_MM),
+        "--film-diagonal", str(FILM_DIAGONAL_MM), "--look-from", look_from, "--look-at", look_at,
+        "--env", "1,1,1", "--width", str(size), "--height", str(size), "--spp", str(spp),
+        "--max-depth", str(DEPTH), "--dispersion", "on" if dispersion else "off",
+        "--out", str(glb.with_suffix(f".realcam.{tag}.png")), "--stats", str(stats),
+    ]
+    # The flag only where it matters: a realcam from before --device still renders the CPU rows.
+    if device != "cpu":
+        command += ["--device", device]
+    if threads is not None and device == "cpu":
+        command += ["--threads", str(threads)]
+    what = f"realcam --device {device}"
+    result = run_render(command, timeout, what)
     if result.returncode != 0:
-        raise RuntimeError(f"realcam failed: {result.stderr[-1500:]}")
+        message = (result.stderr or result.stdout).strip()[-1500:]
+        if "--device" in message and ("unexpected argument" in message or "invalid value" in message):
+            message = f"this realcam ({realcam}) cannot render on {device}: {message}"
+        raise RuntimeError(f"{what} failed (exit {result.returncode}): {message}")
     s = json.loads(stats.read_text())
-    stage = s["stage_seconds"]
-    return {
+    stage = s.get("stage_seconds", {})
+    load = stage.get("load_scene", 0.0) + stage.get("build_bvh", 0.0)
+    row = {
         "samples_per_second": s["samples_per_second"],
-        "setup_seconds": stage["load_scene"] + stage["build_bvh"] + s["lens_derivation"]["seconds"],
-        "load_seconds": stage["load_scene"] + stage["build_bvh"],
+        "setup_seconds": load + s.get("lens_derivation", {}).get("seconds", 0.0),
+        "load_seconds": load,
         "wall_seconds": s["wall_seconds"],
     }
+    # Which device rendered (realcam's own report), to tell a GPU row from a silent fallback.
+    for key in ("device", "gpu_adapter"):
+        if s.get(key) is not None:
+            row[key] = s[key]
+    return row
 
 
 def median_of(runs: list[dict]) -> dict:
-    return {key: statistics.median(r[key] for r in runs) for key in runs[0]}
+    """Each number's median over the rounds; text fields (device, adapter) from the first."""
+    return {
+        key: statistics.median(r[key] for r in runs) if isinstance(runs[0][key], (int, float)) else runs[0][key]
+        for key in runs[0]
+    }
 
 
-def print_table(title: str, results: dict) -> None:
+def print_table(title: str, results: dict, failures: dict) -> None:
     print()
     print(title)
-    print(f"{'renderer':<30}{'camera':<34}{'M samples/s':>12}{'set-up s':>10}{'load+BVH s':>11}"
-          f"{'realcam ÷ it':>14}{'rgb realcam ÷ it':>18}")
+    print(f"{'renderer':<40}{'camera':<34}{'M samples/s':>12}{'set-up s':>10}{'load+BVH s':>11}"
+          f"{'realcam ÷ it':>14}{'rgb realcam ÷ it':>18}{'gpu realcam ÷ it':>18}")
     ours = results.get("realcam", {}).get("samples_per_second")
     ours_rgb = results.get("realcam --dispersion off", {}).get("samples_per_second")
+    ours_gpu = results.get("realcam --device gpu", {}).get("samples_per_second")
     for name, r in results.items():
         ratio = f"{ours / r['samples_per_second']:.2f}×" if ours else "-"
         ratio_rgb = f"{ours_rgb / r['samples_per_second']:.2f}×" if ours_rgb else "-"
+        ratio_gpu = f"{ours_gpu / r['samples_per_second']:.2f}×" if ours_gpu else "-"
         load = "-" if r["load_seconds"] != r["load_seconds"] else f"{r['load_seconds']:.2f}"
-        print(f"{name:<30}{r['camera']:<34}{r['samples_per_second'] / 1e6:>12.3f}"
-              f"{r['setup_seconds']:>10.2f}{load:>11}{ratio:>14}{ratio_rgb:>18}")
+        print(f"{name:<40}{r['camera']:<34}{r['samples_per_second'] / 1e6:>12.3f}"
+              f"{r['setup_seconds']:>10.2f}{load:>11}{ratio:>14}{ratio_rgb:>18}{ratio_gpu:>18}")
+    for name, why in failures.items():
+        print(f"{name:<40}{'no figure: ' + why.splitlines()[0][:200]}")
+    adapters = {r["gpu_adapter"] for r in results.values() if r.get("gpu_adapter")}
+    for adapter in sorted(adapters):
+        print(f"realcam's GPU rows rendered on: {adapter}")
+
+
+def comma_list(text: str, known: tuple[str, ...], option: str, parser: argparse.ArgumentParser) -> list[str]:
+    items = [item.strip() for item in text.split(",") if item.strip()]
+    unknown = [item for item in items if item not in known]
+    if unknown or not items:
+        parser.error(f"{option}: unknown {', '.join(unknown) or '(none given)'}; known: {', '.join(known)}")
+    return list(dict.fromkeys(items))
 
 
 def main() -> None:
+    global WORK
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--spp", type=int, default=64)
     parser.add_argument("--size", type=int, default=320)
@@ -274,85 +417,162 @@ def main() -> None:
     parser.add_argument("--skip-install", action="store_true")
     parser.add_argument("--scenes", default="helmet,spheres",
                         help=f"comma-separated, of: {', '.join(SCENES)}")
+    parser.add_argument("--device", default="cpu",
+                        help=f"realcam's devices, comma-separated, of: {', '.join(DEVICES)} (default cpu)")
+    parser.add_argument("--threads", type=int, help="realcam's CPU worker threads (default: all cores)")
+    parser.add_argument("--peers", default="all",
+                        help=f"all, none, or comma-separated, of: {', '.join(PEERS)} (default all)")
+    parser.add_argument("--realcam", type=Path, help="a prebuilt realcam binary (no cargo build)")
+    parser.add_argument("--work", type=Path, default=WORK,
+                        help="where the converted scenes are written or read (default target/peers)")
+    parser.add_argument("--skip-convert", action="store_true",
+                        help="use <work>/<scene>.glb as converted earlier (no numpy, pygltflib or shared scenes)")
+    parser.add_argument("--timeout", type=float, help="seconds any one render may take (default: no limit)")
+    parser.add_argument("--results", type=Path, help="results JSON (default <work>/results.json)")
     args = parser.parse_args()
-    scenes = [name.strip() for name in args.scenes.split(",") if name.strip()]
-    unknown = [name for name in scenes if name not in SCENES]
-    if unknown or not scenes:
-        parser.error(f"--scenes: unknown scene {', '.join(unknown) or '(none)'}; known: {', '.join(SCENES)}")
+    scenes = comma_list(args.scenes, tuple(SCENES), "--scenes", parser)
+    devices = comma_list(args.device, DEVICES, "--device", parser)
+    if args.peers == "all":
+        peers = list(PEERS)
+    elif args.peers == "none":
+        peers = []
+    else:
+        peers = comma_list(args.peers, PEERS, "--peers", parser)
+    if args.threads is not None and args.threads < 1:
+        parser.error("--threads: at least 1")
+    if args.realcam is not None and not (args.realcam.is_file() and os.access(args.realcam, os.X_OK)):
+        parser.error(f"--realcam: {args.realcam} is not an executable file")
+    WORK = args.work.resolve()
     WORK.mkdir(parents=True, exist_ok=True)
+    results_path = args.results or WORK / "results.json"
 
     if not args.skip_install:
         install_python_packages()
-        install_libllvm()
-        install_rs_pbrt()
-    realcam = build_realcam()
-    sys.path.insert(0, str(Path(__file__).parent))
-    from convert import convert
+        if "llvm_ad_rgb" in peers:
+            install_libllvm()
+        if "rs_pbrt" in peers:
+            install_rs_pbrt()
+    realcam = str(args.realcam.resolve()) if args.realcam else build_realcam()
+    convert = None
+    if not args.skip_convert:
+        sys.path.insert(0, str(Path(__file__).parent))
+        from convert import convert
 
     settings = lens_settings(realcam)
     say(f"{args.size}² px, {args.spp} spp, depth {DEPTH}; thin lens fov {settings['fov_x_deg']:.2f}°, "
-        f"aperture radius {settings['aperture_radius_m'] * 1000:.2f} mm")
+        f"aperture radius {settings['aperture_radius_m'] * 1000:.2f} mm; realcam {realcam} on "
+        f"{', '.join(devices)}" + (f", {args.threads} CPU threads" if args.threads else ""))
     load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
-    rs_pbrt = cargo_bin("rs_pbrt")
-    if not rs_pbrt:
+    rs_pbrt = cargo_bin("rs_pbrt") if "rs_pbrt" in peers else None
+    if "rs_pbrt" in peers and not rs_pbrt:
         say("rs_pbrt is not installed (cargo install rs_pbrt --locked failed or was skipped): skipped")
+        peers.remove("rs_pbrt")
+    mitsuba_wanted = [p for p in peers if p.endswith("_rgb")]
+    variants = mitsuba_variants() if mitsuba_wanted else []
+    if mitsuba_wanted and variants is None:
+        say("mitsuba does not import (pip install mitsuba, or --skip-install left it out): its rows skipped")
+        peers = [p for p in peers if p not in mitsuba_wanted]
+    elif "cuda_ad_rgb" in peers:
+        if "cuda_ad_rgb" not in variants:
+            say(f"this Mitsuba has no cuda_ad_rgb variant (it has {', '.join(variants)}): that row skipped")
+            peers.remove("cuda_ad_rgb")
+        elif not cuda_devices():
+            say("no CUDA device (libcuda.so.1 absent or no device found): Mitsuba cuda_ad_rgb skipped")
+            peers.remove("cuda_ad_rgb")
+    devices_report = None
+    if "gpu" in devices:
+        try:
+            devices_report = run_render([realcam, "devices"], args.timeout or 120, "realcam devices")
+            say("realcam devices:\n" + (devices_report.stdout + devices_report.stderr).strip())
+        except TimedOut as error:
+            say(str(error))
 
     all_results = {}
     for scene_name in scenes:
         source, fit = SCENES[scene_name]
         source = SHARED / "scenes" / source
-        if not source.exists():
-            say(f"{source} not found (set REALCAM_SHARED to the shared data folder): {scene_name} skipped")
-            continue
         ply, glb = WORK / f"{scene_name}.ply", WORK / f"{scene_name}.glb"
-        triangles, _ = convert(source, ply, glb, ALBEDO, fit)
+        if args.skip_convert:
+            if not glb.exists():
+                say(f"{glb} not found (--skip-convert: run once without it, or copy the converted scenes "
+                    f"into {WORK}): {scene_name} skipped")
+                continue
+            triangles = read_matte_glb(glb)[2]
+            if peers and not ply.exists():
+                say(f"{ply.name} missing: written from {glb.name}")
+                ply_from_glb(glb, ply)
+        else:
+            if not source.exists():
+                say(f"{source} not found (set REALCAM_SHARED to the shared data folder): {scene_name} skipped")
+                continue
+            triangles, _ = convert(source, ply, glb, ALBEDO, fit)
         say(f"{scene_name} ({source.stem}): {triangles} triangles")
 
-        renderers = [
-            ("realcam", f"real lens {LENS}, spectral",
-             lambda: time_realcam(realcam, glb, args.size, args.spp, True)),
-            ("realcam --dispersion off", f"real lens {LENS}, RGB",
-             lambda: time_realcam(realcam, glb, args.size, args.spp, False)),
-            ("rs_pbrt", f"realistic {LENS}",
-             lambda: time_rs_pbrt(rs_pbrt or "", ply, args.size, args.spp)),
-            ("mitsuba scalar_rgb", "thin lens",
-             lambda: time_mitsuba("scalar_rgb", ply, args.size, args.spp, settings)),
-            ("mitsuba llvm_ad_rgb", "thin lens",
-             lambda: time_mitsuba("llvm_ad_rgb", ply, args.size, args.spp, settings)),
-        ]
-        if not rs_pbrt:
-            renderers = [r for r in renderers if r[0] != "rs_pbrt"]
+        renderers = []
+        for device in devices:
+            prefix = "realcam" if device == "cpu" else f"realcam --device {device}"
+            where = "" if device == "cpu" else f", {device}"
+            for dispersion in (True, False):
+                renderers.append((
+                    prefix if dispersion else f"{prefix} --dispersion off",
+                    f"real lens {LENS}, {'spectral' if dispersion else 'RGB'}{where}",
+                    lambda device=device, dispersion=dispersion: time_realcam(
+                        realcam, glb, args.size, args.spp, dispersion, device, args.threads, args.timeout),
+                ))
+        if "rs_pbrt" in peers:
+            renderers.append(("rs_pbrt", f"realistic {LENS}",
+                              lambda: time_rs_pbrt(rs_pbrt or "", ply, args.size, args.spp, args.timeout)))
+        for variant in ("scalar_rgb", "llvm_ad_rgb", "cuda_ad_rgb"):
+            if variant in peers:
+                renderers.append((f"mitsuba {variant}", "thin lens" + (", gpu" if variant.startswith("cuda") else ""),
+                                  lambda variant=variant: time_mitsuba(
+                                      variant, ply, args.size, args.spp, settings, args.timeout)))
         # Rounds go through every renderer in turn, so a change in the machine's load hits all
         # of them alike; each renderer's median round is reported.
         runs: dict[str, list[dict]] = {name: [] for name, _, _ in renderers}
-        failed: set[str] = set()
+        failures: dict[str, str] = {}
         for round_index in range(args.repeat):
             for name, camera, measure in renderers:
-                if name in failed:
+                if name in failures:
                     continue
                 try:
                     say(f"{scene_name}, round {round_index + 1}/{args.repeat}: rendering with {name}")
+                    started = time.perf_counter()
                     runs[name].append(measure())
+                    say(f"{name}: {runs[name][-1]['samples_per_second'] / 1e6:.3f} M samples/s "
+                        f"({time.perf_counter() - started:.1f} s)")
                 except Exception as error:  # a peer that fails is reported, the others go on
                     say(f"{name}: {error}")
-                    failed.add(name)
+                    failures[name] = str(error)
+                    if isinstance(error, TimedOut) and name.startswith("realcam --device gpu"):
+                        for other, _, _ in renderers:
+                            if other.startswith("realcam --device gpu") and other not in failures:
+                                failures[other] = f"skipped: {name} timed out on this scene"
+                                say(f"{other}: {failures[other]}")
         results = {
             name: {"camera": camera, **median_of(runs[name])}
             for name, camera, _ in renderers
             if runs[name]
         }
-        all_results[scene_name] = {"source": source.name, "triangles": triangles, "results": results}
+        all_results[scene_name] = {"source": source.name, "triangles": triangles, "results": results,
+                                   "failures": failures}
         print_table(
             f"{source.stem} ({triangles} triangles) {args.size}×{args.size}, {args.spp} spp, depth {DEPTH}, "
-            f"matte {ALBEDO}, white sky; load average {load:.2f} at the start, on {os.cpu_count()} CPUs",
-            results,
+            f"matte {ALBEDO}, white sky; load average {load:.2f} at the start, on {os.cpu_count()} CPUs"
+            + (f", realcam CPU on {args.threads} threads" if args.threads else ""),
+            results, failures,
         )
     print()
     print("realcam ÷ it: spectral (the default with dgauss.50mm's glass data); rgb realcam ÷ it: "
-          "--dispersion off, like for like with the RGB thin-lens peers.")
-    (WORK / "results.json").write_text(json.dumps(
+          "--dispersion off, like for like with the RGB thin-lens peers; gpu realcam ÷ it: "
+          "realcam --device gpu, spectral.")
+    results_path.parent.mkdir(parents=True, exist_ok=True)
+    results_path.write_text(json.dumps(
         {"load_average": load, "size": args.size, "spp": args.spp, "depth": DEPTH,
+         "devices": devices, "threads": args.threads, "cpus": os.cpu_count(), "realcam": realcam,
+         "realcam_devices": (devices_report.stdout + devices_report.stderr) if devices_report else None,
          "settings": settings, "scenes": all_results}, indent=2))
+    say(f"results: {results_path}")
 
 
 if __name__ == "__main__":
