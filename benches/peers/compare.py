@@ -482,7 +482,7 @@ def main() -> None:
     devices_report = None
     if "gpu" in devices:
         try:
-            devices_report = run_render([realcam, "devices"], args.timeout or 120, "realcam devices")
+            devices_report = run_render([realcam, "devices"], 30, "realcam devices")
             say("realcam devices:\n" + (devices_report.stdout + devices_report.stderr).strip())
         except TimedOut as error:
             say(str(error))

@@ -1,0 +1,152 @@
+#!/usr/bin/env bash
+# realcam's GPU path (issue 26) against its CPU path and Mitsuba 3 on a GPU machine: the one
+# script to run there, from the repository root, in one short run (about 8 minutes at most).
+#
+#   REALCAM=.bin/realcam OUT=/some/folder benches/gpu/device_run.sh
+#
+# Needs in the working tree (ignored folders, copied along): the release binary at $REALCAM
+# (default .bin/realcam, built elsewhere: nothing can be built there), the converted peer scenes
+# in .peers/ (helmet.glb, spheres.glb, as benches/peers/compare.py writes them; the .ply files
+# are written from them when a peer needs them), the Vulkan loader and GL vendor libraries as
+# Debian packages in .gl/ (../shared/notes/gpu-device.md), and optionally Mitsuba 3 + Dr.Jit
+# wheels in .whl/ (then the Mitsuba cuda_ad_rgb rows run). Python 3 with the standard library is
+# enough. In order, most important first, each step skipped once the time is nearly spent:
+#   1. compare.py, realcam --device cpu and gpu (and Mitsuba cuda_ad_rgb where it can), both
+#      scenes, 640² at 64 spp (plus realcam's images, as images_640.tar);
+#   2. the same on the GPU alone (and Mitsuba cuda_ad_rgb) at 1280², 256 spp, for the scenes
+#      whose step-1 GPU rate says they finish in time;
+#   3. the CPU path's thread scaling, both scenes: 1 thread and all cores (16), 640² at 16 spp;
+# then a summary of M camera samples/s per row. Each render stops after $GPU_TIMEOUT seconds
+# (default 120), says so, and the rest go on; sizes and budget are the variables below (a
+# quick try elsewhere: SIZE=64 SPP=4 BIG_SIZE=128 BIG_SPP=8 SCALE_SPP=2). Everything lands in
+# $OUT (at most 8 files): log.txt, results_*.json, images_640.tar, summary.txt.
+set -uo pipefail
+cd "$(dirname "$0")/../.."
+REALCAM=${REALCAM:-.bin/realcam}
+OUT=${OUT:-target/device_run}
+GPU_TIMEOUT=${GPU_TIMEOUT:-120}
+BUDGET=${BUDGET:-450}          # seconds for the whole script; a step is skipped once it is spent
+THREADS_MAX=${THREADS_MAX:-$(nproc)}
+WORK=${WORK:-.peers}
+SIZE=${SIZE:-640} SPP=${SPP:-64}                  # step 1
+BIG_SIZE=${BIG_SIZE:-1280} BIG_SPP=${BIG_SPP:-256}  # step 2
+SCALE_SPP=${SCALE_SPP:-16}                      # step 3, at $SIZE
+mkdir -p "$OUT"
+exec > >(tee "$OUT/log.txt") 2>&1
+tee_pid=$!
+export PYTHONUNBUFFERED=1
+left() { echo $((BUDGET - SECONDS)); }
+step() { echo; echo "=== [$SECONDS s] $*"; }
+
+step "set-up"
+# The Vulkan loader and the GL vendor libraries, as the notes say; only on the GPU machine (the
+# NVIDIA driver mounted at /usr/local/nvidia), never on a development machine's /.
+if [ -d /usr/local/nvidia ] && [ -d .gl ] && ! ldconfig -p | grep -q 'libvulkan.so.1 '; then
+  for f in .gl/libvulkan1*.deb .gl/libegl1*.deb .gl/libglvnd0*.deb .gl/libopengl0*.deb \
+           .gl/libgl1*.deb .gl/libglx0*.deb .gl/libgles2*.deb; do dpkg -x "$f" /; done
+  mkdir -p /tmp/x; for f in .gl/libx*.deb .gl/libbsd*.deb .gl/libmd*.deb; do dpkg -x "$f" /tmp/x; done
+  ldconfig
+  export LD_LIBRARY_PATH=/tmp/x/usr/lib/x86_64-linux-gnu:/tmp/x/lib/x86_64-linux-gnu${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}
+  echo "unpacked .gl (Vulkan loader, glvnd, X libraries)"
+fi
+icd=/usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json
+[ -f "$icd" ] && export VK_DRIVER_FILES=$icd
+egl=/usr/local/nvidia/share/glvnd/egl_vendor.d/10_nvidia.json
+[ -f "$egl" ] && export __EGL_VENDOR_LIBRARY_FILENAMES=$egl
+export XDG_RUNTIME_DIR=${XDG_RUNTIME_DIR:-/tmp/xdg-runtime}; mkdir -p -m 700 "$XDG_RUNTIME_DIR"
+if compgen -G '.whl/*.whl' >/dev/null; then
+  python3 -m pip install -q --no-index --no-deps --no-compile --no-cache-dir --upgrade --target /tmp/site .whl/*.whl \
+    && export PYTHONPATH=/tmp/site${PYTHONPATH:+:$PYTHONPATH} && echo "installed .whl into /tmp/site"
+fi
+nvidia-smi -L 2>&1 || echo "nvidia-smi: not available"
+nproc; python3 --version
+if [ ! -x "$REALCAM" ]; then echo "no realcam binary at $REALCAM (set REALCAM)"; exit 2; fi
+sha256sum "$REALCAM"; "$REALCAM" --version
+timeout 30 "$REALCAM" devices 2>&1 || echo "realcam devices failed or timed out"
+python3 -c 'import mitsuba; print("mitsuba", mitsuba.__version__, mitsuba.variants())' 2>&1 | tail -1
+ls -la "$WORK"
+
+compare() { # compare.py with the common options; the outer timeout keeps the budget
+  local limit; limit=$(left)
+  [ "$limit" -gt 10 ] || { echo "skipped: the time budget ($BUDGET s) is spent"; return 1; }
+  timeout -k 5 "$limit" python3 benches/peers/compare.py --skip-install --skip-convert \
+    --realcam "$REALCAM" --work "$WORK" --timeout "$GPU_TIMEOUT" "$@"
+  local rc=$?; [ $rc -eq 124 ] && echo "compare.py stopped at the time budget"; return 0
+}
+
+step "1. realcam cpu and gpu (and Mitsuba cuda_ad_rgb where present), ${SIZE}², $SPP spp"
+first=$OUT/results_${SIZE}_${SPP}spp.json
+rm -f "$WORK"/*.realcam.*.png
+compare --device cpu,gpu --peers cuda_ad_rgb --size "$SIZE" --spp "$SPP" --results "$first"
+(cd "$WORK" && tar -cf - *.realcam.*.png) > "$OUT/images_$SIZE.tar" 2>/dev/null || echo "no images to keep"
+
+step "2. realcam gpu (and Mitsuba cuda_ad_rgb), ${BIG_SIZE}², $BIG_SPP spp"
+# Only the scenes whose 640² GPU rate says both GPU renders finish within the per-render
+# timeout and the time left (16× the work of step 1).
+scenes=$(python3 - "$first" "$GPU_TIMEOUT" "$(left)" "$BIG_SIZE" "$BIG_SPP" <<'PY'
+import json, sys
+try:
+    scenes = json.load(open(sys.argv[1]))["scenes"]
+except (OSError, ValueError, KeyError):
+    sys.exit(0)
+timeout, left = float(sys.argv[2]), float(sys.argv[3]) - 30
+samples = int(sys.argv[4]) ** 2 * int(sys.argv[5])
+chosen, total = [], 0.0
+for name, scene in scenes.items():
+    rows = scene["results"]
+    rates = [rows[r]["samples_per_second"] for r in ("realcam --device gpu", "realcam --device gpu --dispersion off") if r in rows]
+    if len(rates) < 2:
+        continue
+    seconds = [samples / rate for rate in rates]
+    setup = max(rows[r]["setup_seconds"] for r in rows if r.startswith("realcam --device gpu"))
+    if max(seconds) + setup < 0.8 * timeout and total + sum(seconds) + 2 * setup < left:
+        chosen.append(name)
+        total += sum(seconds) + 2 * setup
+    else:
+        print(f"{name}: the GPU rate predicts {max(seconds):.0f} s a render: skipped at this size", file=sys.stderr)
+print(",".join(chosen))
+PY
+)
+if [ -n "$scenes" ]; then
+  compare --device gpu --peers cuda_ad_rgb --scenes "$scenes" --size "$BIG_SIZE" --spp "$BIG_SPP" \
+    --results "$OUT/results_${BIG_SIZE}_${BIG_SPP}spp.json"
+else
+  echo "skipped: no scene's GPU rows in step 1 were fast enough (see above)"
+fi
+
+step "3. the CPU path's thread scaling: 1 and $THREADS_MAX threads, ${SIZE}², $SCALE_SPP spp"
+for threads in 1 "$THREADS_MAX"; do
+  compare --device cpu --threads "$threads" --peers none --size "$SIZE" --spp "$SCALE_SPP" --results "$OUT/results_threads$threads.json"
+done
+
+step "summary"
+python3 - "$OUT" <<'PY' | tee "$OUT/summary.txt"
+import glob, json, os, sys
+print(f"{'run':<28}{'scene':<9}{'row':<40}{'M samples/s':>12}  device / note")
+rates = {}
+for path in sorted(glob.glob(os.path.join(sys.argv[1], "results_*.json"))):
+    run = os.path.basename(path)[len("results_"):-len(".json")]
+    data = json.load(open(path))
+    for scene, s in data["scenes"].items():
+        for row, r in s["results"].items():
+            rates[run, scene, row] = r["samples_per_second"]
+            note = r.get("gpu_adapter") or r.get("device") or ""
+            print(f"{run:<28}{scene:<9}{row:<40}{r['samples_per_second'] / 1e6:>12.3f}  {note}")
+        for row, why in s.get("failures", {}).items():
+            print(f"{run:<28}{scene:<9}{row:<40}{'-':>12}  {why.splitlines()[0][:120]}")
+print()
+for (run, scene, row), rate in sorted(rates.items()):
+    if not row.startswith("realcam --device gpu"):
+        continue
+    cpu = "realcam --dispersion off" if row.endswith("--dispersion off") else "realcam"
+    for base in (cpu, "mitsuba cuda_ad_rgb"):
+        if (run, scene, base) in rates:
+            print(f"{run} {scene}: {row} ÷ {base} = {rate / rates[run, scene, base]:.2f}×")
+for key in sorted(k for k in rates if k[0] == "threads1"):
+    many = [k for k in rates if k[0].startswith("threads") and k[0] != "threads1" and k[1:] == key[1:]]
+    for other in many:
+        print(f"scaling {key[1]} {key[2]}: {other[0][len('threads'):]} threads ÷ 1 thread = {rates[other] / rates[key]:.2f}×")
+PY
+echo "done in $SECONDS s"
+exec >&- 2>&-
+wait "$tee_pid" 2>/dev/null
