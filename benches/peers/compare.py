@@ -488,6 +488,16 @@ def main() -> None:
             say(str(error))
 
     all_results = {}
+
+    def write_results() -> None:
+        """After every scene, so that a run stopped from outside keeps the scenes it finished."""
+        results_path.parent.mkdir(parents=True, exist_ok=True)
+        results_path.write_text(json.dumps(
+            {"load_average": load, "size": args.size, "spp": args.spp, "depth": DEPTH,
+             "devices": devices, "threads": args.threads, "cpus": os.cpu_count(), "realcam": realcam,
+             "realcam_devices": (devices_report.stdout + devices_report.stderr) if devices_report else None,
+             "settings": settings, "scenes": all_results}, indent=2))
+
     for scene_name in scenes:
         source, fit = SCENES[scene_name]
         source = SHARED / "scenes" / source
@@ -556,6 +566,7 @@ def main() -> None:
         }
         all_results[scene_name] = {"source": source.name, "triangles": triangles, "results": results,
                                    "failures": failures}
+        write_results()
         print_table(
             f"{source.stem} ({triangles} triangles) {args.size}×{args.size}, {args.spp} spp, depth {DEPTH}, "
             f"matte {ALBEDO}, white sky; load average {load:.2f} at the start, on {os.cpu_count()} CPUs"
@@ -566,12 +577,7 @@ def main() -> None:
     print("realcam ÷ it: spectral (the default with dgauss.50mm's glass data); rgb realcam ÷ it: "
           "--dispersion off, like for like with the RGB thin-lens peers; gpu realcam ÷ it: "
           "realcam --device gpu, spectral.")
-    results_path.parent.mkdir(parents=True, exist_ok=True)
-    results_path.write_text(json.dumps(
-        {"load_average": load, "size": args.size, "spp": args.spp, "depth": DEPTH,
-         "devices": devices, "threads": args.threads, "cpus": os.cpu_count(), "realcam": realcam,
-         "realcam_devices": (devices_report.stdout + devices_report.stderr) if devices_report else None,
-         "settings": settings, "scenes": all_results}, indent=2))
+    write_results()
     say(f"results: {results_path}")
 
 
