@@ -49,6 +49,7 @@ import argparse
 import json
 import os
 import shutil
+import signal
 import statistics
 import struct
 import subprocess
@@ -98,13 +99,30 @@ def run_render(command: list[str], timeout: float | None, what: str, **kwargs) -
     TimedOut."""
     with subprocess.Popen(command, text=True, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                           start_new_session=True, **kwargs) as process:
+        RENDERING.add(process.pid)
         try:
             stdout, stderr = process.communicate(timeout=timeout)
         except subprocess.TimeoutExpired:
-            os.killpg(process.pid, 9)
+            os.killpg(process.pid, signal.SIGKILL)
             process.communicate()
             raise TimedOut(f"{what} timed out after {timeout:g} s (--timeout): stopped") from None
+        finally:
+            RENDERING.discard(process.pid)
     return subprocess.CompletedProcess(command, process.returncode, stdout, stderr)
+
+
+RENDERING: set[int] = set()  # process groups of the renders under way
+
+
+def stop_renders(signum: int, _frame) -> None:
+    """Stopped from outside (`timeout`, Ctrl-C): the render under way goes too (it runs in a
+    session of its own, which the signal does not reach)."""
+    for group in list(RENDERING):
+        try:
+            os.killpg(group, signal.SIGKILL)
+        except ProcessLookupError:
+            pass
+    sys.exit(128 + signum)
 
 
 def cargo_bin(name: str) -> str | None:
@@ -410,6 +428,8 @@ def comma_list(text: str, known: tuple[str, ...], option: str, parser: argparse.
 
 def main() -> None:
     global WORK
+    signal.signal(signal.SIGTERM, stop_renders)
+    signal.signal(signal.SIGINT, stop_renders)
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--spp", type=int, default=64)
     parser.add_argument("--size", type=int, default=320)
