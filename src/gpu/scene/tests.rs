@@ -119,21 +119,57 @@ fn on_edge(hit: &Hit) -> bool {
     hit.u.min(hit.v).min(1.0 - hit.u - hit.v) < 1e-4
 }
 
-/// Rays over the scene: from anywhere in (a margin around) its bounds in random directions,
-/// and from outside aimed at random points inside; some with a finite t_max.
+/// Rays over the scene, the cases traversal gets wrong most easily among them: from anywhere
+/// in (a margin around) its bounds, from outside aimed at points inside, and leaving random
+/// points of triangles from their spawn origins; a quarter along an axis and a quarter with
+/// one direction component zero (obvhs's `safe_inverse`); a fifth with a finite t_max.
 fn scene_rays(accel: &SceneAccel, count: usize, rng: &mut Rng) -> Vec<(Vec3, Vec3, f32)> {
     let bounds = accel.bounds();
     let size = bounds.max - bounds.min;
     let unit = |rng: &mut Rng| Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32());
+    let axes = [
+        Vec3::X,
+        Vec3::Y,
+        Vec3::Z,
+        Vec3::NEG_X,
+        Vec3::NEG_Y,
+        Vec3::NEG_Z,
+    ];
     (0..count)
         .map(|i| {
-            let (origin, direction) = if i % 2 == 0 {
-                let origin = bounds.min + (unit(rng) * 1.2 - 0.1) * size;
-                (origin, (unit(rng) - 0.5).normalize_or(Vec3::X))
-            } else {
-                let target = bounds.min + unit(rng) * size;
-                let from = target + (unit(rng) - 0.5).normalize_or(Vec3::Y) * bounds.diagonal();
-                (from, (target - from).normalize())
+            let mut direction = (unit(rng) - 0.5).normalize_or(Vec3::X);
+            match i % 4 {
+                0 => direction = axes[rng.next_u32() as usize % 6],
+                1 => {
+                    direction[rng.next_u32() as usize % 3] = 0.0;
+                    direction = direction.normalize_or(Vec3::Z);
+                }
+                _ => {}
+            }
+            let origin = match (i / 4) % 3 {
+                0 => bounds.min + (unit(rng) * 1.2 - 0.1) * size,
+                1 => {
+                    let target = bounds.min + unit(rng) * size;
+                    let from = target - direction * bounds.diagonal();
+                    direction = (target - from).normalize();
+                    from
+                }
+                _ => {
+                    let triangle = rng.next_u32() % accel.triangle_count() as u32;
+                    let (u, v) = (rng.next_f32(), rng.next_f32());
+                    let (u, v) = if u + v > 1.0 {
+                        (1.0 - u, 1.0 - v)
+                    } else {
+                        (u, v)
+                    };
+                    let on = Hit {
+                        t: 0.0,
+                        triangle,
+                        u,
+                        v,
+                    };
+                    accel.surface(&on, -direction).spawn_origin(direction)
+                }
             };
             let t_max = if i % 5 == 0 {
                 rng.next_f32() * bounds.diagonal()
@@ -498,6 +534,24 @@ fn default_scene_hits_and_surfaces_equal_the_cpu() {
     let (hits, surfaces) = check_scene(&context, &scene.instances, &scene.materials, 3000, 1);
     assert!(
         hits > 500 && surfaces > 500,
+        "{hits} hits, {surfaces} surfaces"
+    );
+}
+
+#[test]
+fn textured_gltf_hits_and_surfaces_equal_the_cpu_and_its_texels_pack_to_bytes() {
+    let Some(context) = GpuContext::for_tests() else {
+        return;
+    };
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/Duck/Duck.gltf");
+    let duck = crate::scene::load_gltf(&path).unwrap();
+    assert!(!duck.materials.textures.is_empty());
+    for texture in &duck.materials.textures {
+        assert_ne!(pack_texels(&texture.texels).0, TexelFormat::F32);
+    }
+    let (hits, surfaces) = check_scene(&context, &duck.instances, &duck.materials, 2000, 3);
+    assert!(
+        hits > 300 && surfaces > 300,
         "{hits} hits, {surfaces} surfaces"
     );
 }
