@@ -48,8 +48,9 @@ mod packet_stack {
     pub type Entry = ();
 }
 pub use traversal::Traversal;
-use triangles::{
-    NO_MATERIAL, TriangleHit, TrianglePrimitive, TriangleRecord, WorldVertices, attributes,
+use triangles::TriangleHit;
+pub(crate) use triangles::{
+    NO_MATERIAL, TrianglePrimitive, TriangleRecord, WorldVertices, attributes,
 };
 
 /// The shading frame and attributes at a hit.
@@ -77,16 +78,17 @@ pub struct SurfacePoint {
 /// The scene's BVH and the triangle data it indexes, in BVH order.
 #[derive(Resource)]
 pub struct SceneAccel {
-    /// `None` when the scene has no usable triangle.
-    bvh: Option<CwBvh>,
+    /// `None` when the scene has no usable triangle. (Crate-visible, like the triangle data
+    /// below, for the GPU backend, which uploads it as it is: `crate::gpu::scene`.)
+    pub(crate) bvh: Option<CwBvh>,
     /// Positions in BVH space (world × `bvh_scale`), BVH order.
-    primitives: Vec<TrianglePrimitive>,
+    pub(crate) primitives: Vec<TrianglePrimitive>,
     /// Vertex indices, material and attribute flags, BVH order.
-    records: Vec<TriangleRecord>,
-    vertices: WorldVertices,
+    pub(crate) records: Vec<TriangleRecord>,
+    pub(crate) vertices: WorldVertices,
     alpha_masks: AlphaMasks,
     /// World → BVH space scale, an exact power of two (see `triangles::bvh_space_scale`).
-    bvh_scale: f32,
+    pub(crate) bvh_scale: f32,
     bounds: Bounds,
     dropped_triangles: usize,
     build_time: Duration,

@@ -179,7 +179,9 @@ pub fn linear_to_srgb(linear: f32) -> f32 {
     }
 }
 
-static SRGB8_TO_LINEAR: LazyLock<[f32; 256]> =
+/// 8-bit sRGB code → linear value, as [`Texture::from_image`] decodes it (the GPU backend
+/// uploads the same table so that it decodes packed 8-bit texels to the same f32s).
+pub(crate) static SRGB8_TO_LINEAR: LazyLock<[f32; 256]> =
     LazyLock::new(|| std::array::from_fn(|i| srgb_to_linear(i as f32 / 255.0)));
 
 #[cfg(test)]
