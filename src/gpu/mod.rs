@@ -8,8 +8,10 @@
 //!
 //! - [`context`]: finding an adapter and opening a device (`realcam devices` lists them).
 //! - [`compute`]: buffers, readback and kernels with errors as values, never panics.
+//! - [`lens`]: the active lens for `camera_ray` (shaders: sampling, spectral, lens).
 
 pub mod compute;
 pub mod context;
+pub mod lens;
 
 pub use context::{AdapterSummary, GpuContext, GpuUnavailable, adapters};
