@@ -6,13 +6,13 @@
 //!
 //! | binding | WGSL | contents |
 //! |---|---|---|
-//! | 0 | `var<uniform> lens: LensConstants` | the per-render constants ([`LensConstants`]) |
-//! | 1 | `var<storage, read> lens_surfaces: array<LensSurface>` | the surfaces film to scene ([`LensSurface`]) |
+//! | 0 | `var<uniform> lens_constants: LensConstants` | the per-render constants (`LensConstants` here, the same layout) |
+//! | 1 | `var<storage, read> lens_surfaces: array<LensSurface>` | the surfaces in the order camera rays meet them (`LensSurface`) |
 //! | 2 | `var<storage, read> lens_tables: array<f32>` | pupil segments, blade normals, mask, dispersion table |
 //! | 3 | `var<storage, read> spectral_tables: SpectralTables` | wavelength knots and film factors (no lens data) |
 //!
-//! A lens swap, a focus pull or a new stop rewrites bindings 0–2 in place ([`GpuLens::update`]);
-//! the kernels that bind the group need not be rebuilt.
+//! A lens swap, a focus pull or a new stop rewrites bindings 0–2 ([`GpuLens::update`]); the
+//! layout never changes, so the kernels that bind the group need not be rebuilt.
 
 use bytemuck::{Pod, Zeroable};
 
@@ -44,46 +44,46 @@ const _: () = assert!(SPHERE == 0 && CONIC == 1 && POLYNOMIAL == 2);
 /// 16-aligned, and `mask_scale` at 224 8-aligned).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
-pub struct LensConstants {
-    pub world_from_camera: [[f32; 4]; 4],
-    pub film_scale: [f32; 2],
-    pub film_origin: [f32; 2],
-    pub film_centre: [f32; 2],
-    pub film_z: f32,
-    pub film_distance: f32,
-    pub tilt_centre: [f32; 2],
-    pub tilt_x: [f32; 2],
-    pub tilt_y: [f32; 2],
-    pub tilt_z: [f32; 2],
-    pub key_origin_x: u32,
-    pub key_origin_y: u32,
-    pub key_width: u32,
-    pub film_seed: u32,
-    pub pupil_seed: u32,
-    pub tilted: u32,
-    pub spectral: u32,
-    pub pupil_sampling: u32,
-    pub segment_scale: f32,
-    pub rear_radius: f32,
-    pub inv_z2: f32,
-    pub surface_count: u32,
-    pub film_normal: [f32; 3],
-    pub clip_step: u32,
-    pub blade_count: u32,
-    pub has_mask: u32,
-    pub apex: f32,
-    pub kappa: f32,
-    pub clip_radius: f32,
-    pub mask_width: u32,
-    pub mask_height: u32,
-    pub dispersion_len: u32,
-    pub mask_scale: [f32; 2],
-    pub blades_offset: u32,
-    pub mask_offset: u32,
-    pub segments_offset: u32,
-    pub dispersion_offset: u32,
-    pub dispersion_lambda_min: f32,
-    pub pad: u32,
+struct LensConstants {
+    world_from_camera: [[f32; 4]; 4],
+    film_scale: [f32; 2],
+    film_origin: [f32; 2],
+    film_centre: [f32; 2],
+    film_z: f32,
+    film_distance: f32,
+    tilt_centre: [f32; 2],
+    tilt_x: [f32; 2],
+    tilt_y: [f32; 2],
+    tilt_z: [f32; 2],
+    key_origin_x: u32,
+    key_origin_y: u32,
+    key_width: u32,
+    film_seed: u32,
+    pupil_seed: u32,
+    tilted: u32,
+    spectral: u32,
+    pupil_sampling: u32,
+    segment_scale: f32,
+    rear_radius: f32,
+    inv_z2: f32,
+    surface_count: u32,
+    film_normal: [f32; 3],
+    clip_step: u32,
+    blade_count: u32,
+    has_mask: u32,
+    apex: f32,
+    kappa: f32,
+    clip_radius: f32,
+    mask_width: u32,
+    mask_height: u32,
+    dispersion_len: u32,
+    mask_scale: [f32; 2],
+    blades_offset: u32,
+    mask_offset: u32,
+    segments_offset: u32,
+    dispersion_offset: u32,
+    dispersion_lambda_min: f32,
+    pad: u32,
 }
 
 const _: () = assert!(size_of::<LensConstants>() == 256);
@@ -92,19 +92,19 @@ const _: () = assert!(size_of::<LensConstants>() == 256);
 /// batch kernel's [`SurfaceConstants`].
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
-pub struct LensSurface {
-    pub coefficients: [f32; 8],
-    pub slope_coefficients: [f32; 8],
-    pub shape: u32,
-    pub vertex_z: f32,
-    pub curvature: f32,
-    pub radius: f32,
-    pub conic_factor: f32,
-    pub conic: f32,
-    pub semi_aperture_sq: f32,
-    pub eta: f32,
-    pub forward_sign: f32,
-    pub pad: [u32; 3],
+struct LensSurface {
+    coefficients: [f32; 8],
+    slope_coefficients: [f32; 8],
+    shape: u32,
+    vertex_z: f32,
+    curvature: f32,
+    radius: f32,
+    conic_factor: f32,
+    conic: f32,
+    semi_aperture_sq: f32,
+    eta: f32,
+    forward_sign: f32,
+    pad: [u32; 3],
 }
 
 const _: () = assert!(size_of::<LensSurface>() == 112);
@@ -279,8 +279,9 @@ impl GpuLens {
     }
 
     /// Rewrites the buffers for `camera` and `seed` (a lens swap, a focus pull, a new stop or
-    /// diaphragm, new film movements): in place where the data fits, in new buffers (and a new
-    /// bind group) only where it grew.
+    /// diaphragm, new film movements): in place where the data fits, in new buffers only where
+    /// it grew; then [`Self::bindings`] holds a new bind group (same layout), so a pass takes
+    /// the group from here at every dispatch.
     pub fn update(
         &mut self,
         context: &GpuContext,
@@ -347,7 +348,7 @@ fn lens_bindings(
 /// Refuses a lens whose tables exceed what one storage binding may hold (a huge mask).
 fn check_fits(context: &GpuContext, data: &LensData) -> Result<(), GpuUnavailable> {
     let bytes = (data.tables.len() * size_of::<f32>()) as u64;
-    let limit = context.limits.max_storage_buffer_binding_size as u64;
+    let limit = context.limits.max_storage_buffer_binding_size;
     if bytes > limit {
         return Err(GpuUnavailable(format!(
             "the lens's tables ({bytes} bytes: pupil, diaphragm mask, dispersion) exceed the \

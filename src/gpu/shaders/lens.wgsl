@@ -3,7 +3,7 @@
 // the film point, the camera sample's Owen-scrambled Sobol numbers, the exit-pupil sample and
 // its camera weight (src/lens/pupil.rs), the exact trace from film to scene (the batch kernel of
 // src/lens/trace_batch, one ray at a time), and the move to the world frame (mm -> m).
-// Needs sampling.wgsl and spectral.wgsl before it. Bindings: @group(0), written by gpu::lens.
+// Needs sampling.wgsl and spectral.wgsl before it. Bindings: @group(0), written by gpu::lens_constants.
 
 // The per-render constants (gpu::lens::LensConstants, the same layout).
 struct LensConstants {
@@ -83,7 +83,7 @@ struct LensSurface {
     pad2: u32,
 }
 
-@group(0) @binding(0) var<uniform> lens: LensConstants;
+@group(0) @binding(0) var<uniform> lens_constants: LensConstants;
 @group(0) @binding(1) var<storage, read> lens_surfaces: array<LensSurface>;
 // The exit-pupil segments (min x, min y, extent x, extent y, then the 64 areas), the blade
 // normals (x, y per blade), the mask's grey levels (row-major, row 0 at +y) and the dispersion
@@ -174,8 +174,8 @@ struct LensHit {
     hit: bool,
 }
 
-// The nearer valid root of a·t² + 2b·t + k = 0 (refract.rs nearer_root); `far_scale` and
-// `far_divisor` give the far root q · far_scale / far_divisor, `sheet` the κc of the sheet test.
+// The nearer valid root of a·t² + 2b·t + k = 0 (refract.rs nearer_root): the far root is q / a
+// on a conic, q · radius on a sphere (a = c there); `sheet` is the κc of the sheet test.
 fn lens_nearer_root(ovz: f32, vz: f32, b: f32, k: f32, discriminant: f32, conic: bool,
                     s: LensSurface, a: f32, sheet: f32) -> LensHit {
     let root = sqrt(lens_max(discriminant, 0.0));
@@ -304,11 +304,11 @@ fn lens_refract(s: LensSurface, ray: ptr<function, LensRay>, eta: f32) {
 
 // The mask's grey level at stop-plane point (x, y), bilinear (ApertureMask::sample_f32).
 fn lens_mask_transmission(x: f32, y: f32) -> f32 {
-    let radius = lens.clip_radius;
-    let u = (x + radius) * lens.mask_scale.x;
-    let v = (radius - y) * lens.mask_scale.y;
-    let w = lens.mask_width;
-    let h = lens.mask_height;
+    let radius = lens_constants.clip_radius;
+    let u = (x + radius) * lens_constants.mask_scale.x;
+    let v = (radius - y) * lens_constants.mask_scale.y;
+    let w = lens_constants.mask_width;
+    let h = lens_constants.mask_height;
     let fx = clamp(u - 0.5, 0.0, f32(w - 1u));
     let fy = clamp(v - 0.5, 0.0, f32(h - 1u));
     let x0 = u32(fx);
@@ -317,7 +317,7 @@ fn lens_mask_transmission(x: f32, y: f32) -> f32 {
     let y1 = min(y0 + 1u, h - 1u);
     let tx = fx - f32(x0);
     let ty = fy - f32(y0);
-    let o = lens.mask_offset;
+    let o = lens_constants.mask_offset;
     let a = lens_tables[o + y0 * w + x0];
     let b = lens_tables[o + y0 * w + x1];
     let c = lens_tables[o + y1 * w + x0];
@@ -332,19 +332,19 @@ fn lens_mask_transmission(x: f32, y: f32) -> f32 {
 fn lens_clip(ray: ptr<function, LensRay>) -> f32 {
     let x = (*ray).origin.x;
     let y = (*ray).origin.y;
-    let apex = lens.apex;
-    let kappa = lens.kappa;
+    let apex = lens_constants.apex;
+    let kappa = lens_constants.kappa;
     var inside = true;
-    for (var i = 0u; i < lens.blade_count; i++) {
-        let nx = lens_tables[lens.blades_offset + 2u * i];
-        let ny = lens_tables[lens.blades_offset + 2u * i + 1u];
+    for (var i = 0u; i < lens_constants.blade_count; i++) {
+        let nx = lens_tables[lens_constants.blades_offset + 2u * i];
+        let ny = lens_tables[lens_constants.blades_offset + 2u * i + 1u];
         let along = x * nx + y * ny;
         let ex = x - apex * nx;
         let ey = y - apex * ny;
         inside = inside && along + kappa * (ex * ex + ey * ey) <= apex;
     }
     (*ray).alive = (*ray).alive && inside;
-    if lens.has_mask != 0u && (*ray).alive {
+    if lens_constants.has_mask != 0u && (*ray).alive {
         let t = lens_mask_transmission(x, y);
         (*ray).alive = t > 0.0;
         if (*ray).alive {
@@ -356,7 +356,7 @@ fn lens_clip(ray: ptr<function, LensRay>) -> f32 {
 
 // The index of the medium after front-to-back surface `surface` at table position (i, t).
 fn lens_index_after(surface: u32, i: u32, t: f32) -> f32 {
-    let row = lens.dispersion_offset + surface * lens.dispersion_len;
+    let row = lens_constants.dispersion_offset + surface * lens_constants.dispersion_len;
     let a = lens_tables[row + i];
     return a + t * (lens_tables[row + i + 1u] - a);
 }
@@ -365,21 +365,21 @@ fn lens_index_after(surface: u32, i: u32, t: f32) -> f32 {
 // Travel::FilmToScene; at the ray's own wavelength `nm` in a spectral render), returning the
 // diaphragm mask's transmission along it.
 fn lens_trace(ray: ptr<function, LensRay>, nm: f32) -> f32 {
-    let count = lens.surface_count;
+    let count = lens_constants.surface_count;
     var transmission = 1.0;
     // DispersionTable::position: entry i and the fraction toward i + 1.
-    let last = lens.dispersion_len - 1u;
-    let x = clamp(nm - lens.dispersion_lambda_min, 0.0, f32(last));
+    let last = lens_constants.dispersion_len - 1u;
+    let x = clamp(nm - lens_constants.dispersion_lambda_min, 0.0, f32(last));
     let cell = min(u32(x), last - 1u);
     let fraction = x - f32(cell);
     var carried = 1.0;
-    if lens.spectral != 0u {
+    if lens_constants.spectral != 0u {
         carried = lens_index_after(count - 1u, cell, fraction);
     }
     for (var step = 0u; step < count; step++) {
         let s = lens_surfaces[step];
         var eta = s.eta;
-        if lens.spectral != 0u {
+        if lens_constants.spectral != 0u {
             let surface = count - 1u - step;
             var before = 1.0;
             if surface != 0u {
@@ -389,7 +389,7 @@ fn lens_trace(ray: ptr<function, LensRay>, nm: f32) -> f32 {
             carried = before;
         }
         lens_refract(s, ray, eta);
-        if step == lens.clip_step {
+        if step == lens_constants.clip_step {
             transmission = lens_clip(ray);
         }
         if !(*ray).alive {
@@ -431,16 +431,16 @@ struct LensPupilPoint {
 
 // PupilSampler::in_bounds / on_rear_element.
 fn lens_pupil_point(x: f32, y: f32, u: f32, v: f32) -> LensPupilPoint {
-    if lens.pupil_sampling == 1u {
+    if lens_constants.pupil_sampling == 1u {
         let disk = lens_concentric_disk(u, v);
-        let radius = lens.rear_radius;
+        let radius = lens_constants.rear_radius;
         return LensPupilPoint(vec2f(disk.x * radius, disk.y * radius), LENS_PI * radius * radius);
     }
     let r = sqrt(x * x + y * y);
     // min before the conversion: a film point far beyond the film's reach takes the last
     // segment, as the CPU's saturating `as usize` then min does.
-    let k = u32(min(r * lens.segment_scale, f32(LENS_SEGMENTS - 1u)));
-    let o = lens.segments_offset + 4u * k;
+    let k = u32(min(r * lens_constants.segment_scale, f32(LENS_SEGMENTS - 1u)));
+    let o = lens_constants.segments_offset + 4u * k;
     let bx = lens_tables[o] + lens_tables[o + 2u] * u;
     let by = lens_tables[o + 1u] + lens_tables[o + 3u] * v;
     // The bounds were found for a film point on +x: rotate by the point's angle.
@@ -451,7 +451,7 @@ fn lens_pupil_point(x: f32, y: f32, u: f32, v: f32) -> LensPupilPoint {
         sin_a = y * inv_r;
         cos_a = x * inv_r;
     }
-    let area = lens_tables[lens.segments_offset + 4u * LENS_SEGMENTS + k];
+    let area = lens_tables[lens_constants.segments_offset + 4u * LENS_SEGMENTS + k];
     return LensPupilPoint(vec2f(cos_a * bx - sin_a * by, sin_a * bx + cos_a * by), area);
 }
 
@@ -459,23 +459,23 @@ fn lens_pupil_point(x: f32, y: f32, u: f32, v: f32) -> LensPupilPoint {
 fn camera_ray(pixel_x: u32, pixel_y: u32, sample: u32) -> CameraRay {
     // The camera sample: film jitter, pupil point, and in a spectral render the wavelength,
     // from the pixel's Owen-scrambled Sobol patterns (LensCamera::camera_samples).
-    let pixel = (pixel_y + lens.key_origin_y) * lens.key_width + (pixel_x + lens.key_origin_x);
-    let film_key = hash32(pixel ^ lens.film_seed);
+    let pixel = (pixel_y + lens_constants.key_origin_y) * lens_constants.key_width + (pixel_x + lens_constants.key_origin_x);
+    let film_key = hash32(pixel ^ lens_constants.film_seed);
     let film_u = owen_sobol(sample, 0u, film_key);
     let film_v = owen_sobol(sample, 1u, film_key);
     var pupil_u: f32;
     var pupil_v: f32;
     var nm = 0.0;
     var wavelength_weight = 1.0;
-    if lens.spectral != 0u {
-        let key = hash32(hash32(pixel ^ lens.pupil_seed) ^ LENS_WAVELENGTH_KEY);
+    if lens_constants.spectral != 0u {
+        let key = hash32(hash32(pixel ^ lens_constants.pupil_seed) ^ LENS_WAVELENGTH_KEY);
         pupil_u = owen_sobol(sample, 0u, key);
         pupil_v = owen_sobol(sample, 1u, key);
         let wavelength = sample_wavelength(owen_sobol(sample, 2u, key));
         nm = wavelength.nm;
         wavelength_weight = wavelength.inverse_pdf;
     } else {
-        let key = hash32(film_key ^ lens.pupil_seed);
+        let key = hash32(film_key ^ lens_constants.pupil_seed);
         pupil_u = owen_sobol(sample, 0u, key);
         pupil_v = owen_sobol(sample, 1u, key);
     }
@@ -483,18 +483,18 @@ fn camera_ray(pixel_x: u32, pixel_y: u32, sample: u32) -> CameraRay {
     // The film point (LensCamera::film_to_pupil), tilted about the frame centre.
     let px = f32(pixel_x);
     let py = f32(pixel_y);
-    var ox = lens.film_scale.x * (((px + lens.film_origin.x) + film_u) - lens.film_centre.x);
-    var oy = lens.film_scale.y * (((py + lens.film_origin.y) + film_v) - lens.film_centre.y);
-    var oz = lens.film_z;
-    var depth = lens.film_distance;
-    if lens.tilted != 0u {
-        let a = ox - lens.tilt_centre.x;
-        let b = oy - lens.tilt_centre.y;
-        ox = lens.tilt_centre.x + lens.tilt_x.x * a + lens.tilt_x.y * b;
-        oy = lens.tilt_centre.y + lens.tilt_y.x * a + lens.tilt_y.y * b;
-        let dz = lens.tilt_z.x * a + lens.tilt_z.y * b;
-        oz = lens.film_z + dz;
-        depth = lens.film_distance + dz;
+    var ox = lens_constants.film_scale.x * (((px + lens_constants.film_origin.x) + film_u) - lens_constants.film_centre.x);
+    var oy = lens_constants.film_scale.y * (((py + lens_constants.film_origin.y) + film_v) - lens_constants.film_centre.y);
+    var oz = lens_constants.film_z;
+    var depth = lens_constants.film_distance;
+    if lens_constants.tilted != 0u {
+        let a = ox - lens_constants.tilt_centre.x;
+        let b = oy - lens_constants.tilt_centre.y;
+        ox = lens_constants.tilt_centre.x + lens_constants.tilt_x.x * a + lens_constants.tilt_x.y * b;
+        oy = lens_constants.tilt_centre.y + lens_constants.tilt_y.x * a + lens_constants.tilt_y.y * b;
+        let dz = lens_constants.tilt_z.x * a + lens_constants.tilt_z.y * b;
+        oz = lens_constants.film_z + dz;
+        depth = lens_constants.film_distance + dz;
     }
 
     // The pupil point and the camera weight (PupilSampler::sample_with / sample_tilted).
@@ -504,28 +504,28 @@ fn camera_ray(pixel_x: u32, pixel_y: u32, sample: u32) -> CameraRay {
     let passing = chosen.area > 0.0;
     let d = vec3f(to.x * inv_len, to.y * inv_len, to.z * inv_len);
     var weight: f32;
-    if lens.tilted != 0u {
+    if lens_constants.tilted != 0u {
         // |cos θ_film| · cos³θ_rear · A / depth².
         let cos_rear = abs(to.z * inv_len);
-        let nrm = lens.film_normal;
+        let nrm = lens_constants.film_normal;
         let cos_film = abs((to.x * nrm.x + to.y * nrm.y + to.z * nrm.z) * inv_len);
         weight = cos_film * cos_rear * cos_rear * cos_rear * chosen.area / (depth * depth);
     } else {
         // cos⁴θ · A / z².
         let cos2 = d.z * d.z / (d.x * d.x + d.y * d.y + d.z * d.z);
-        weight = cos2 * cos2 * chosen.area * lens.inv_z2;
+        weight = cos2 * cos2 * chosen.area * lens_constants.inv_z2;
     }
     var ray = LensRay(vec3f(ox, oy, oz), select(vec3f(0.0, 0.0, -1.0), d, passing), passing);
 
     // Through the lens; the mask's grey level scales the weight.
     let transmission = lens_trace(&ray, nm);
-    if lens.has_mask != 0u {
+    if lens_constants.has_mask != 0u {
         weight *= transmission;
     }
 
     // Lens frame (mm) -> camera frame (m) -> world (LensCamera::move_to_world).
-    let m = lens.world_from_camera;
-    let p = vec3f(ray.origin.x * 1e-3, ray.origin.y * 1e-3, (ray.origin.z - lens.film_z) * 1e-3);
+    let m = lens_constants.world_from_camera;
+    let p = vec3f(ray.origin.x * 1e-3, ray.origin.y * 1e-3, (ray.origin.z - lens_constants.film_z) * 1e-3);
     let v = ray.direction;
     let origin = vec3f(
         m[0].x * p.x + m[1].x * p.y + m[2].x * p.z + m[3].x,
