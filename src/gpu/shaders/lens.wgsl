@@ -144,25 +144,27 @@ struct LensSag {
     defined: bool,
 }
 
-fn lens_coefficient(s: LensSurface, k: u32) -> f32 {
-    return s.coefficients[k / 4u][k % 4u];
-}
-
-fn lens_slope_coefficient(s: LensSurface, k: u32) -> f32 {
-    return s.slope_coefficients[k / 4u][k % 4u];
+// Σ c_k ρ^k over the 8 terms by Horner's rule, highest first and from 0 as the CPU runs it;
+// written out so that no array is indexed at run time (a GPU would spill it to memory).
+fn lens_horner(c: array<vec4f, 2>, rho: f32) -> f32 {
+    var v = 0.0;
+    v = v * rho + c[1].w;
+    v = v * rho + c[1].z;
+    v = v * rho + c[1].y;
+    v = v * rho + c[1].x;
+    v = v * rho + c[0].w;
+    v = v * rho + c[0].z;
+    v = v * rho + c[0].y;
+    v = v * rho + c[0].x;
+    return v;
 }
 
 fn lens_sag_and_slope(s: LensSurface, rho: f32) -> LensSag {
     let c = s.curvature;
     let under_root = 1.0 - s.conic_factor * c * c * rho;
     let root = sqrt(lens_max(under_root, 0.0));
-    var value = 0.0;
-    var derivative = 0.0;
-    for (var i = 0u; i < 8u; i++) {
-        let k = 7u - i;
-        derivative = derivative * rho + lens_slope_coefficient(s, k);
-        value = value * rho + lens_coefficient(s, k);
-    }
+    let value = lens_horner(s.coefficients, rho);
+    let derivative = lens_horner(s.slope_coefficients, rho);
     let sag = c * rho / (1.0 + root) + value * rho;
     let slope = c / (root + root) + derivative;
     return LensSag(sag, slope, under_root >= 0.0);

@@ -33,6 +33,12 @@ fn sample_wavelength(u: f32) -> SpectralSample {
     return SpectralSample(knot + (x - f32(k)) * width, f32(steps) * width);
 }
 
+// Three consecutive values of the film table from `start`.
+fn spectral_film_factor(start: u32) -> vec3f {
+    let data = &spectral_tables.data;
+    return vec3f(data[start], data[start + 1u], data[start + 2u]);
+}
+
 // What a sample of linear-sRGB radiance `rgb` at `wavelength` (nm), drawn with density
 // 1 / `wavelength_weight`, adds to the film, in linear sRGB: a(λ) · (b(λ) · rgb) / p(λ).
 fn film_rgb(wavelength: f32, wavelength_weight: f32, rgb: vec3f) -> vec3f {
@@ -41,11 +47,9 @@ fn film_rgb(wavelength: f32, wavelength_weight: f32, rgb: vec3f) -> vec3f {
     let i = min(u32(x), len - 2u);
     let t = x - f32(i);
     let p = spectral_tables.film_start + 6u * i;
-    var w: array<f32, 6>;
-    for (var k = 0u; k < 6u; k++) {
-        let a = spectral_tables.data[p + k];
-        w[k] = a + t * (spectral_tables.data[p + 6u + k] - a);
-    }
-    let radiance = (w[3] * rgb.x + w[4] * rgb.y + w[5] * rgb.z) * wavelength_weight;
-    return vec3f(w[0] * radiance, w[1] * radiance, w[2] * radiance);
+    let a = spectral_film_factor(p) + t * (spectral_film_factor(p + 6u) - spectral_film_factor(p));
+    let b = spectral_film_factor(p + 3u)
+        + t * (spectral_film_factor(p + 9u) - spectral_film_factor(p + 3u));
+    let radiance = (b.x * rgb.x + b.y * rgb.y + b.z * rgb.z) * wavelength_weight;
+    return vec3f(a.x * radiance, a.y * radiance, a.z * radiance);
 }
