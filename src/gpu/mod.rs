@@ -8,11 +8,13 @@
 //!
 //! - [`context`]: finding an adapter and opening a device (`realcam devices` lists them).
 //! - [`compute`]: buffers, readback and kernels with errors as values, never panics.
+//! - [`lens`]: the active lens for `camera_ray` (shaders: sampling, spectral, lens).
 //! - [`scene`]: the BVH, triangles and textures uploaded once per scene, traversed and sampled
 //!   in WGSL as the CPU does.
 
 pub mod compute;
 pub mod context;
+pub mod lens;
 pub mod scene;
 
 pub use context::{AdapterSummary, GpuContext, GpuUnavailable, adapters};

@@ -117,7 +117,7 @@ impl FilmGeometry {
     /// Pixel position → film point as a scale per axis about the enclosing film's centre, so a
     /// loop over many pixels does not divide by the film size each time.
     #[inline(always)]
-    fn film_map(&self) -> FilmMap {
+    pub(crate) fn film_map(&self) -> FilmMap {
         let enclosing = self.enclosing();
         FilmMap {
             scale: [
@@ -149,8 +149,8 @@ struct Enclosing {
 /// A pixel's key: its index in the enclosing film (wrapping past 2³² pixels).
 #[derive(Clone, Copy, Debug)]
 pub struct PixelKeys {
-    origin: [i64; 2],
-    width: i64,
+    pub(crate) origin: [i64; 2],
+    pub(crate) width: i64,
 }
 
 impl PixelKeys {
@@ -164,10 +164,10 @@ impl PixelKeys {
 /// module docs): the pixel's place in the enclosing film (origin 0 and the image's own centre
 /// when not shifted), so the same enclosing-film pixel gives the same film point.
 #[derive(Clone, Copy, Debug)]
-struct FilmMap {
-    scale: [f32; 2],
-    origin: [f32; 2],
-    centre: [f32; 2],
+pub(crate) struct FilmMap {
+    pub(crate) scale: [f32; 2],
+    pub(crate) origin: [f32; 2],
+    pub(crate) centre: [f32; 2],
 }
 
 impl FilmMap {
@@ -182,14 +182,14 @@ impl FilmMap {
 
 /// A tilted film's rotation and frame centre in f32, for the ray generator's loop.
 #[derive(Clone, Copy, Debug)]
-struct FilmTilt {
-    centre: [f32; 2],
+pub(crate) struct FilmTilt {
+    pub(crate) centre: [f32; 2],
     /// x, y, z of R·(a, b, 0) per film-plane coordinate: [[x_a, x_b], [y_a, y_b], [z_a, z_b]].
-    rotation: [[f32; 2]; 3],
+    pub(crate) rotation: [[f32; 2]; 3],
 }
 
 impl FilmTilt {
-    fn of(movements: &FilmMovements) -> Option<FilmTilt> {
+    pub(crate) fn of(movements: &FilmMovements) -> Option<FilmTilt> {
         if !movements.is_tilted() {
             return None;
         }
@@ -248,8 +248,16 @@ const CAMERA_KEY: u64 = 0x4341_4d45_5241_5f4b; // "CAMERA_K"
 /// Mixed into a pixel's pupil key for its wavelength pattern.
 const WAVELENGTH_KEY: u32 = 0x5741_5645; // "WAVE"
 
+/// The seeds of the camera's film and pupil patterns for a render's `seed`, mixed with every
+/// pixel's key (see [`LensCamera::generate`]).
+pub(crate) fn camera_seeds(seed: u64) -> (u32, u32) {
+    let mut seed_keys = Rng::for_sample(seed ^ CAMERA_KEY, u32::MAX, u32::MAX);
+    (seed_keys.next_u32(), seed_keys.next_u32())
+}
+
 impl LensCamera<'_> {
-    fn film_z(&self) -> f32 {
+    /// Lens-frame z of the frame centre, mm.
+    pub(crate) fn film_z(&self) -> f32 {
         (self.system.rear_z() + self.pupil.film_distance) as f32
     }
 
@@ -368,8 +376,7 @@ impl LensCamera<'_> {
     fn camera_samples(&self, sample: u32, seed: u64, scratch: &mut Scratch) {
         let spectral = self.dispersion.is_some();
         let [film_u, film_v, pupil_u, pupil_v, wave_u, _] = &mut scratch.u;
-        let mut seed_keys = Rng::for_sample(seed ^ CAMERA_KEY, u32::MAX, u32::MAX);
-        let (film_seed, pupil_seed) = (seed_keys.next_u32(), seed_keys.next_u32());
+        let (film_seed, pupil_seed) = camera_seeds(seed);
         // hash32 is a bijection: distinct pixels get distinct keys, and the pupil key is a
         // further hash of the film key, so the patterns of a pixel are unrelated.
         for (i, &pixel) in scratch.pixel.iter().enumerate() {

@@ -63,6 +63,12 @@ impl DispersionTable {
         }
     }
 
+    /// The index after surface `surface` at every table wavelength (1 nm steps from
+    /// [`LAMBDA_MIN`]): what the GPU backend uploads.
+    pub fn entries(&self, surface: usize) -> &[f32] {
+        &self.after[surface]
+    }
+
     pub fn surface_count(&self) -> usize {
         self.after.len()
     }

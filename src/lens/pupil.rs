@@ -343,17 +343,17 @@ fn tilted_camera_weight(to: [f32; 3], normal: [f32; 3], area: f32, depth: f32) -
 /// within rounding of a segment boundary, where either neighbour's bounds are valid.
 #[derive(Clone, Debug)]
 pub struct PupilSampler {
-    sampling: PupilSampling,
+    pub(crate) sampling: PupilSampling,
     /// SEGMENTS / film radius.
-    segment_scale: f32,
+    pub(crate) segment_scale: f32,
     /// Per segment: min x, min y, extent x, extent y (all 0 when no ray passes).
-    segments: [[f32; 4]; SEGMENTS],
+    pub(crate) segments: [[f32; 4]; SEGMENTS],
     /// Per segment: the bounds' area, 0 when no ray passes.
-    areas: [f32; SEGMENTS],
-    rear_radius: f32,
-    film_distance: f32,
-    inv_z2: f32,
-    film_normal: [f32; 3],
+    pub(crate) areas: [f32; SEGMENTS],
+    pub(crate) rear_radius: f32,
+    pub(crate) film_distance: f32,
+    pub(crate) inv_z2: f32,
+    pub(crate) film_normal: [f32; 3],
 }
 
 /// Film points and the camera rays out of them, structure of arrays (lens frame, mm).

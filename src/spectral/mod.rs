@@ -21,5 +21,5 @@ pub mod wavelengths;
 pub use observer::{SRGB_FROM_XYZ, XYZ_FROM_SRGB, cmf, d65};
 pub use upsample::{SpectralFilm, spectral_film};
 pub use wavelengths::{
-    LAMBDA_MAX, LAMBDA_MIN, WavelengthSample, sample_wavelength, wavelength_pdf,
+    LAMBDA_MAX, LAMBDA_MIN, WavelengthSample, sample_wavelength, wavelength_knots, wavelength_pdf,
 };

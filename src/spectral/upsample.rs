@@ -122,6 +122,12 @@ impl SpectralFilm {
         [w[0] * radiance, w[1] * radiance, w[2] * radiance]
     }
 
+    /// Per nm from [`LAMBDA_MIN`]: a(λ) then b(λ) (see the module docs), as
+    /// [`Self::film_rgb`] interpolates them: what the GPU backend uploads.
+    pub fn table(&self) -> &[[f32; 6]] {
+        &self.table
+    }
+
     /// The spectral radiance S(λ) of linear-sRGB radiance `rgb` (per nm; sRGB white has unit
     /// luminance ∫ȳ·S).
     pub fn spectrum(&self, rgb: [f64; 3], lambda: f64) -> f64 {

@@ -114,6 +114,12 @@ pub fn sample_wavelength(u: f32) -> WavelengthSample {
     }
 }
 
+/// λ (nm) at the cumulative probabilities k/4096, k = 0..=4096: the knots
+/// [`sample_wavelength`] interpolates between (what the GPU backend uploads).
+pub fn wavelength_knots() -> &'static [f32] {
+    &sampler().knots
+}
+
 /// The density (per nm) the sampler's knots were placed by (the sampler itself draws its
 /// piecewise-constant approximation, see the module docs).
 pub fn wavelength_pdf(lambda: f64) -> f64 {

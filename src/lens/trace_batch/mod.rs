@@ -27,7 +27,7 @@ mod simd;
 mod tests;
 
 use self::plain::trace_plain;
-use self::refract::SurfaceConstants;
+pub(crate) use self::refract::{CONIC, POLYNOMIAL, SPHERE, SurfaceConstants};
 use self::simd::trace_simd;
 use super::diaphragm::StopClip;
 use super::dispersion::DispersionTable;

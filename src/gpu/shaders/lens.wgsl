@@ -1,0 +1,546 @@
+// Camera rays through the lens: for one pixel and sample, what LensCamera::generate
+// (src/lens/camera.rs) makes of it on the CPU, step for step and in the same f32 operations:
+// the film point, the camera sample's Owen-scrambled Sobol numbers, the exit-pupil sample and
+// its camera weight (src/lens/pupil.rs), the exact trace from film to scene (the batch kernel of
+// src/lens/trace_batch, one ray at a time), and the move to the world frame (mm -> m).
+// Needs sampling.wgsl and spectral.wgsl before it. Bindings: @group(0), written by gpu::lens_constants.
+
+// The per-render constants (gpu::lens::LensConstants, the same layout).
+struct LensConstants {
+    // Camera frame (m) -> world.
+    world_from_camera: mat4x4f,
+    // Pixel -> film point: scale · ((pixel + origin + jitter) − centre), per axis (the film
+    // map of the enclosing film, camera.rs).
+    film_scale: vec2f,
+    film_origin: vec2f,
+    film_centre: vec2f,
+    // Lens-frame z of the frame centre, and its distance behind the rear vertex, mm.
+    film_z: f32,
+    film_distance: f32,
+    // A tilted film's frame centre and rotation: x, y, z of R·(a, b, 0) per (a, b).
+    tilt_centre: vec2f,
+    tilt_x: vec2f,
+    tilt_y: vec2f,
+    tilt_z: vec2f,
+    // Pixel keys: the frame's pixel (0, 0) in the enclosing film (wrapping) and its width.
+    key_origin_x: u32,
+    key_origin_y: u32,
+    key_width: u32,
+    // The camera sample patterns' seeds (from Rng::for_sample(seed ^ CAMERA_KEY, ..)).
+    film_seed: u32,
+    pupil_seed: u32,
+    tilted: u32,
+    spectral: u32,
+    // 0: within the exit-pupil bounds of the film point's segment; 1: over the rear element.
+    pupil_sampling: u32,
+    segment_scale: f32,
+    rear_radius: f32,
+    inv_z2: f32,
+    surface_count: u32,
+    film_normal: vec3f,
+    // The travel step (film to scene) of the stop with a diaphragm; 0xffffffff: none.
+    clip_step: u32,
+    blade_count: u32,
+    has_mask: u32,
+    apex: f32,
+    kappa: f32,
+    clip_radius: f32,
+    mask_width: u32,
+    mask_height: u32,
+    // Entries per surface of the dispersion table (1 nm apart from dispersion_lambda_min).
+    dispersion_len: u32,
+    mask_scale: vec2f,
+    // Offsets into lens_tables.
+    blades_offset: u32,
+    mask_offset: u32,
+    segments_offset: u32,
+    dispersion_offset: u32,
+    dispersion_lambda_min: f32,
+    pad: u32,
+}
+
+// One surface in the order a camera ray meets it (film to scene): trace_batch's
+// SurfaceConstants.
+struct LensSurface {
+    // A2 … A16, and i·A2i for the slope.
+    coefficients: array<vec4f, 2>,
+    slope_coefficients: array<vec4f, 2>,
+    // LENS_SPHERE, LENS_CONIC or LENS_POLYNOMIAL.
+    shape: u32,
+    vertex_z: f32,
+    curvature: f32,
+    // 1 / curvature (infinite for planes).
+    radius: f32,
+    conic_factor: f32,
+    conic: f32,
+    semi_aperture_sq: f32,
+    // n_incident / n_transmitted at the lens's own indices.
+    eta: f32,
+    // −1: rays leave toward −z (the scene).
+    forward_sign: f32,
+    pad0: u32,
+    pad1: u32,
+    pad2: u32,
+}
+
+@group(0) @binding(0) var<uniform> lens_constants: LensConstants;
+@group(0) @binding(1) var<storage, read> lens_surfaces: array<LensSurface>;
+// The exit-pupil segments (min x, min y, extent x, extent y, then the 64 areas), the blade
+// normals (x, y per blade), the mask's grey levels (row-major, row 0 at +y) and the dispersion
+// table (per surface front to back, the index after it at every table wavelength).
+@group(0) @binding(2) var<storage, read> lens_tables: array<f32>;
+
+// A camera ray in the world frame (metres) and its lens weight (0: blocked); in a spectral
+// render its wavelength (nm) and the inverse of the density it was drawn with (nm);
+// wavelength 0 (weight 1) otherwise.
+struct CameraRay {
+    origin: vec3f,
+    direction: vec3f,
+    weight: f32,
+    wavelength: f32,
+    wavelength_weight: f32,
+}
+
+const LENS_SPHERE: u32 = 0u;
+const LENS_CONIC: u32 = 1u;
+const LENS_POLYNOMIAL: u32 = 2u;
+const LENS_SEGMENTS: u32 = 64u;
+// trace_batch::refract's T_MIN and NEWTON_STEPS.
+const LENS_T_MIN: f32 = 1e-6;
+const LENS_NEWTON_STEPS: u32 = 16u;
+const LENS_F32_MAX: f32 = 3.40282347e38;
+const LENS_F32_EPSILON: f32 = 1.1920929e-7;
+// Mixed into a pixel's pupil key for its wavelength pattern (camera.rs WAVELENGTH_KEY).
+const LENS_WAVELENGTH_KEY: u32 = 0x57415645u;
+const LENS_FRAC_PI_4: f32 = 0.7853981633974483;
+const LENS_PI: f32 = 3.141592653589793;
+
+// The CPU's `a.max(b)` of the lane kernels: select(a > b, a, b) (b when either is NaN).
+fn lens_max(a: f32, b: f32) -> f32 {
+    return select(b, a, a > b);
+}
+
+// The lane kernels' abs: select(x < 0, −x, x).
+fn lens_abs(x: f32) -> f32 {
+    return select(x, -x, x < 0.0);
+}
+
+// `t < ∞` of the CPU (false for NaN and +∞).
+fn lens_finite_below(t: f32) -> bool {
+    return t <= LENS_F32_MAX;
+}
+
+// A ray in the lens frame, mm, and whether it still passes.
+struct LensRay {
+    origin: vec3f,
+    direction: vec3f,
+    alive: bool,
+}
+
+// sag(ρ), d sag/dρ, and whether they are defined (1 − κc²ρ ≥ 0).
+struct LensSag {
+    sag: f32,
+    slope: f32,
+    defined: bool,
+}
+
+// Σ c_k ρ^k over the 8 terms by Horner's rule, highest first and from 0 as the CPU runs it;
+// written out so that no array is indexed at run time (a GPU would spill it to memory).
+fn lens_horner(c: array<vec4f, 2>, rho: f32) -> f32 {
+    var v = 0.0;
+    v = v * rho + c[1].w;
+    v = v * rho + c[1].z;
+    v = v * rho + c[1].y;
+    v = v * rho + c[1].x;
+    v = v * rho + c[0].w;
+    v = v * rho + c[0].z;
+    v = v * rho + c[0].y;
+    v = v * rho + c[0].x;
+    return v;
+}
+
+fn lens_sag_and_slope(s: LensSurface, rho: f32) -> LensSag {
+    let c = s.curvature;
+    let under_root = 1.0 - s.conic_factor * c * c * rho;
+    let root = sqrt(lens_max(under_root, 0.0));
+    let value = lens_horner(s.coefficients, rho);
+    let derivative = lens_horner(s.slope_coefficients, rho);
+    let sag = c * rho / (1.0 + root) + value * rho;
+    let slope = c / (root + root) + derivative;
+    return LensSag(sag, slope, under_root >= 0.0);
+}
+
+// A distance along the ray and whether the surface is hit there.
+struct LensHit {
+    t: f32,
+    hit: bool,
+}
+
+// The nearer valid root of a·t² + 2b·t + k = 0 (refract.rs nearer_root): the far root is q / a
+// on a conic, q · radius on a sphere (a = c there); `sheet` is the κc of the sheet test.
+fn lens_nearer_root(ovz: f32, vz: f32, b: f32, k: f32, discriminant: f32, conic: bool,
+                    s: LensSurface, a: f32, sheet: f32) -> LensHit {
+    let root = sqrt(lens_max(discriminant, 0.0));
+    let q = select(-b - root, root - b, b < 0.0);
+    let t_near = k / q;
+    var t_far: f32;
+    if conic {
+        t_far = q / a;
+    } else {
+        t_far = q * s.radius;
+    }
+    let ok_near = t_near > LENS_T_MIN && lens_finite_below(t_near) && sheet * (ovz + t_near * vz) < 1.0;
+    let ok_far = t_far > LENS_T_MIN && lens_finite_below(t_far) && sheet * (ovz + t_far * vz) < 1.0;
+    let use_near = ok_near && (!ok_far || t_near <= t_far);
+    return LensHit(select(t_far, t_near, use_near), discriminant >= 0.0 && (ok_near || ok_far));
+}
+
+fn lens_hit_sphere(s: LensSurface, ray: LensRay) -> LensHit {
+    let p = ray.origin;
+    let v = ray.direction;
+    let c = s.curvature;
+    let ovz = p.z - s.vertex_z;
+    let b = c * (p.x * v.x + p.y * v.y + ovz * v.z) - v.z;
+    let k = c * (p.x * p.x + p.y * p.y + ovz * ovz) - (ovz + ovz);
+    let discriminant = b * b - c * k;
+    return lens_nearer_root(ovz, v.z, b, k, discriminant, false, s, 0.0, c);
+}
+
+fn lens_hit_conic(s: LensSurface, ray: LensRay) -> LensHit {
+    let p = ray.origin;
+    let v = ray.direction;
+    let c = s.curvature;
+    let kappa = s.conic_factor;
+    let ovz = p.z - s.vertex_z;
+    let a = c * (1.0 + s.conic * v.z * v.z);
+    let b = c * (p.x * v.x + p.y * v.y + kappa * ovz * v.z) - v.z;
+    let k = c * (p.x * p.x + p.y * p.y + kappa * ovz * ovz) - (ovz + ovz);
+    let discriminant = b * b - a * k;
+    return lens_nearer_root(ovz, v.z, b, k, discriminant, true, s, a, kappa * c);
+}
+
+// Newton's method on z(t) − sag(ρ(t)) from the base conic's root (or the vertex plane ahead,
+// or the origin), as refract.rs Newton: a step within a few ulps of the lengths it comes from
+// has converged; an undefined sag or a non-finite step fails.
+fn lens_hit_polynomial(s: LensSurface, ray: LensRay) -> LensHit {
+    let conic = lens_hit_conic(s, ray);
+    var plane_t = (s.vertex_z - ray.origin.z) / ray.direction.z;
+    plane_t = select(0.0, plane_t, plane_t > 0.0);
+    var t = select(plane_t, conic.t, conic.hit);
+    var searching = ray.alive && plane_t >= 0.0;
+    var converged = false;
+    let p = ray.origin;
+    let v = ray.direction;
+    let ovz = p.z - s.vertex_z;
+    for (var i = 0u; i < LENS_NEWTON_STEPS && searching; i++) {
+        let x = p.x + t * v.x;
+        let y = p.y + t * v.y;
+        let z = ovz + t * v.z;
+        let sag = lens_sag_and_slope(s, x * x + y * y);
+        let derivative = v.z - (sag.slope + sag.slope) * (x * v.x + y * v.y);
+        let step = (z - sag.sag) / derivative;
+        let next = t - step;
+        let valid = sag.defined && lens_finite_below(lens_abs(next));
+        let scale = lens_abs(next) + lens_abs(ovz) + lens_abs(sag.sag);
+        let done = lens_abs(step) <= 1e-7 + (16.0 * LENS_F32_EPSILON) * scale;
+        if valid {
+            t = next;
+        }
+        converged = converged || (valid && done);
+        searching = valid && !done;
+    }
+    return LensHit(t, converged && t > LENS_T_MIN);
+}
+
+// Moves a live ray onto surface `s` and refracts it with index ratio `eta` (refract.rs
+// refract_at); a ray that misses, leaves the clear aperture, is totally reflected or turns
+// back is blocked and keeps its state.
+fn lens_refract(s: LensSurface, ray: ptr<function, LensRay>, eta: f32) {
+    var found: LensHit;
+    if s.shape == LENS_SPHERE {
+        found = lens_hit_sphere(s, *ray);
+    } else if s.shape == LENS_CONIC {
+        found = lens_hit_conic(s, *ray);
+    } else {
+        found = lens_hit_polynomial(s, *ray);
+    }
+    let t = found.t;
+    let p = (*ray).origin;
+    let v = (*ray).direction;
+    let hx = p.x + t * v.x;
+    let hy = p.y + t * v.y;
+    let hz = p.z + t * v.z;
+    let inside = hx * hx + hy * hy <= s.semi_aperture_sq;
+    // The normal facing the scene at the vertex, normalised (a far hit sits slightly off the
+    // surface; normalising makes that a tilt, not a scale).
+    var n: vec3f;
+    if s.shape == LENS_SPHERE {
+        n = vec3f(s.curvature * hx, s.curvature * hy, s.curvature * (hz - s.vertex_z) - 1.0);
+    } else if s.shape == LENS_CONIC {
+        n = vec3f(s.curvature * hx, s.curvature * hy,
+                  s.conic_factor * s.curvature * (hz - s.vertex_z) - 1.0);
+    } else {
+        let sag = lens_sag_and_slope(s, hx * hx + hy * hy);
+        let two_slope = sag.slope + sag.slope;
+        n = vec3f(two_slope * hx, two_slope * hy, -1.0);
+    }
+    let inv_length = 1.0 / sqrt(n.x * n.x + n.y * n.y + n.z * n.z);
+    n = vec3f(n.x * inv_length, n.y * inv_length, n.z * inv_length);
+    let cos_raw = -(v.x * n.x + v.y * n.y + v.z * n.z);
+    let flip = select(1.0, -1.0, cos_raw < 0.0);
+    let cos_i = cos_raw * flip;
+    let cos_t_sq = 1.0 - eta * eta * (1.0 - cos_i * cos_i);
+    let no_tir = cos_t_sq >= 0.0;
+    let cos_t = sqrt(lens_max(cos_t_sq, 0.0));
+    let along_normal = (eta * cos_i - cos_t) * flip;
+    let r = vec3f(eta * v.x + along_normal * n.x, eta * v.y + along_normal * n.y,
+                  eta * v.z + along_normal * n.z);
+    let forward = r.z * s.forward_sign > 0.0;
+    let survives = (*ray).alive && found.hit && inside && no_tir && forward;
+    if survives {
+        (*ray).origin = vec3f(hx, hy, hz);
+        (*ray).direction = r;
+    }
+    (*ray).alive = survives;
+}
+
+// The mask's grey level at stop-plane point (x, y), bilinear (ApertureMask::sample_f32).
+fn lens_mask_transmission(x: f32, y: f32) -> f32 {
+    let radius = lens_constants.clip_radius;
+    let u = (x + radius) * lens_constants.mask_scale.x;
+    let v = (radius - y) * lens_constants.mask_scale.y;
+    let w = lens_constants.mask_width;
+    let h = lens_constants.mask_height;
+    let fx = clamp(u - 0.5, 0.0, f32(w - 1u));
+    let fy = clamp(v - 0.5, 0.0, f32(h - 1u));
+    let x0 = u32(fx);
+    let y0 = u32(fy);
+    let x1 = min(x0 + 1u, w - 1u);
+    let y1 = min(y0 + 1u, h - 1u);
+    let tx = fx - f32(x0);
+    let ty = fy - f32(y0);
+    let o = lens_constants.mask_offset;
+    let a = lens_tables[o + y0 * w + x0];
+    let b = lens_tables[o + y0 * w + x1];
+    let c = lens_tables[o + y1 * w + x0];
+    let d = lens_tables[o + y1 * w + x1];
+    let top = a + (b - a) * tx;
+    let bottom = c + (d - c) * tx;
+    return top + (bottom - top) * ty;
+}
+
+// The diaphragm at the stop (trace_batch clip.rs): blocked on the closed side of a blade
+// (p·n + κ|p − m n|² > m) or where the mask is black; the mask's grey level otherwise.
+fn lens_clip(ray: ptr<function, LensRay>) -> f32 {
+    let x = (*ray).origin.x;
+    let y = (*ray).origin.y;
+    let apex = lens_constants.apex;
+    let kappa = lens_constants.kappa;
+    var inside = true;
+    for (var i = 0u; i < lens_constants.blade_count; i++) {
+        let nx = lens_tables[lens_constants.blades_offset + 2u * i];
+        let ny = lens_tables[lens_constants.blades_offset + 2u * i + 1u];
+        let along = x * nx + y * ny;
+        let ex = x - apex * nx;
+        let ey = y - apex * ny;
+        inside = inside && along + kappa * (ex * ex + ey * ey) <= apex;
+    }
+    (*ray).alive = (*ray).alive && inside;
+    if lens_constants.has_mask != 0u && (*ray).alive {
+        let t = lens_mask_transmission(x, y);
+        (*ray).alive = t > 0.0;
+        if (*ray).alive {
+            return t;
+        }
+    }
+    return 1.0;
+}
+
+// The index of the medium after front-to-back surface `surface` at table position (i, t).
+fn lens_index_after(surface: u32, i: u32, t: f32) -> f32 {
+    let row = lens_constants.dispersion_offset + surface * lens_constants.dispersion_len;
+    let a = lens_tables[row + i];
+    return a + t * (lens_tables[row + i + 1u] - a);
+}
+
+// Traces a film-side ray through every surface to the scene side (trace_batch with
+// Travel::FilmToScene; at the ray's own wavelength `nm` in a spectral render), returning the
+// diaphragm mask's transmission along it.
+fn lens_trace(ray: ptr<function, LensRay>, nm: f32) -> f32 {
+    let count = lens_constants.surface_count;
+    var transmission = 1.0;
+    // DispersionTable::position: entry i and the fraction toward i + 1.
+    let last = lens_constants.dispersion_len - 1u;
+    let x = clamp(nm - lens_constants.dispersion_lambda_min, 0.0, f32(last));
+    let cell = min(u32(x), last - 1u);
+    let fraction = x - f32(cell);
+    var carried = 1.0;
+    if lens_constants.spectral != 0u {
+        carried = lens_index_after(count - 1u, cell, fraction);
+    }
+    for (var step = 0u; step < count; step++) {
+        let s = lens_surfaces[step];
+        var eta = s.eta;
+        if lens_constants.spectral != 0u {
+            let surface = count - 1u - step;
+            var before = 1.0;
+            if surface != 0u {
+                before = lens_index_after(surface - 1u, cell, fraction);
+            }
+            eta = carried / before;
+            carried = before;
+        }
+        lens_refract(s, ray, eta);
+        if step == lens_constants.clip_step {
+            transmission = lens_clip(ray);
+        }
+        if !(*ray).alive {
+            break;
+        }
+    }
+    if (*ray).alive {
+        let d = (*ray).direction;
+        let inv_length = 1.0 / sqrt(d.x * d.x + d.y * d.y + d.z * d.z);
+        (*ray).direction = vec3f(d.x * inv_length, d.y * inv_length, d.z * inv_length);
+    }
+    return transmission;
+}
+
+// Shirley–Chiu concentric map of the unit square onto the unit disk (pupil.rs).
+fn lens_concentric_disk(u: f32, v: f32) -> vec2f {
+    let a = 2.0 * u - 1.0;
+    let b = 2.0 * v - 1.0;
+    if a == 0.0 && b == 0.0 {
+        return vec2f(0.0, 0.0);
+    }
+    var r: f32;
+    var phi: f32;
+    if abs(a) > abs(b) {
+        r = a;
+        phi = LENS_FRAC_PI_4 * (b / a);
+    } else {
+        r = b;
+        phi = 2.0 * LENS_FRAC_PI_4 - LENS_FRAC_PI_4 * (a / b);
+    }
+    return vec2f(r * cos(phi), r * sin(phi));
+}
+
+// A rear-plane point for a film point and the area it was drawn from (0: no ray passes).
+struct LensPupilPoint {
+    point: vec2f,
+    area: f32,
+}
+
+// PupilSampler::in_bounds / on_rear_element.
+fn lens_pupil_point(x: f32, y: f32, u: f32, v: f32) -> LensPupilPoint {
+    if lens_constants.pupil_sampling == 1u {
+        let disk = lens_concentric_disk(u, v);
+        let radius = lens_constants.rear_radius;
+        return LensPupilPoint(vec2f(disk.x * radius, disk.y * radius), LENS_PI * radius * radius);
+    }
+    let r = sqrt(x * x + y * y);
+    // min before the conversion: a film point far beyond the film's reach takes the last
+    // segment, as the CPU's saturating `as usize` then min does.
+    let k = u32(min(r * lens_constants.segment_scale, f32(LENS_SEGMENTS - 1u)));
+    let o = lens_constants.segments_offset + 4u * k;
+    let bx = lens_tables[o] + lens_tables[o + 2u] * u;
+    let by = lens_tables[o + 1u] + lens_tables[o + 3u] * v;
+    // The bounds were found for a film point on +x: rotate by the point's angle.
+    let inv_r = 1.0 / r;
+    var sin_a = 0.0;
+    var cos_a = 1.0;
+    if r > 0.0 {
+        sin_a = y * inv_r;
+        cos_a = x * inv_r;
+    }
+    let area = lens_tables[lens_constants.segments_offset + 4u * LENS_SEGMENTS + k];
+    return LensPupilPoint(vec2f(cos_a * bx - sin_a * by, sin_a * bx + cos_a * by), area);
+}
+
+// Sample `sample` of pixel (pixel_x, pixel_y) through the lens, in the world frame (metres).
+fn camera_ray(pixel_x: u32, pixel_y: u32, sample: u32) -> CameraRay {
+    // The camera sample: film jitter, pupil point, and in a spectral render the wavelength,
+    // from the pixel's Owen-scrambled Sobol patterns (LensCamera::camera_samples).
+    let pixel = (pixel_y + lens_constants.key_origin_y) * lens_constants.key_width + (pixel_x + lens_constants.key_origin_x);
+    let film_key = hash32(pixel ^ lens_constants.film_seed);
+    let film_u = owen_sobol(sample, 0u, film_key);
+    let film_v = owen_sobol(sample, 1u, film_key);
+    var pupil_u: f32;
+    var pupil_v: f32;
+    var nm = 0.0;
+    var wavelength_weight = 1.0;
+    if lens_constants.spectral != 0u {
+        let key = hash32(hash32(pixel ^ lens_constants.pupil_seed) ^ LENS_WAVELENGTH_KEY);
+        pupil_u = owen_sobol(sample, 0u, key);
+        pupil_v = owen_sobol(sample, 1u, key);
+        let wavelength = sample_wavelength(owen_sobol(sample, 2u, key));
+        nm = wavelength.nm;
+        wavelength_weight = wavelength.inverse_pdf;
+    } else {
+        let key = hash32(film_key ^ lens_constants.pupil_seed);
+        pupil_u = owen_sobol(sample, 0u, key);
+        pupil_v = owen_sobol(sample, 1u, key);
+    }
+
+    // The film point (LensCamera::film_to_pupil), tilted about the frame centre.
+    let px = f32(pixel_x);
+    let py = f32(pixel_y);
+    var ox = lens_constants.film_scale.x * (((px + lens_constants.film_origin.x) + film_u) - lens_constants.film_centre.x);
+    var oy = lens_constants.film_scale.y * (((py + lens_constants.film_origin.y) + film_v) - lens_constants.film_centre.y);
+    var oz = lens_constants.film_z;
+    var depth = lens_constants.film_distance;
+    if lens_constants.tilted != 0u {
+        let a = ox - lens_constants.tilt_centre.x;
+        let b = oy - lens_constants.tilt_centre.y;
+        ox = lens_constants.tilt_centre.x + lens_constants.tilt_x.x * a + lens_constants.tilt_x.y * b;
+        oy = lens_constants.tilt_centre.y + lens_constants.tilt_y.x * a + lens_constants.tilt_y.y * b;
+        let dz = lens_constants.tilt_z.x * a + lens_constants.tilt_z.y * b;
+        oz = lens_constants.film_z + dz;
+        depth = lens_constants.film_distance + dz;
+    }
+
+    // The pupil point and the camera weight (PupilSampler::sample_with / sample_tilted).
+    let chosen = lens_pupil_point(ox, oy, pupil_u, pupil_v);
+    let to = vec3f(chosen.point.x - ox, chosen.point.y - oy, -depth);
+    let inv_len = 1.0 / sqrt(to.x * to.x + to.y * to.y + to.z * to.z);
+    let passing = chosen.area > 0.0;
+    let d = vec3f(to.x * inv_len, to.y * inv_len, to.z * inv_len);
+    var weight: f32;
+    if lens_constants.tilted != 0u {
+        // |cos θ_film| · cos³θ_rear · A / depth².
+        let cos_rear = abs(to.z * inv_len);
+        let nrm = lens_constants.film_normal;
+        let cos_film = abs((to.x * nrm.x + to.y * nrm.y + to.z * nrm.z) * inv_len);
+        weight = cos_film * cos_rear * cos_rear * cos_rear * chosen.area / (depth * depth);
+    } else {
+        // cos⁴θ · A / z².
+        let cos2 = d.z * d.z / (d.x * d.x + d.y * d.y + d.z * d.z);
+        weight = cos2 * cos2 * chosen.area * lens_constants.inv_z2;
+    }
+    var ray = LensRay(vec3f(ox, oy, oz), select(vec3f(0.0, 0.0, -1.0), d, passing), passing);
+
+    // Through the lens; the mask's grey level scales the weight.
+    let transmission = lens_trace(&ray, nm);
+    if lens_constants.has_mask != 0u {
+        weight *= transmission;
+    }
+
+    // Lens frame (mm) -> camera frame (m) -> world (LensCamera::move_to_world).
+    let m = lens_constants.world_from_camera;
+    let p = vec3f(ray.origin.x * 1e-3, ray.origin.y * 1e-3, (ray.origin.z - lens_constants.film_z) * 1e-3);
+    let v = ray.direction;
+    let origin = vec3f(
+        m[0].x * p.x + m[1].x * p.y + m[2].x * p.z + m[3].x,
+        m[0].y * p.x + m[1].y * p.y + m[2].y * p.z + m[3].y,
+        m[0].z * p.x + m[1].z * p.y + m[2].z * p.z + m[3].z,
+    );
+    let direction = vec3f(
+        m[0].x * v.x + m[1].x * v.y + m[2].x * v.z,
+        m[0].y * v.x + m[1].y * v.y + m[2].y * v.z,
+        m[0].z * v.x + m[1].z * v.y + m[2].z * v.z,
+    );
+    if !ray.alive {
+        weight = 0.0;
+    }
+    return CameraRay(origin, direction, weight, nm, wavelength_weight);
+}

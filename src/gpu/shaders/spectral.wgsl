@@ -1,0 +1,55 @@
+// Wavelengths of spectral camera rays and what a sample at one adds to the film: the f32 code
+// of spectral::sample_wavelength and spectral::SpectralFilm::film_rgb, reading the CPU's own
+// tables (uploaded once by gpu::lens; they depend on no lens).
+
+// The wavelength sampler's knots and the film's per-nm factors, one buffer:
+//   data[0 ..= knot_steps]: λ (nm) at cumulative probability k / knot_steps;
+//   data[film_start + 6 i ..]: a(λ) (3 values) then b(λ) (3 values) at λ = lambda_min + i nm.
+struct SpectralTables {
+    knot_steps: u32,
+    film_start: u32,
+    film_len: u32,
+    lambda_min: f32,
+    data: array<f32>,
+}
+
+@group(0) @binding(3) var<storage, read> spectral_tables: SpectralTables;
+
+// A camera sample's wavelength (nm) and the inverse of the density it was drawn with (nm).
+struct SpectralSample {
+    nm: f32,
+    inverse_pdf: f32,
+}
+
+// The wavelength for uniform `u` in [0, 1): linear between equal-probability knots, so the
+// density drawn with is constant within each step and every sample knows it exactly.
+fn sample_wavelength(u: f32) -> SpectralSample {
+    let steps = spectral_tables.knot_steps;
+    // 4096 - 1e-3 in f32, as the CPU computes it: the last step's end stays out of reach.
+    let x = clamp(u * f32(steps), 0.0, f32(steps) - 0.001);
+    let k = min(u32(x), steps - 1u);
+    let knot = spectral_tables.data[k];
+    let width = spectral_tables.data[k + 1u] - knot;
+    return SpectralSample(knot + (x - f32(k)) * width, f32(steps) * width);
+}
+
+// Three consecutive values of the film table from `start`.
+fn spectral_film_factor(start: u32) -> vec3f {
+    let data = &spectral_tables.data;
+    return vec3f(data[start], data[start + 1u], data[start + 2u]);
+}
+
+// What a sample of linear-sRGB radiance `rgb` at `wavelength` (nm), drawn with density
+// 1 / `wavelength_weight`, adds to the film, in linear sRGB: a(λ) · (b(λ) · rgb) / p(λ).
+fn film_rgb(wavelength: f32, wavelength_weight: f32, rgb: vec3f) -> vec3f {
+    let len = spectral_tables.film_len;
+    let x = clamp(wavelength - spectral_tables.lambda_min, 0.0, f32(len - 1u));
+    let i = min(u32(x), len - 2u);
+    let t = x - f32(i);
+    let p = spectral_tables.film_start + 6u * i;
+    let a = spectral_film_factor(p) + t * (spectral_film_factor(p + 6u) - spectral_film_factor(p));
+    let b = spectral_film_factor(p + 3u)
+        + t * (spectral_film_factor(p + 9u) - spectral_film_factor(p + 3u));
+    let radiance = (b.x * rgb.x + b.y * rgb.y + b.z * rgb.z) * wavelength_weight;
+    return vec3f(a.x * radiance, a.y * radiance, a.z * radiance);
+}
