@@ -8,8 +8,11 @@
 //!
 //! - [`context`]: finding an adapter and opening a device (`realcam devices` lists them).
 //! - [`compute`]: buffers, readback and kernels with errors as values, never panics.
+//! - [`shading`]: materials, lights and the environment for the path tracer of
+//!   `shaders/shade.wgsl` (with the PCG streams of `shaders/rng.wgsl`).
 
 pub mod compute;
 pub mod context;
+pub mod shading;
 
 pub use context::{AdapterSummary, GpuContext, GpuUnavailable, adapters};
