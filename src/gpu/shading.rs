@@ -9,6 +9,17 @@
 //! scene's texture table (scene.wgsl's `texture_sample`), which holds
 //! [`MaterialLibrary::textures`] in order.
 //!
+//! The WGSL interface (kernel source order: rng.wgsl, scene.wgsl, shade.wgsl):
+//! - rng.wgsl: `struct Rng`, `rng_for_sample(seed_lo, seed_hi, pixel, sample) -> Rng`,
+//!   `rng_next_u32/rng_next_f32/rng_next_2d(rng: ptr<function, Rng>)` (== `sampling::Rng`).
+//! - shade.wgsl: `shade_rng(pixel, sample) -> Rng` (the shading stream of a camera sample, as
+//!   `Shader::shade_batch` keys it) and `path_radiance(origin, direction, first_hit: Hit,
+//!   rng: ptr<function, Rng>) -> vec3f` (== `Shader::radiance`). Of scene.wgsl it calls
+//!   `scene_intersect`, `scene_occluded`, `scene_surface` (also at a sampled point of an
+//!   emissive triangle, given as a `Hit` with t = 0), `scene_spawn_origin`,
+//!   `scene_offset_along_normal`, `scene_triangle_vertices`, `scene_is_alpha_hole(triangle,
+//!   u, v) -> bool` and `texture_sample`; its own names all start with `shade_`/`Shade`.
+//!
 //! Bindings of group 2, in order:
 //! 0. uniform `ShadeParams` (counts, offsets, probabilities, the uniform sky, the stream seed);
 //! 1. `array<ShadeMaterial>`: the library's materials, then its default material;
@@ -300,7 +311,7 @@ impl GpuShading {
         .into_iter()
         .max()
         .unwrap_or(0) as u64;
-        let limit = u64::from(context.limits.max_storage_buffer_binding_size);
+        let limit = context.limits.max_storage_buffer_binding_size;
         if largest > limit {
             return Err(GpuUnavailable(format!(
                 "the shading data needs a {largest}-byte buffer; the GPU {} binds at most \
