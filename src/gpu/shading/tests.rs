@@ -678,3 +678,117 @@ fn bsdf_sample_eval_and_pdf_match_the_cpu() {
         &mismatches[..mismatches.len().min(5)]
     );
 }
+
+/// One light-sampling query: a shading position, a direction and a stream key.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+struct LightQuery {
+    /// xyz: where the light is sampled from; w: the stream's sample index.
+    position: [f32; 4],
+    /// A direction whose environment density is asked for.
+    direction: [f32; 4],
+}
+
+const LIGHT_KERNEL: &str = "
+    struct LightQuery { position: vec4f, direction: vec4f }
+    @group(3) @binding(3) var<storage, read> queries: array<LightQuery>;
+    @group(3) @binding(4) var<storage, read_write> results: array<vec4f>;
+    @compute @workgroup_size(64) fn main(@builtin(global_invocation_id) id: vec3u) {
+        let i = id.x;
+        if i >= arrayLength(&queries) { return; }
+        let q = queries[i];
+        var rng = shade_rng(i, u32(q.position.w));
+        let light = shade_sample_light(q.position.xyz, &rng);
+        results[3u * i] = vec4f(light.direction, light.pdf);
+        results[3u * i + 1u] = vec4f(light.radiance, select(0.0, 1.0, light.is_delta));
+        results[3u * i + 2u] = vec4f(shade_light_environment_pdf(q.direction.xyz),
+            shade_environment_radiance(q.direction.xyz));
+    }";
+
+/// `LightSet::sample`, `LightSet::environment_pdf` and `Environment::radiance` on both devices
+/// for points above the floor of `scene`: the pieces of next-event estimation, alone.
+fn assert_light_samples_agree(scene: &TestScene) {
+    let Some(context) = GpuContext::for_tests() else {
+        return;
+    };
+    let seed = 0xfeed_beef;
+    let mut rng = Rng::new(11, 13);
+    let queries: Vec<LightQuery> = (0..2000)
+        .map(|k| {
+            let position = Vec3::new(
+                3.0 * rng.next_f32() - 1.5,
+                1.5 * rng.next_f32(),
+                3.0 * rng.next_f32() - 1.5,
+            );
+            let z = 1.0 - 2.0 * rng.next_f32();
+            let phi = std::f32::consts::TAU * rng.next_f32();
+            let r = (1.0 - z * z).sqrt();
+            LightQuery {
+                position: position.extend((k % 7) as f32).to_array(),
+                direction: [r * phi.cos(), z, r * phi.sin(), 0.0],
+            }
+        })
+        .collect();
+    let gpu: Vec<[f32; 4]> =
+        scene.run(&context, 1, seed, LIGHT_KERNEL, &queries, 3 * queries.len());
+    let mut mismatches = Vec::new();
+    let mut sampled = 0;
+    for (i, query) in queries.iter().enumerate() {
+        let position = Vec3::from_slice(&query.position[..3]);
+        let direction = Vec3::from_slice(&query.direction[..3]);
+        let mut stream =
+            Rng::for_sample(seed ^ SHADE_STREAM_KEY, i as u32, query.position[3] as u32);
+        let cpu = scene.lights.sample(
+            position,
+            &scene.accel,
+            &scene.materials,
+            &scene.environment,
+            &mut stream,
+        );
+        let [drawn, radiance, environment] = [gpu[3 * i], gpu[3 * i + 1], gpu[3 * i + 2]];
+        let sample_ok = match cpu {
+            None => drawn[3] == 0.0,
+            Some(light) => {
+                sampled += 1;
+                (0..3).all(|c| (drawn[c] - light.direction[c]).abs() <= 1e-4)
+                    && close(drawn[3], light.pdf, 1e-3)
+                    && (0..3).all(|c| close(radiance[c], light.radiance[c], 1e-3))
+                    && (radiance[3] == 1.0) == light.is_delta
+            }
+        };
+        let environment_ok = close(
+            environment[0],
+            scene.lights.environment_pdf(&scene.environment, direction),
+            1e-3,
+        ) && (0..3).all(|c| {
+            close(
+                environment[c + 1],
+                scene.environment.radiance(direction)[c],
+                1e-3,
+            )
+        });
+        if !(sample_ok && environment_ok) {
+            mismatches.push((i, cpu, drawn, radiance, environment));
+        }
+    }
+    assert!(sampled > queries.len() / 2, "only {sampled} light samples");
+    // A point drawn on an emitter's edge, or a direction on a pixel boundary of the image, may
+    // land on the other side by rounding: allow 0.2 %.
+    assert!(
+        mismatches.len() <= queries.len() / 500,
+        "{} of {} light queries differ: {:?}",
+        mismatches.len(),
+        queries.len(),
+        &mismatches[..mismatches.len().min(4)]
+    );
+}
+
+#[test]
+fn light_samples_match_the_cpu_in_a_lit_room() {
+    assert_light_samples_agree(&lit_room());
+}
+
+#[test]
+fn light_samples_match_the_cpu_under_an_image_sky() {
+    assert_light_samples_agree(&sunlit_yard());
+}
