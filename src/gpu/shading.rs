@@ -15,10 +15,10 @@
 //! - shade.wgsl: `shade_rng(pixel, sample) -> Rng` (the shading stream of a camera sample, as
 //!   `Shader::shade_batch` keys it) and `path_radiance(origin, direction, first_hit: Hit,
 //!   rng: ptr<function, Rng>) -> vec3f` (== `Shader::radiance`). Of scene.wgsl it calls
-//!   `scene_intersect`, `scene_occluded`, `scene_surface` (also at a sampled point of an
-//!   emissive triangle, given as a `Hit` with t = 0), `scene_spawn_origin`,
-//!   `scene_offset_along_normal`, `scene_triangle_vertices`, `scene_is_alpha_hole(triangle,
-//!   u, v) -> bool` and `texture_sample`; its own names all start with `shade_`/`Shade`.
+//!   `scene_intersect`, `scene_occluded`, `scene_surface`, `scene_spawn_origin`,
+//!   `scene_offset_along_normal`, `scene_triangle_vertices`, `scene_triangle_material`,
+//!   `scene_uv_at`, `scene_triangle_spawn_offset`, `scene_is_alpha_hole` and
+//!   `texture_sample`; its own names all start with `shade_`/`Shade`.
 //!
 //! Bindings of group 2, in order:
 //! 0. uniform `ShadeParams` (counts, offsets, probabilities, the uniform sky, the stream seed);

@@ -5,8 +5,9 @@
 // devices trace the same paths (f32 rounding of the transcendental functions aside).
 //
 // Reads the scene through scene.wgsl (group 1): scene_intersect, scene_occluded, scene_surface,
-// scene_spawn_origin, scene_offset_along_normal, scene_triangle_vertices, scene_is_alpha_hole,
-// texture_sample. Its own data is group 2, uploaded by gpu::shading::GpuShading.
+// scene_spawn_origin, scene_offset_along_normal, scene_triangle_vertices,
+// scene_triangle_material, scene_uv_at, scene_triangle_spawn_offset, scene_is_alpha_hole and
+// texture_sample (each the SceneAccel / Texture method of the same name). Its own data is group 2, uploaded by gpu::shading::GpuShading.
 
 // ---- group 2: the layouts of gpu::shading (keep the two in step) ----
 
@@ -821,19 +822,18 @@ fn shade_sample_triangle(position: vec3f, rng: ptr<function, Rng>) -> ShadeLight
     let distance2 = shade_dot(to_light, to_light);
     let direction = shade_normalize_or_zero(to_light);
     let cos_light = -shade_dot(normal, direction);
-    // The triangle's material, uv and spawn offset at (u, v), as a hit there would see them.
-    let surface = scene_surface(Hit(0.0, u, v, emitter.triangle), direction);
-    let material = shade_material(surface.material);
+    let material = shade_material(scene_triangle_material(emitter.triangle));
     if shade_is_zero3(direction) || !shade_emits_towards(material, cos_light < 0.0) {
         return shade_no_light();
     }
-    let radiance = shade_emitted_radiance(material, surface.uv);
+    let radiance = shade_emitted_radiance(material, scene_uv_at(emitter.triangle, u, v));
     let pdf = shade_params.triangles_probability * shade_probability(shade_emitter_distribution(), drawn.index)
         * distance2 / (emitter.area * abs(cos_light));
     if !(shade_positive(pdf) && shade_is_finite(pdf)) {
         return shade_no_light();
     }
-    return ShadeLightSample(direction, radiance, pdf, false, SHADE_TARGET_SURFACE, light_point, normal, surface.spawn_offset);
+    return ShadeLightSample(direction, radiance, pdf, false, SHADE_TARGET_SURFACE, light_point, normal,
+        scene_triangle_spawn_offset(emitter.triangle));
 }
 
 // LightSet::sample: a light sample seen from `position` (pdf 0: none).

@@ -90,6 +90,23 @@ fn scene_occluded(origin: vec3f, direction: vec3f, t_max: f32) -> bool {
     return false;
 }
 
+fn scene_triangle_material(triangle: u32) -> u32 {
+    return bitcast<u32>(stand_in_triangles[5u * triangle].w);
+}
+
+fn scene_uv_at(triangle: u32, u: f32, v: f32) -> vec2f {
+    let uv01 = stand_in_triangles[5u * triangle + 3u];
+    let uv2 = stand_in_triangles[5u * triangle + 4u].xy;
+    return uv01.xy * (1.0 - u - v) + uv01.zw * u + uv2 * v;
+}
+
+fn scene_triangle_spawn_offset(triangle: u32) -> f32 {
+    let p = scene_triangle_vertices(triangle);
+    let magnitude = max(max(max(abs(p[0].x), abs(p[0].y)), max(abs(p[0].z), abs(p[1].x))),
+        max(max(abs(p[1].y), abs(p[1].z)), max(max(abs(p[2].x), abs(p[2].y)), abs(p[2].z))));
+    return magnitude / 65536.0;
+}
+
 fn scene_is_alpha_hole(triangle: u32, u: f32, v: f32) -> bool {
     return false;
 }
@@ -130,26 +147,23 @@ fn scene_surface(hit: Hit, direction: vec3f) -> SurfacePoint {
     let uv2 = stand_in_triangles[base + 4u].xy;
     let u = hit.u;
     let v = hit.v;
-    let w = 1.0 - u - v;
     let edge1 = p[1] - p[0];
     let edge2 = p[2] - p[0];
     let position = p[0] + edge1 * u + edge2 * v;
     let front_normal = stand_in_normalize_or(cross(edge1, edge2), vec3f(0.0, 0.0, 1.0));
     let back_face = dot(front_normal, direction) > 0.0;
     let side = select(1.0, -1.0, back_face);
-    let uv = uv01.xy * w + uv01.zw * u + uv2 * v;
+    let uv = scene_uv_at(hit.triangle, u, v);
     let tangent = stand_in_uv_tangent(edge1, edge2, uv01.xy, uv01.zw, uv2, front_normal);
-    let magnitude = max(max(max(abs(p[0].x), abs(p[0].y)), max(abs(p[0].z), abs(p[1].x))),
-        max(max(abs(p[1].y), abs(p[1].z)), max(max(abs(p[2].x), abs(p[2].y)), abs(p[2].z))));
     return SurfacePoint(
         position,
         front_normal * side,
         front_normal * side,
         tangent * side,
         uv,
-        bitcast<u32>(stand_in_triangles[base].w),
+        scene_triangle_material(hit.triangle),
         back_face,
-        magnitude / 65536.0,
+        scene_triangle_spawn_offset(hit.triangle),
     );
 }
 
