@@ -11,10 +11,13 @@
 //! - [`lens`]: the active lens for `camera_ray` (shaders: sampling, spectral, lens).
 //! - [`scene`]: the BVH, triangles and textures uploaded once per scene, traversed and sampled
 //!   in WGSL as the CPU does.
+//! - [`shading`]: materials, lights and the environment for the path tracer of
+//!   `shaders/shade.wgsl` (with the PCG streams of `shaders/rng.wgsl`).
 
 pub mod compute;
 pub mod context;
 pub mod lens;
 pub mod scene;
+pub mod shading;
 
 pub use context::{AdapterSummary, GpuContext, GpuUnavailable, adapters};

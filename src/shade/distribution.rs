@@ -5,9 +5,9 @@
 #[derive(Clone, Debug, Default)]
 pub struct Distribution1D {
     /// Normalised weights.
-    probabilities: Vec<f32>,
+    pub(crate) probabilities: Vec<f32>,
     /// cdf[i] = Σ_{j<i} probabilities[j]; cdf[0] = 0 and cdf[n] = 1 exactly.
-    cdf: Vec<f32>,
+    pub(crate) cdf: Vec<f32>,
     /// Σ weights (before normalisation).
     total: f64,
 }
@@ -119,8 +119,8 @@ impl Distribution1D {
 /// (row-major, `height` rows of `width` cells, row 0 at v = 0).
 #[derive(Clone, Debug, Default)]
 pub struct Distribution2D {
-    rows: Vec<Distribution1D>,
-    marginal: Distribution1D,
+    pub(crate) rows: Vec<Distribution1D>,
+    pub(crate) marginal: Distribution1D,
 }
 
 impl Distribution2D {

@@ -91,9 +91,9 @@ impl Environment {
 #[derive(Clone, Debug)]
 pub struct EnvironmentMap {
     /// Wraps around in u, clamps at the poles.
-    image: Texture,
+    pub(crate) image: Texture,
     /// Over pixels, see [`sampling_weights`].
-    distribution: Distribution2D,
+    pub(crate) distribution: Distribution2D,
     mean_luminance: f32,
 }
 

@@ -79,13 +79,13 @@ pub struct LightSample {
 
 /// An emissive triangle and its area.
 #[derive(Clone, Copy, Debug)]
-struct Emitter {
-    triangle: u32,
-    area: f32,
+pub(crate) struct Emitter {
+    pub(crate) triangle: u32,
+    pub(crate) area: f32,
 }
 
 #[derive(Clone, Copy, Debug)]
-enum LightSlot {
+pub(crate) enum LightSlot {
     Punctual(usize),
     Triangles,
     Environment,
@@ -94,16 +94,17 @@ enum LightSlot {
 /// All light sources, prepared for sampling: punctual lights, emissive triangles, environment.
 #[derive(Resource)]
 pub struct LightSet {
-    punctual: Vec<PunctualLight>,
-    emitters: Vec<Emitter>,
+    pub(crate) punctual: Vec<PunctualLight>,
+    /// In increasing triangle order.
+    pub(crate) emitters: Vec<Emitter>,
     /// Over `emitters`, by area × emitted luminance.
-    emitter_distribution: Distribution1D,
+    pub(crate) emitter_distribution: Distribution1D,
     /// Triangle index → index into `emitters`.
     emitter_of_triangle: HashMap<u32, u32>,
-    slots: Vec<LightSlot>,
-    slot_distribution: Distribution1D,
-    triangles_probability: f32,
-    environment_probability: f32,
+    pub(crate) slots: Vec<LightSlot>,
+    pub(crate) slot_distribution: Distribution1D,
+    pub(crate) triangles_probability: f32,
+    pub(crate) environment_probability: f32,
 }
 
 impl LightSet {
