@@ -1,6 +1,7 @@
 //! The `realcam` command line.
 
 pub mod bench;
+pub mod devices;
 pub mod glass;
 pub mod interrupt;
 pub mod lens;
@@ -46,6 +47,8 @@ pub enum Command {
     Serve(Box<serve::ServeArgs>),
     /// Measure lens-tracing speed on this CPU: scalar per-ray vs SoA batches, one thread.
     Bench(bench::BenchArgs),
+    /// List the GPU adapters `--device gpu` can render on, and the one it picks.
+    Devices(devices::DevicesArgs),
 }
 
 impl Cli {
@@ -101,6 +104,7 @@ pub fn main() -> ExitCode {
         Some(Command::Merge(args)) => merge::run(&args),
         Some(Command::Glass(args)) => glass::run(&args),
         Some(Command::Bench(args)) => bench::run(&args),
+        Some(Command::Devices(args)) => devices::run(&args),
         Some(Command::Serve(args)) => serve::run(&args),
     };
     match result {

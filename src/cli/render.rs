@@ -22,6 +22,7 @@ use crate::job::{Job, Progress, outputs::validate};
 use crate::lens::elements::Dispersion;
 use crate::lens::movements::FilmMovements;
 use crate::memory::MAX_THREADS;
+use crate::pipeline::RenderDevice;
 
 // The field docs are `--help` text for a terminal: brackets there are clap's "[default: …]"
 // and JSON, not rustdoc links.
@@ -76,6 +77,10 @@ pub struct RenderArgs {
     /// Worker threads, at most 1024 [default: all cores].
     #[arg(long, value_name = "N", allow_hyphen_values = true, value_parser = whole::<usize>(1, MAX_THREADS))]
     pub threads: Option<usize>,
+    /// Where the passes render: `cpu` (all cores, or --threads) or `gpu` (the best adapter
+    /// `realcam devices` lists; the same image, within noise).
+    #[arg(long, value_name = "cpu|gpu", default_value = "cpu")]
+    pub device: RenderDevice,
     /// Path length: 1 = direct lighting only.
     #[arg(
         long,
@@ -174,6 +179,7 @@ impl RenderArgs {
             env,
             seed,
             threads,
+            device,
             max_depth,
             out,
             exr,
@@ -214,6 +220,7 @@ impl RenderArgs {
             height,
             seed,
             threads,
+            device,
             max_depth,
             dispersion: dispersion.0,
             focus_on,

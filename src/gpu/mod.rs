@@ -13,9 +13,11 @@
 //!   in WGSL as the CPU does.
 //! - [`shading`]: materials, lights and the environment for the path tracer of
 //!   `shaders/shade.wgsl` (with the PCG streams of `shaders/rng.wgsl`).
+//! - [`film`]: the film's sums on the GPU and the pass kernel.
 
 pub mod compute;
 pub mod context;
+pub mod film;
 pub mod lens;
 pub mod scene;
 pub mod shading;

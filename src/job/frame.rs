@@ -214,7 +214,7 @@ pub(super) fn render_frame(
         let remaining = samples.after(done as u32 + 1);
         if let Some(code) = (context.stop)() {
             progress.finish();
-            let image = renderer.image();
+            let image = renderer.image()?;
             save_checkpoint(&checkpoint_path, &image, remaining)?;
             if spec.output.shard.is_none() {
                 let exposure = choose_exposure(spec, &image);
@@ -240,7 +240,7 @@ pub(super) fn render_frame(
             && !remaining.is_empty()
             && last_checkpoint.elapsed().as_secs_f64() >= every
         {
-            let image = renderer.image();
+            let image = renderer.image()?;
             save_checkpoint(&checkpoint_path, &image, remaining)?;
             last_checkpoint = Instant::now();
             if !spent.contains(&checkpoint_path) {
@@ -249,7 +249,7 @@ pub(super) fn render_frame(
         }
     }
     progress.finish();
-    let image = renderer.image();
+    let image = renderer.image()?;
     let frame_stats = renderer
         .world
         .resource::<RenderStats>()

@@ -98,6 +98,7 @@ impl<'a> Job<'a> {
             eprintln!("{message}");
         }
         let mut renderer = Renderer::new();
+        renderer.set_device(spec.device)?;
         let source = match &spec.scene {
             Some(path) => SceneSource {
                 path: path.clone(),

@@ -6,6 +6,7 @@
 //! Its checks and messages name the command-line options (`--spp`, `--out`), the names users
 //! know the settings by in every front end (the live lab's settings are those options too).
 
+use crate::pipeline::RenderDevice;
 use std::fmt;
 use std::path::{Path, PathBuf};
 
@@ -40,6 +41,8 @@ pub struct JobSpec {
     pub seed: u64,
     /// Worker threads; `None`: all cores.
     pub threads: Option<usize>,
+    /// Where the passes render: the CPU's cores or a GPU.
+    pub device: RenderDevice,
     /// Path length (1: direct lighting only).
     pub max_depth: u32,
     /// Whether camera rays carry wavelengths through the lens's glass.

@@ -4,7 +4,7 @@ use serde_json::{Value, json};
 
 use super::frame::FrameReport;
 use crate::lens::elements::LensDerivationStats;
-use crate::pipeline::{RenderStats, Renderer, Stage};
+use crate::pipeline::{GpuBackend, RenderStats, Renderer, Stage};
 
 pub(super) fn stats_json(
     renderer: &mut Renderer,
@@ -26,8 +26,15 @@ pub(super) fn stats_json(
         .iter()
         .map(|s| stats.stage_time[*s as usize].as_secs_f64())
         .sum();
+    let adapter = renderer
+        .world
+        .get_resource::<GpuBackend>()
+        .map(|backend| backend.0.adapter.to_string());
     json!({
+        "device": renderer.device(),
+        "gpu_adapter": adapter,
         "wall_seconds": wall_seconds,
+        "gpu_kernel_seconds": stats.gpu_kernel_time.as_secs_f64(),
         "stage_seconds": stages,
         "scene_loads": stats.scene_loads,
         "bvh_builds": stats.bvh_builds,

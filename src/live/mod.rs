@@ -409,7 +409,7 @@ impl RenderLoop {
         let start = Instant::now();
         if self.session.render_next_pass()? {
             self.pass_seconds += start.elapsed().as_secs_f64();
-            let image = self.session.image();
+            let image = self.session.image()?;
             self.first_image(&image);
             self.publish(Some(image));
         } else {

@@ -369,7 +369,7 @@ impl Session {
         if !self.renderer.render_pass_unless_cancelled(0)? {
             return Ok(None);
         }
-        let small = self.renderer.image();
+        let small = self.renderer.image()?;
         let (width, height) = self.size();
         let mut image = Image::new(width, height);
         image.samples = 1;
@@ -402,7 +402,7 @@ impl Session {
         Ok(finished)
     }
 
-    pub fn image(&mut self) -> Image {
+    pub fn image(&mut self) -> anyhow::Result<Image> {
         self.renderer.image()
     }
 
@@ -476,7 +476,7 @@ impl Session {
         if self.spp_done == 0 {
             return Err("nothing rendered at full resolution yet; save again in a moment".into());
         }
-        let image = self.renderer.image();
+        let image = self.renderer.image().map_err(|e| format!("{e:#}"))?;
         let exposure = self.exposure(&image);
         write_image(
             &self.out,

@@ -16,6 +16,8 @@
 //! DeriveLens; `pass`: the five pass stages); `resources` holds what they share and
 //! `renderer` the [`Renderer`] that drives them.
 
+mod device;
+mod gpu;
 mod pass;
 mod renderer;
 mod resources;
@@ -26,6 +28,7 @@ use bevy_ecs::schedule::{IntoScheduleConfigs, Schedule, ScheduleLabel, SystemSet
 use crate::lens::elements::{LensDerivation, add_lens_systems};
 
 pub use crate::lens::camera::{CameraPose, FilmResolution};
+pub use device::{GpuBackend, RenderDevice};
 pub use pass::{generate_rays, shade, trace_rays, weight, write_film};
 pub use renderer::Renderer;
 pub use resources::{
@@ -95,5 +98,6 @@ pub fn render_schedule() -> Schedule {
     );
     scene::add_systems(&mut schedule);
     pass::add_systems(&mut schedule);
+    gpu::add_systems(&mut schedule);
     schedule
 }

@@ -9,12 +9,14 @@ use bevy_ecs::schedule::Schedule;
 use bevy_ecs::world::World;
 use glam::Mat4;
 
+use super::device::{GpuBackend, RenderDevice};
 use super::render_schedule;
 use super::resources::{
     PassState, PipelineFault, RenderSettings, RenderStats, SceneEnvironment, SceneSource, TileBatch,
 };
 use crate::film::samples::SampleSequence;
 use crate::film::{FilmTile, Image, tiles};
+use crate::gpu::GpuContext;
 use crate::lens::Prescription;
 use crate::lens::aperture::ApertureSetting;
 use crate::lens::camera::CameraPose;
@@ -53,6 +55,32 @@ impl Renderer {
         Renderer {
             world,
             schedule: render_schedule(),
+        }
+    }
+
+    /// Chooses where the passes render. A GPU is opened here (once per process, see
+    /// [`GpuContext::shared`]): a machine without one is an error that says so.
+    pub fn set_device(&mut self, device: RenderDevice) -> anyhow::Result<()> {
+        match device {
+            RenderDevice::Cpu => {
+                self.world.remove_resource::<GpuBackend>();
+            }
+            RenderDevice::Gpu => {
+                let context =
+                    GpuContext::shared().map_err(|why| anyhow::anyhow!("--device gpu: {why}"))?;
+                self.world.insert_resource(GpuBackend(context));
+                super::gpu::init_resources(&mut self.world);
+            }
+        }
+        Ok(())
+    }
+
+    /// Where the passes render.
+    pub fn device(&self) -> RenderDevice {
+        if self.world.contains_resource::<GpuBackend>() {
+            RenderDevice::Gpu
+        } else {
+            RenderDevice::Cpu
         }
     }
 
@@ -214,7 +242,7 @@ impl Renderer {
                 break;
             }
         }
-        Ok(self.image())
+        self.image()
     }
 
     /// Prepares a render: brings everything up to date, checks the active lens, and clears the
@@ -247,6 +275,7 @@ impl Renderer {
                 tile.load(image);
             }
         }
+        super::gpu::film_cleared(&mut self.world);
         Ok(())
     }
 
@@ -269,11 +298,16 @@ impl Renderer {
         Ok(finished)
     }
 
-    /// The film's current contents.
-    pub fn image(&mut self) -> Image {
+    /// The film's current contents (on a GPU, read back from it first).
+    pub fn image(&mut self) -> anyhow::Result<Image> {
+        super::gpu::read_film_back(&mut self.world)?;
         let settings = self.world.resource::<RenderSettings>().clone();
         let mut query = self.world.query::<&FilmTile>();
-        Image::from_tiles(settings.width, settings.height, query.iter(&self.world))
+        Ok(Image::from_tiles(
+            settings.width,
+            settings.height,
+            query.iter(&self.world),
+        ))
     }
 
     pub fn scene_cameras(&mut self) -> Vec<SceneCamera> {

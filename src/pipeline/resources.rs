@@ -118,6 +118,8 @@ pub struct RenderStats {
     pub lens_rays_passed: u64,
     pub rays_traced: u64,
     pub rejected_samples: u64,
+    /// Compiling the GPU's pass kernel (set-up, once per renderer; not in any stage's time).
+    pub gpu_kernel_time: Duration,
     /// What shading met: escaped rays, emitters, light samples and their fate (its rays are
     /// also counted in `rays_traced`).
     pub shading: ShadeStats,

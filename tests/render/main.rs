@@ -11,4 +11,5 @@ mod black_images;
 mod bokeh;
 mod example;
 mod film_movements;
+mod gpu;
 mod physics;

@@ -99,6 +99,8 @@ struct CameraRay {
     weight: f32,
     wavelength: f32,
     wavelength_weight: f32,
+    // The pixel's key in the enclosing (unshifted) film: what the shading streams are keyed by.
+    pixel_key: u32,
 }
 
 const LENS_SPHERE: u32 = 0u;
@@ -542,5 +544,5 @@ fn camera_ray(pixel_x: u32, pixel_y: u32, sample: u32) -> CameraRay {
     if !ray.alive {
         weight = 0.0;
     }
-    return CameraRay(origin, direction, weight, nm, wavelength_weight);
+    return CameraRay(origin, direction, weight, nm, wavelength_weight, pixel);
 }

@@ -920,14 +920,28 @@ struct ShadePath {
     bounces: u32,
 }
 
+// What one invocation's path met, as ShadeStats counts it (a private variable: each invocation
+// has its own; the pass kernel sums them per workgroup). Indices are the SHADE_COUNT_ constants.
+var<private> shade_counts: array<u32, 8>;
+const SHADE_COUNT_CAMERA_ESCAPED: u32 = 0u;
+const SHADE_COUNT_BOUNCE_ESCAPED: u32 = 1u;
+const SHADE_COUNT_EMITTER_HITS: u32 = 2u;
+const SHADE_COUNT_LIGHT_SAMPLES: u32 = 3u;
+const SHADE_COUNT_BEHIND: u32 = 4u;
+const SHADE_COUNT_BLOCKED: u32 = 5u;
+const SHADE_COUNT_REACHED: u32 = 6u;
+const SHADE_COUNT_RAYS_TRACED: u32 = 7u;
+
 // Shader::direct_light: one light sample, MIS-weighted against BSDF sampling.
 fn shade_direct_light(surface: SurfacePoint, shading: ShadePoint, wo: vec3f, rng: ptr<function, Rng>) -> vec3f {
     let light = shade_sample_light(surface.position, rng);
     if light.pdf == 0.0 {
         return vec3f(0.0);
     }
+    shade_counts[SHADE_COUNT_LIGHT_SAMPLES] += 1u;
     let wi = light.direction;
     if shade_dot(wi, surface.geometric_normal) <= 0.0 {
+        shade_counts[SHADE_COUNT_BEHIND] += 1u;
         return vec3f(0.0);
     }
     let wo_local = shade_to_local(shading.frame, wo);
@@ -955,9 +969,12 @@ fn shade_direct_light(surface: SurfacePoint, shading: ShadePoint, wo: vec3f, rng
     if shadow.w == 0.0 {
         return vec3f(0.0);
     }
+    shade_counts[SHADE_COUNT_RAYS_TRACED] += 1u;
     if scene_occluded(origin, shadow.xyz, shadow.w) {
+        shade_counts[SHADE_COUNT_BLOCKED] += 1u;
         return vec3f(0.0);
     }
+    shade_counts[SHADE_COUNT_REACHED] += 1u;
     return reflected * (weight / light.pdf);
 }
 
@@ -967,6 +984,11 @@ fn shade_advance(path: ptr<function, ShadePath>, hit: Hit, rng: ptr<function, Rn
     let done = vec4f(0.0);
     let direction = (*path).direction;
     if hit.triangle == SHADE_NONE {
+        if (*path).bsdf_pdf >= 0.0 {
+            shade_counts[SHADE_COUNT_BOUNCE_ESCAPED] += 1u;
+        } else {
+            shade_counts[SHADE_COUNT_CAMERA_ESCAPED] += 1u;
+        }
         var weight = 1.0;
         if (*path).bsdf_pdf >= 0.0 {
             weight = shade_power_heuristic((*path).bsdf_pdf, shade_light_environment_pdf(direction));
@@ -980,6 +1002,7 @@ fn shade_advance(path: ptr<function, ShadePath>, hit: Hit, rng: ptr<function, Rn
     let shading = shade_shading_point(material, surface, wo);
 
     if !shade_is_zero3(shading.emission) {
+        shade_counts[SHADE_COUNT_EMITTER_HITS] += 1u;
         var weight = 1.0;
         if (*path).bsdf_pdf >= 0.0 {
             let cos_light = shade_dot(surface.geometric_normal, wo);
@@ -1040,6 +1063,7 @@ fn path_radiance(origin: vec3f, direction: vec3f, first_hit: Hit, rng: ptr<funct
             break;
         }
         hit = scene_intersect(next.xyz, path.direction, SHADE_FAR);
+        shade_counts[SHADE_COUNT_RAYS_TRACED] += 1u;
     }
     if shade_is_finite3(path.radiance) {
         return path.radiance;

@@ -10,35 +10,37 @@ mod weight;
 
 use std::time::Instant;
 
-use bevy_ecs::schedule::{IntoScheduleConfigs, Schedule};
+use bevy_ecs::schedule::common_conditions::not;
+use bevy_ecs::schedule::{IntoScheduleConfigs, Schedule, SystemCondition};
 use bevy_ecs::system::Res;
 use rayon::prelude::*;
 
 use super::Stage;
+use super::gpu::on_gpu;
 use super::resources::{PassCancel, PassState, RenderStats};
 
 pub use film::write_film;
 pub use rays::generate_rays;
+pub(crate) use rays::{ActiveLensQuery, LensChanged, lens_camera};
 pub use shade::shade;
 pub use trace::trace_rays;
 pub use weight::weight;
 
 /// Adds the five pass systems to `schedule`, each in its stage and only while a pass is
-/// pending.
+/// pending and the passes render on the CPU (see `pipeline::gpu` for the GPU's).
 pub(super) fn add_systems(schedule: &mut Schedule) {
+    let on_cpu = || pass_pending.and_then(not(on_gpu));
     schedule.add_systems((
-        generate_rays
-            .in_set(Stage::GenerateRays)
-            .run_if(pass_pending),
-        trace_rays.in_set(Stage::Trace).run_if(pass_pending),
-        shade.in_set(Stage::Shade).run_if(pass_pending),
-        weight.in_set(Stage::Weight).run_if(pass_pending),
-        write_film.in_set(Stage::WriteFilm).run_if(pass_pending),
+        generate_rays.in_set(Stage::GenerateRays).run_if(on_cpu()),
+        trace_rays.in_set(Stage::Trace).run_if(on_cpu()),
+        shade.in_set(Stage::Shade).run_if(on_cpu()),
+        weight.in_set(Stage::Weight).run_if(on_cpu()),
+        write_film.in_set(Stage::WriteFilm).run_if(on_cpu()),
     ));
 }
 
 /// A pass is requested and not abandoned: a cancelled pass never reaches Weight or WriteFilm.
-fn pass_pending(pass: Res<PassState>, cancel: Option<Res<PassCancel>>) -> bool {
+pub(super) fn pass_pending(pass: Res<PassState>, cancel: Option<Res<PassCancel>>) -> bool {
     pass.pending && !PassCancel::raised(cancel.as_deref())
 }
 

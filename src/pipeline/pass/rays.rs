@@ -1,6 +1,6 @@
 //! GenerateRays: this pass's camera rays for every tile, traced through the active lens.
 
-use bevy_ecs::query::With;
+use bevy_ecs::query::{Added, Changed, Or, With};
 use bevy_ecs::system::{Commands, Query, Res, ResMut};
 use bevy_ecs::world::Mut;
 
@@ -15,7 +15,8 @@ use crate::pipeline::resources::{
     PassCancel, PassState, PipelineFault, RenderSettings, RenderStats, TileBatch,
 };
 
-type ActiveLensQuery<'w, 's> = Query<
+/// The active lens's derived components, as the pass stages (on either device) read them.
+pub(crate) type ActiveLensQuery<'w, 's> = Query<
     'w,
     's,
     (
@@ -27,6 +28,47 @@ type ActiveLensQuery<'w, 's> = Query<
     ),
     With<ActiveLens>,
 >;
+
+/// What the active lens's camera rays depend on changed: its derivation, its colour setting,
+/// its film movements, or which lens is active.
+pub(crate) type LensChanged = Or<(
+    Changed<LensGeometry>,
+    Changed<FilmPlacement>,
+    Changed<ExitPupil>,
+    Changed<Dispersion>,
+    Changed<FilmMovements>,
+    Added<ActiveLens>,
+)>;
+
+/// The camera the active lens makes for this render's film and pose.
+pub(crate) fn lens_camera<'a>(
+    (geometry, _placement, pupil, dispersion, movements): ActiveLensItem<'a>,
+    pose: &CameraPose,
+    settings: &RenderSettings,
+    film_format: &FilmFormat,
+) -> LensCamera<'a> {
+    LensCamera {
+        system: &geometry.system,
+        pupil,
+        film: FilmGeometry::new(settings.width, settings.height, film_format.diagonal_mm)
+            .moved(movements.copied().unwrap_or_default()),
+        world_from_camera: pose.0,
+        dispersion: geometry
+            .system
+            .dispersion
+            .as_deref()
+            .filter(|_| Dispersion::is_spectral(dispersion, geometry)),
+    }
+}
+
+/// One item of [`ActiveLensQuery`].
+pub(crate) type ActiveLensItem<'a> = (
+    &'a LensGeometry,
+    &'a FilmPlacement,
+    &'a ExitPupil,
+    Option<&'a Dispersion>,
+    Option<&'a FilmMovements>,
+);
 
 /// GenerateRays: camera rays of this pass for every tile, traced through the active lens.
 // A system's parameters are its explicit queries and resources (bevy style), not a bundle.
@@ -42,26 +84,13 @@ pub fn generate_rays(
     mut tiles: Query<(&FilmTile, &mut TileBatch)>,
     mut stats: ResMut<RenderStats>,
 ) {
-    let (Ok((geometry, _placement, pupil, dispersion, movements)), Some(pose)) =
-        (lens.single(), pose)
-    else {
+    let (Ok(active), Some(pose)) = (lens.single(), pose) else {
         commands.insert_resource(PipelineFault(
             "no active lens with a valid focus, or no camera pose".into(),
         ));
         return;
     };
-    let camera = LensCamera {
-        system: &geometry.system,
-        pupil,
-        film: FilmGeometry::new(settings.width, settings.height, film_format.diagonal_mm)
-            .moved(movements.copied().unwrap_or_default()),
-        world_from_camera: pose.0,
-        dispersion: geometry
-            .system
-            .dispersion
-            .as_deref()
-            .filter(|_| Dispersion::is_spectral(dispersion, geometry)),
-    };
+    let camera = lens_camera(active, &pose, &settings, &film_format);
     let passed: u64 = run_on_tiles(
         Stage::GenerateRays,
         tiles.iter_mut(),

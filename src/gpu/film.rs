@@ -1,0 +1,196 @@
+//! The film on the GPU and the pass kernel that renders into it.
+//!
+//! The film's sums stay on the device between passes (only a pass's parameters go up per
+//! pass); they come back to the CPU's film tiles when an image is wanted (an output, a
+//! checkpoint, a live preview). One invocation owns one pixel's sums, so accumulation is in a
+//! fixed order and a seed gives the same image on every run.
+
+/// The pass kernel's entry point (pass.wgsl): it calls every stage's functions.
+pub const PASS_WGSL: &str = include_str!("shaders/pass.wgsl");
+
+use super::compute::{
+    Access, Bindings, kernel_with, read_buffer, storage_buffer, uniform_buffer, zeroed_buffer,
+};
+use super::context::{GpuContext, GpuUnavailable};
+use crate::shade::ShadeStats;
+
+/// The pass kernel's per-pass parameters (`PassParams` in pass.wgsl).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
+struct PassParams {
+    width: u32,
+    height: u32,
+    sample: u32,
+    _pad: u32,
+}
+
+/// What the passes since the last [`GpuFilm::read`] counted.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct PassCounts {
+    /// What shading met, as the CPU counts it; its `rays_traced` includes the camera rays.
+    pub shading: ShadeStats,
+    /// Camera rays the lens let through.
+    pub lens_rays_passed: u64,
+    /// Samples whose weighted radiance was not finite (kept off the film).
+    pub rejected_samples: u64,
+}
+
+/// The counters pass.wgsl keeps: ten 64-bit numbers as (low, high) pairs.
+const COUNTER_WORDS: usize = 20;
+
+impl PassCounts {
+    fn of(words: &[u32]) -> PassCounts {
+        let count = |i: usize| u64::from(words[2 * i]) | (u64::from(words[2 * i + 1]) << 32);
+        PassCounts {
+            shading: ShadeStats {
+                camera_rays_escaped: count(0),
+                bounce_rays_escaped: count(1),
+                emitter_hits: count(2),
+                light_samples: count(3),
+                light_samples_behind: count(4),
+                light_samples_blocked: count(5),
+                light_samples_reached: count(6),
+                rays_traced: count(7),
+            },
+            lens_rays_passed: count(8),
+            rejected_samples: count(9),
+        }
+    }
+}
+
+/// The sums of one film on the GPU, and the pass kernel bound to them.
+pub struct GpuFilm {
+    pub width: u32,
+    pub height: u32,
+    params: wgpu::Buffer,
+    film: wgpu::Buffer,
+    counters: wgpu::Buffer,
+    bindings: Bindings,
+    kernel: Option<wgpu::ComputePipeline>,
+}
+
+/// Workgroups are 8×8 pixels (pass.wgsl's `@workgroup_size`): neighbouring pixels' rays take
+/// similar paths through the lens and the BVH.
+const WORKGROUP_SIDE: u32 = 8;
+
+impl GpuFilm {
+    /// A cleared film of `width` × `height` pixels.
+    pub fn new(context: &GpuContext, width: u32, height: u32) -> GpuFilm {
+        let params = uniform_buffer(context, "pass parameters", &PassParams::default());
+        let film = zeroed_buffer::<[f32; 4]>(context, "film sums", (width * height) as usize);
+        let counters = storage_buffer(context, "pass counters", &[0u32; COUNTER_WORDS]);
+        let bindings = Bindings::new(
+            context,
+            "pass",
+            &[
+                (&params, Access::Uniform),
+                (&film, Access::ReadWrite),
+                (&counters, Access::ReadWrite),
+            ],
+        );
+        GpuFilm {
+            width,
+            height,
+            params,
+            film,
+            counters,
+            bindings,
+            kernel: None,
+        }
+    }
+
+    /// Replaces the film's sums (row-major RGB per pixel; a cleared film is all zeros).
+    pub fn load(&self, context: &GpuContext, sums: &[[f32; 3]]) {
+        assert_eq!(sums.len(), (self.width * self.height) as usize);
+        let padded: Vec<[f32; 4]> = sums.iter().map(|&[r, g, b]| [r, g, b, 0.0]).collect();
+        context
+            .queue
+            .write_buffer(&self.film, 0, bytemuck::cast_slice(&padded));
+    }
+
+    /// Compiles the pass kernel, once: `upstream` are the bind groups of the lens, the scene
+    /// and the shading data (groups 0, 1, 2), `source` the whole kernel's WGSL. Later uploads
+    /// rewrite buffers in place or bind layouts equal to these (wgpu deduplicates equal
+    /// layouts), so the kernel is kept. True when it compiled now.
+    pub fn prepare_kernel(
+        &mut self,
+        context: &GpuContext,
+        upstream: [&Bindings; 3],
+        source: impl FnOnce() -> String,
+    ) -> Result<bool, GpuUnavailable> {
+        if self.kernel.is_some() {
+            return Ok(false);
+        }
+        let layouts = [
+            &upstream[0].layout,
+            &upstream[1].layout,
+            &upstream[2].layout,
+            &self.bindings.layout,
+        ];
+        self.kernel = Some(kernel_with(
+            context,
+            "render pass",
+            &source(),
+            "render_pass",
+            &layouts,
+        )?);
+        Ok(true)
+    }
+
+    /// Renders sample index `sample` into every pixel, with the kernel [`GpuFilm::prepare_kernel`]
+    /// compiled and the same `upstream` bind groups (their buffers as they are now).
+    pub fn render_pass(
+        &mut self,
+        context: &GpuContext,
+        upstream: [&Bindings; 3],
+        sample: u32,
+    ) -> Result<(), GpuUnavailable> {
+        let Some(kernel) = self.kernel.as_ref() else {
+            return Err(GpuUnavailable("the pass kernel was not compiled".into()));
+        };
+        let params = PassParams {
+            width: self.width,
+            height: self.height,
+            sample,
+            _pad: 0,
+        };
+        context
+            .queue
+            .write_buffer(&self.params, 0, bytemuck::bytes_of(&params));
+        super::compute::dispatch(
+            context,
+            kernel,
+            &[
+                &upstream[0].group,
+                &upstream[1].group,
+                &upstream[2].group,
+                &self.bindings.group,
+            ],
+            [
+                self.width.div_ceil(WORKGROUP_SIDE),
+                self.height.div_ceil(WORKGROUP_SIDE),
+                1,
+            ],
+        )
+    }
+
+    /// The film's sums (row-major RGB per pixel) and the counts since the last read, which it
+    /// resets.
+    pub fn read(
+        &self,
+        context: &GpuContext,
+    ) -> Result<(Vec<[f32; 3]>, PassCounts), GpuUnavailable> {
+        let sums: Vec<[f32; 4]> =
+            read_buffer(context, &self.film, (self.width * self.height) as usize)?;
+        let counters: Vec<u32> = read_buffer(context, &self.counters, COUNTER_WORDS)?;
+        context.queue.write_buffer(
+            &self.counters,
+            0,
+            bytemuck::cast_slice(&[0u32; COUNTER_WORDS]),
+        );
+        Ok((
+            sums.into_iter().map(|[r, g, b, _]| [r, g, b]).collect(),
+            PassCounts::of(&counters),
+        ))
+    }
+}

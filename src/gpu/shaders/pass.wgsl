@@ -1,0 +1,79 @@
+// One sample pass: every invocation renders sample `sample` of one pixel through the stages the
+// CPU runs as separate systems (GenerateRays → Trace → Shade → Weight → WriteFilm), keeping the
+// ray in registers between them. Each pixel's sums belong to one invocation, so the film needs no
+// atomics and a seed gives the same image on every run.
+
+struct PassParams {
+    width: u32,
+    height: u32,
+    sample: u32,
+    _pad: u32,
+}
+
+@group(3) @binding(0) var<uniform> pass_params: PassParams;
+// Per pixel, row-major: the RGB sums of weighted radiance (w unused).
+@group(3) @binding(1) var<storage, read_write> pass_film: array<vec4f>;
+// What the passes counted, as 64-bit numbers in (low, high) word pairs, PASS_COUNT_ order: the
+// eight ShadeStats counts (shade.wgsl's SHADE_COUNT_ indices), then camera rays the lens let
+// through and samples rejected as non-finite. Integer sums, so the order of the adds cannot
+// change them.
+@group(3) @binding(2) var<storage, read_write> pass_counters: array<atomic<u32>, 20>;
+
+const PASS_COUNT_LENS_PASSED: u32 = 8u;
+const PASS_COUNT_REJECTED: u32 = 9u;
+const PASS_COUNTS: u32 = 10u;
+
+// A workgroup's counts, summed in shared memory first: one global add per workgroup and count
+// instead of one per invocation.
+var<workgroup> pass_group_counts: array<atomic<u32>, 10>;
+
+fn pass_is_finite(v: vec3f) -> bool {
+    return shade_is_finite(v.x) && shade_is_finite(v.y) && shade_is_finite(v.z);
+}
+
+fn pass_render_pixel(x: u32, y: u32) {
+    let ray = camera_ray(x, y, pass_params.sample);
+    var rgb = vec3f(0.0);
+    if ray.weight > 0.0 {
+        atomicAdd(&pass_group_counts[PASS_COUNT_LENS_PASSED], 1u);
+        shade_counts[SHADE_COUNT_RAYS_TRACED] += 1u;
+        let hit = scene_intersect(ray.origin, ray.direction, SHADE_FAR);
+        var rng = shade_rng(ray.pixel_key, pass_params.sample);
+        rgb = path_radiance(ray.origin, ray.direction, hit, &rng) * ray.weight;
+        if ray.wavelength > 0.0 {
+            rgb = film_rgb(ray.wavelength, ray.wavelength_weight, rgb);
+        }
+        if !pass_is_finite(rgb) {
+            atomicAdd(&pass_group_counts[PASS_COUNT_REJECTED], 1u);
+            rgb = vec3f(0.0);
+        }
+    }
+    let index = y * pass_params.width + x;
+    pass_film[index] = pass_film[index] + vec4f(rgb, 0.0);
+}
+
+@compute @workgroup_size(8, 8, 1)
+fn render_pass(
+    @builtin(global_invocation_id) id: vec3u,
+    @builtin(local_invocation_index) local: u32,
+) {
+    // No early return: every invocation must reach the barriers below.
+    if id.x < pass_params.width && id.y < pass_params.height {
+        pass_render_pixel(id.x, id.y);
+        for (var i = 0u; i < 8u; i += 1u) {
+            if shade_counts[i] != 0u {
+                atomicAdd(&pass_group_counts[i], shade_counts[i]);
+            }
+        }
+    }
+    workgroupBarrier();
+    if local < PASS_COUNTS {
+        let count = atomicLoad(&pass_group_counts[local]);
+        if count != 0u {
+            let low = atomicAdd(&pass_counters[2u * local], count);
+            if low + count < low {
+                atomicAdd(&pass_counters[2u * local + 1u], 1u);
+            }
+        }
+    }
+}

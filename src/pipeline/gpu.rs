@@ -1,0 +1,282 @@
+//! The pass stages on a GPU: GenerateRays → Trace → Shade → Weight → WriteFilm as one kernel
+//! (`gpu::film`), fed by uploads that follow the ECS's change detection:
+//!
+//! - the scene (BVH, triangles, textures) and its shading data (materials, lights, environment)
+//!   go up once, and again only when the scene, its lights or the environment change;
+//! - the active lens, as the lens systems derived it, goes up when any of its derived components,
+//!   the camera pose, the film or the settings change: a lens swap, a focus pull or a new stop
+//!   rewrites that one small buffer;
+//! - the film's sums stay on the GPU between passes and come back to the film tiles when an
+//!   image is asked for ([`read_film_back`]); tiles cleared or loaded on the CPU (a new render,
+//!   a resumed checkpoint) go up before the next pass.
+
+use bevy_ecs::change_detection::DetectChanges;
+use bevy_ecs::query::With;
+use bevy_ecs::resource::Resource;
+use bevy_ecs::schedule::{IntoScheduleConfigs, Schedule, SystemCondition};
+use bevy_ecs::system::{Commands, Query, Res, ResMut};
+use bevy_ecs::world::World;
+
+use super::Stage;
+use super::device::GpuBackend;
+use super::pass::{ActiveLensQuery, lens_camera, pass_pending};
+use super::resources::{
+    PassCancel, PassState, PipelineFault, RenderSettings, RenderStats, SceneEnvironment,
+};
+use crate::accel::SceneAccel;
+use crate::film::{FilmTile, Image};
+use crate::gpu::film::GpuFilm;
+use crate::gpu::lens::GpuLens;
+use crate::gpu::scene::GpuScene;
+use crate::gpu::shading::GpuShading;
+use crate::lens::camera::CameraPose;
+use crate::lens::elements::{ActiveLens, FilmFormat};
+use crate::scene::MaterialLibrary;
+use crate::shade::{Environment, LightSet};
+
+/// The scene and its shading data on the GPU, once uploaded.
+#[derive(Resource, Default)]
+pub struct GpuSceneData(Option<(GpuScene, GpuShading)>);
+
+/// The active lens on the GPU, once uploaded.
+#[derive(Resource, Default)]
+pub struct GpuLensData(Option<GpuLens>);
+
+/// The film on the GPU, and which side holds the newer sums.
+#[derive(Resource, Default)]
+pub struct GpuFilmData {
+    film: Option<GpuFilm>,
+    /// The GPU rendered passes the tiles do not have yet.
+    gpu_newer: bool,
+}
+
+/// Makes the (empty) GPU resources the systems fill in.
+pub(super) fn init_resources(world: &mut World) {
+    world.init_resource::<GpuSceneData>();
+    world.init_resource::<GpuLensData>();
+    world.init_resource::<GpuFilmData>();
+}
+
+/// The pass kernel's whole WGSL source: every stage's functions, then the entry point.
+fn pass_source() -> String {
+    [
+        crate::gpu::lens::lens_source().as_str(),
+        crate::gpu::shading::RNG_WGSL,
+        crate::gpu::scene::SCENE_WGSL,
+        crate::gpu::shading::SHADE_WGSL,
+        crate::gpu::film::PASS_WGSL,
+    ]
+    .concat()
+}
+
+/// Adds the GPU pass systems: they run instead of the CPU's while a [`GpuBackend`] is present.
+pub(super) fn add_systems(schedule: &mut Schedule) {
+    schedule.add_systems(
+        (upload_scene, upload_lens, render_pass_on_gpu)
+            .chain()
+            .in_set(Stage::Shade)
+            .run_if(pass_pending.and_then(on_gpu)),
+    );
+}
+
+/// The passes render on a GPU.
+pub(super) fn on_gpu(backend: Option<Res<GpuBackend>>) -> bool {
+    backend.is_some()
+}
+
+/// Uploads the scene and its shading data when there is none yet or any of it changed.
+#[allow(clippy::too_many_arguments)]
+fn upload_scene(
+    mut commands: Commands,
+    backend: Res<GpuBackend>,
+    mut uploaded: ResMut<GpuSceneData>,
+    accel: Option<Res<SceneAccel>>,
+    materials: Option<Res<MaterialLibrary>>,
+    lights: Option<Res<LightSet>>,
+    environment: Option<Res<SceneEnvironment>>,
+    settings: Res<RenderSettings>,
+) {
+    let (Some(accel), Some(materials), Some(lights)) = (accel, materials, lights) else {
+        return;
+    };
+    let changed = uploaded.0.is_none()
+        || accel.is_changed()
+        || materials.is_changed()
+        || lights.is_changed()
+        || environment.as_ref().is_some_and(|e| e.is_changed())
+        || settings.is_changed();
+    if !changed {
+        return;
+    }
+    let black = Environment::Uniform(glam::Vec3::ZERO);
+    let environment = environment.as_deref().map_or(&black, |e| &e.0);
+    let context = &backend.0;
+    let upload = GpuScene::upload(context, &accel, &materials).and_then(|scene| {
+        GpuShading::upload(
+            context,
+            &materials,
+            &lights,
+            environment,
+            settings.max_depth,
+            settings.seed,
+        )
+        .map(|shading| (scene, shading))
+    });
+    match upload {
+        Ok(data) => uploaded.0 = Some(data),
+        Err(why) => commands.insert_resource(PipelineFault(format!("GPU: {why}"))),
+    }
+}
+
+/// Uploads the active lens (with the camera pose and film it renders for) when it changed.
+#[allow(clippy::too_many_arguments)]
+fn upload_lens(
+    mut commands: Commands,
+    backend: Res<GpuBackend>,
+    mut uploaded: ResMut<GpuLensData>,
+    lens: ActiveLensQuery,
+    changed_lens: Query<(), (With<ActiveLens>, super::pass::LensChanged)>,
+    pose: Option<Res<CameraPose>>,
+    settings: Res<RenderSettings>,
+    film_format: Res<FilmFormat>,
+) {
+    let Some(pose) = pose else {
+        return;
+    };
+    let Ok(active) = lens.single() else {
+        return;
+    };
+    let changed = uploaded.0.is_none()
+        || !changed_lens.is_empty()
+        || pose.is_changed()
+        || settings.is_changed()
+        || film_format.is_changed();
+    if !changed {
+        return;
+    }
+    let camera = lens_camera(active, &pose, &settings, &film_format);
+    let context = &backend.0;
+    let result = match uploaded.0.as_mut() {
+        Some(gpu) => gpu.update(context, &camera, settings.seed),
+        None => GpuLens::upload(context, &camera, settings.seed).map(|gpu| {
+            uploaded.0 = Some(gpu);
+        }),
+    };
+    if let Err(why) = result {
+        commands.insert_resource(PipelineFault(format!("GPU: {why}")));
+    }
+}
+
+/// One pass on the GPU: the film (re)made and loaded from the tiles when they are newer, then
+/// the kernel for this pass's sample index.
+#[allow(clippy::too_many_arguments)]
+fn render_pass_on_gpu(
+    mut commands: Commands,
+    backend: Res<GpuBackend>,
+    scene: Res<GpuSceneData>,
+    lens: Res<GpuLensData>,
+    mut film: ResMut<GpuFilmData>,
+    settings: Res<RenderSettings>,
+    cancel: Option<Res<PassCancel>>,
+    mut pass: ResMut<PassState>,
+    mut tiles: Query<&mut FilmTile>,
+    mut stats: ResMut<RenderStats>,
+) {
+    let (Some((scene, shading)), Some(lens)) = (&scene.0, &lens.0) else {
+        commands.insert_resource(PipelineFault(
+            "no active lens with a valid focus, or no camera pose".into(),
+        ));
+        return;
+    };
+    if PassCancel::raised(cancel.as_deref()) {
+        return;
+    }
+    let context = &backend.0;
+    let (width, height) = (settings.width, settings.height);
+    let data = &mut *film;
+    if data
+        .film
+        .as_ref()
+        .is_none_or(|f| (f.width, f.height) != (width, height))
+    {
+        data.film = Some(GpuFilm::new(context, width, height));
+        data.gpu_newer = false;
+    }
+    let gpu_film = data.film.as_mut().expect("made above");
+    if !data.gpu_newer {
+        // The tiles hold the newest sums (a cleared or resumed film, or what the GPU last gave
+        // back): the GPU starts from them.
+        gpu_film.load(
+            context,
+            &Image::from_tiles(width, height, tiles.iter()).sums,
+        );
+    }
+    let upstream = [&lens.bindings, &scene.bindings, &shading.bindings];
+    // Compiling the kernel is set-up (like the BVH build), not pass time.
+    let compile_start = std::time::Instant::now();
+    let result = gpu_film
+        .prepare_kernel(context, upstream, pass_source)
+        .and_then(|compiled| {
+            if compiled {
+                stats.gpu_kernel_time += compile_start.elapsed();
+            }
+            let start = std::time::Instant::now();
+            let result = gpu_film.render_pass(context, upstream, pass.sample);
+            stats.add_time(Stage::Shade, start);
+            result
+        });
+    if let Err(why) = result {
+        commands.insert_resource(PipelineFault(format!("GPU: {why}")));
+        return;
+    }
+    data.gpu_newer = true;
+    for mut tile in &mut tiles {
+        tile.samples += 1;
+    }
+    stats.camera_samples += u64::from(width * height);
+    pass.pending = false;
+}
+
+/// The film tiles were cleared or loaded on the CPU: the GPU takes their sums before its next
+/// pass, dropping any passes it had not given back.
+pub(super) fn film_cleared(world: &mut World) {
+    if let Some(mut data) = world.get_resource_mut::<GpuFilmData>() {
+        data.gpu_newer = false;
+    }
+}
+
+/// Brings the GPU's film sums (and its counts) back into the film tiles, when it has passes
+/// they lack. Called before an image is read from the tiles.
+pub(super) fn read_film_back(world: &mut World) -> anyhow::Result<()> {
+    let Some(backend) = world.get_resource::<GpuBackend>().cloned() else {
+        return Ok(());
+    };
+    let Some(mut data) = world.get_resource_mut::<GpuFilmData>() else {
+        return Ok(());
+    };
+    let Some(film) = data.film.as_ref().filter(|_| data.gpu_newer) else {
+        return Ok(());
+    };
+    let (width, height) = (film.width, film.height);
+    let (sums, counts) = film
+        .read(&backend.0)
+        .map_err(|why| anyhow::anyhow!("GPU: {why}"))?;
+    data.gpu_newer = false;
+    let mut tiles = world.query::<&mut FilmTile>();
+    let samples = tiles.iter(world).next().map_or(0, |tile| tile.samples);
+    let image = Image {
+        width,
+        height,
+        sums,
+        samples,
+    };
+    for mut tile in tiles.iter_mut(world) {
+        tile.load(&image);
+    }
+    let mut stats = world.resource_mut::<RenderStats>();
+    stats.lens_rays_passed += counts.lens_rays_passed;
+    stats.rejected_samples += counts.rejected_samples;
+    stats.rays_traced += counts.shading.rays_traced;
+    stats.shading += counts.shading;
+    Ok(())
+}

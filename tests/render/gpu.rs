@@ -1,0 +1,245 @@
+//! `--device gpu` against `--device cpu`: the same scene, lens, settings and seed give the same
+//! image within noise. The two devices draw the same sample sequences (the same Sobol points,
+//! wavelengths and shading streams per pixel and sample index), so most pixels agree to f32
+//! rounding; a path whose branch a rounding difference flips differs, which the per-tile
+//! statistics allow for. On CI the GPU is lavapipe (Mesa's software Vulkan device).
+
+use std::path::{Path, PathBuf};
+
+use realcam::gpu::GpuContext;
+
+use crate::support::cli::{ok, realcam};
+
+/// Renders `args` on both devices into `dir`; the two linear films, row-major RGB.
+fn render_on_both(dir: &Path, name: &str, args: &[&str]) -> [(Vec<f32>, u32, u32); 2] {
+    ["cpu", "gpu"].map(|device| {
+        let exr = dir.join(format!("{name}-{device}.exr"));
+        let png = dir.join(format!("{name}-{device}.png"));
+        let mut full: Vec<&str> = vec!["render", "--device", device];
+        full.extend_from_slice(args);
+        full.extend_from_slice(&[
+            "--out",
+            png.to_str().unwrap(),
+            "--exr",
+            exr.to_str().unwrap(),
+        ]);
+        ok(&realcam(dir, &full));
+        let film = image::open(&exr).unwrap().to_rgb32f();
+        let (width, height) = film.dimensions();
+        (film.into_raw(), width, height)
+    })
+}
+
+/// How the GPU's film compares with the CPU's.
+#[derive(Debug)]
+struct Agreement {
+    /// Pixels whose RGB agree within 1e-3 relative (+1e-5 absolute): the same paths.
+    same_paths: f64,
+    /// Tiles of 16×16 pixels whose mean luminance differs by more than four standard errors
+    /// of the mean pixel difference (plus 0.5 % of the mean for f32 rounding).
+    tiles_apart: Vec<String>,
+    mean_cpu: f64,
+    mean_gpu: f64,
+}
+
+fn luminance(rgb: &[f32]) -> f64 {
+    0.2126 * rgb[0] as f64 + 0.7152 * rgb[1] as f64 + 0.0722 * rgb[2] as f64
+}
+
+fn compare(films: &[(Vec<f32>, u32, u32); 2]) -> Agreement {
+    let [(cpu, width, height), (gpu, w2, h2)] = films;
+    assert_eq!((width, height), (w2, h2));
+    let (width, height) = (*width as usize, *height as usize);
+    let pixels = width * height;
+    assert!(
+        gpu.iter().all(|v| v.is_finite()),
+        "the GPU film has non-finite values"
+    );
+    let same = (0..pixels)
+        .filter(|&p| {
+            (0..3).all(|c| {
+                let (a, b) = (cpu[3 * p + c], gpu[3 * p + c]);
+                (a - b).abs() <= 1e-3 * a.abs().max(b.abs()) + 1e-5
+            })
+        })
+        .count();
+    let mut tiles_apart = Vec::new();
+    for ty in (0..height).step_by(16) {
+        for tx in (0..width).step_by(16) {
+            let mut differences = Vec::new();
+            let mut mean = 0.0;
+            for y in ty..(ty + 16).min(height) {
+                for x in tx..(tx + 16).min(width) {
+                    let p = 3 * (y * width + x);
+                    let (a, b) = (luminance(&cpu[p..p + 3]), luminance(&gpu[p..p + 3]));
+                    differences.push(b - a);
+                    mean += a;
+                }
+            }
+            let n = differences.len() as f64;
+            mean /= n;
+            let difference = differences.iter().sum::<f64>() / n;
+            let variance = differences
+                .iter()
+                .map(|d| (d - difference).powi(2))
+                .sum::<f64>()
+                / (n - 1.0);
+            let allowed = 4.0 * (variance / n).sqrt() + 0.005 * mean.abs() + 1e-6;
+            if difference.abs() > allowed {
+                tiles_apart.push(format!(
+                    "tile at ({tx}, {ty}): mean {mean:.5}, GPU − CPU {difference:.5} > {allowed:.5}"
+                ));
+            }
+        }
+    }
+    let mean = |film: &[f32]| film.chunks(3).map(luminance).sum::<f64>() / pixels as f64;
+    Agreement {
+        same_paths: same as f64 / pixels as f64,
+        tiles_apart,
+        mean_cpu: mean(cpu),
+        mean_gpu: mean(gpu),
+    }
+}
+
+fn assert_alike(films: &[(Vec<f32>, u32, u32); 2], what: &str) {
+    let agreement = compare(films);
+    assert!(agreement.tiles_apart.is_empty(), "{what}: {agreement:#?}");
+    assert!(
+        agreement.same_paths > 0.9,
+        "{what}: only {:.1} % of the pixels took the same paths on both devices: {agreement:#?}",
+        100.0 * agreement.same_paths
+    );
+    assert!(
+        agreement.mean_cpu > 0.0,
+        "{what}: a black image proves nothing"
+    );
+    assert!(
+        (agreement.mean_gpu - agreement.mean_cpu).abs() <= 0.01 * agreement.mean_cpu,
+        "{what}: the image means differ by more than 1 %: {agreement:#?}"
+    );
+}
+
+fn gpu() -> bool {
+    GpuContext::for_tests().is_some()
+}
+
+fn data(relative: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/data")
+        .join(relative)
+}
+
+#[test]
+fn the_default_scene_renders_alike_on_both_devices_spectral_and_not() {
+    if !gpu() {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    for (seed, dispersion) in [("1", "on"), ("2", "on"), ("3", "off")] {
+        let films = render_on_both(
+            dir.path(),
+            &format!("default-{seed}"),
+            &[
+                "--width",
+                "96",
+                "--height",
+                "64",
+                "--spp",
+                "8",
+                "--seed",
+                seed,
+                "--dispersion",
+                dispersion,
+            ],
+        );
+        assert_alike(
+            &films,
+            &format!("default scene, seed {seed}, dispersion {dispersion}"),
+        );
+    }
+}
+
+#[test]
+fn a_textured_gltf_renders_alike_on_both_devices() {
+    if !gpu() {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let duck = data("Duck/Duck.gltf");
+    let films = render_on_both(
+        dir.path(),
+        "duck",
+        &[
+            duck.to_str().unwrap(),
+            "--lens",
+            "wide.22mm",
+            "--width",
+            "64",
+            "--height",
+            "64",
+            "--spp",
+            "8",
+        ],
+    );
+    assert_alike(&films, "the textured duck through wide.22mm");
+}
+
+#[test]
+fn a_lens_swap_and_a_focus_pull_on_the_gpu_match_the_cpu() {
+    if !gpu() {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    // Two lenses in one run: the second is swapped in on the same scene and BVH; each renders a
+    // rack focus, so the lens buffer is rewritten between frames.
+    let args = [
+        "--lens",
+        "dgauss.50mm",
+        "--lens",
+        "wide.22mm",
+        "--focus-sweep",
+        "1:4:2",
+        "--width",
+        "64",
+        "--height",
+        "48",
+        "--spp",
+        "4",
+    ];
+    let mut frames = Vec::new();
+    for device in ["cpu", "gpu"] {
+        let out = dir.path().join(device).join("frame.png");
+        std::fs::create_dir_all(out.parent().unwrap()).unwrap();
+        let mut full = vec![
+            "render",
+            "--device",
+            device,
+            "--out",
+            out.to_str().unwrap(),
+            "--exr",
+        ];
+        let exr = dir.path().join(device).join("frame.exr");
+        full.push(exr.to_str().unwrap());
+        full.extend_from_slice(&args);
+        ok(&realcam(dir.path(), &full));
+        let mut names: Vec<PathBuf> = std::fs::read_dir(dir.path().join(device))
+            .unwrap()
+            .map(|e| e.unwrap().path())
+            .filter(|p| p.extension().is_some_and(|e| e == "exr"))
+            .collect();
+        names.sort();
+        frames.push(names);
+    }
+    assert_eq!(frames[0].len(), 4, "{:?}", frames[0]);
+    for (cpu, gpu) in frames[0].iter().zip(&frames[1]) {
+        let read = |path: &Path| {
+            let film = image::open(path).unwrap().to_rgb32f();
+            let (w, h) = film.dimensions();
+            (film.into_raw(), w, h)
+        };
+        assert_alike(
+            &[read(cpu), read(gpu)],
+            &cpu.file_name().unwrap().to_string_lossy(),
+        );
+    }
+}
