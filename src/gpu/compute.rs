@@ -273,6 +273,33 @@ pub fn dispatch(
     bind_groups: &[&wgpu::BindGroup],
     workgroups: [u32; 3],
 ) -> Result<(), GpuUnavailable> {
+    let submission = submit(context, pipeline, bind_groups, workgroups)?;
+    wait_for(context, submission)
+}
+
+/// Waits until the GPU has finished `submission` (and everything submitted before it).
+pub fn wait_for(
+    context: &GpuContext,
+    submission: wgpu::SubmissionIndex,
+) -> Result<(), GpuUnavailable> {
+    context
+        .device
+        .poll(wgpu::PollType::Wait {
+            submission_index: Some(submission),
+            timeout: None,
+        })
+        .map_err(|e| GpuUnavailable(format!("the GPU stopped answering: {e}")))?;
+    Ok(())
+}
+
+/// Queues `pipeline` over `workgroups` with `bind_groups` (group i = the i-th) without waiting:
+/// the CPU can prepare the next dispatch while the GPU runs this one.
+pub fn submit(
+    context: &GpuContext,
+    pipeline: &wgpu::ComputePipeline,
+    bind_groups: &[&wgpu::BindGroup],
+    workgroups: [u32; 3],
+) -> Result<wgpu::SubmissionIndex, GpuUnavailable> {
     let scope = context
         .device
         .push_error_scope(wgpu::ErrorFilter::Validation);
@@ -287,15 +314,11 @@ pub fn dispatch(
         }
         pass.dispatch_workgroups(workgroups[0], workgroups[1], workgroups[2]);
     }
-    context.queue.submit([encoder.finish()]);
+    let submission = context.queue.submit([encoder.finish()]);
     if let Some(error) = pollster::block_on(scope.pop()) {
         return Err(GpuUnavailable(format!("a GPU dispatch failed: {error}")));
     }
-    context
-        .device
-        .poll(wgpu::PollType::wait_indefinitely())
-        .map_err(|e| GpuUnavailable(format!("the GPU stopped answering: {e}")))?;
-    Ok(())
+    Ok(submission)
 }
 
 /// Workgroups of `size` threads covering `n` items.

@@ -8,6 +8,8 @@
 /// The pass kernel's entry point (pass.wgsl): it calls every stage's functions.
 pub const PASS_WGSL: &str = include_str!("shaders/pass.wgsl");
 
+use std::collections::VecDeque;
+
 use super::compute::{
     Access, Bindings, kernel_with, read_buffer, storage_buffer, uniform_buffer, zeroed_buffer,
 };
@@ -67,7 +69,14 @@ pub struct GpuFilm {
     counters: wgpu::Buffer,
     bindings: Bindings,
     kernel: Option<wgpu::ComputePipeline>,
+    /// Passes submitted and perhaps not yet done, oldest first.
+    in_flight: VecDeque<wgpu::SubmissionIndex>,
 }
+
+/// Passes the GPU may have queued before the CPU waits for the oldest: with the next pass
+/// already queued when one finishes, the GPU never idles between passes, and progress and
+/// cancellation lag the GPU by at most this many passes.
+const PASSES_IN_FLIGHT: usize = 2;
 
 /// Workgroups are 8×8 pixels (pass.wgsl's `@workgroup_size`): neighbouring pixels' rays take
 /// similar paths through the lens and the BVH.
@@ -96,6 +105,7 @@ impl GpuFilm {
             counters,
             bindings,
             kernel: None,
+            in_flight: VecDeque::new(),
         }
     }
 
@@ -157,7 +167,7 @@ impl GpuFilm {
         context
             .queue
             .write_buffer(&self.params, 0, bytemuck::bytes_of(&params));
-        super::compute::dispatch(
+        let submission = super::compute::submit(
             context,
             kernel,
             &[
@@ -171,15 +181,23 @@ impl GpuFilm {
                 self.height.div_ceil(WORKGROUP_SIDE),
                 1,
             ],
-        )
+        )?;
+        self.in_flight.push_back(submission);
+        while self.in_flight.len() > PASSES_IN_FLIGHT {
+            let oldest = self.in_flight.pop_front().expect("longer than the bound");
+            super::compute::wait_for(context, oldest)?;
+        }
+        Ok(())
     }
 
     /// The film's sums (row-major RGB per pixel) and the counts since the last read, which it
     /// resets.
     pub fn read(
-        &self,
+        &mut self,
         context: &GpuContext,
     ) -> Result<(Vec<[f32; 3]>, PassCounts), GpuUnavailable> {
+        // The readback is queued after every pass and waits for them all.
+        self.in_flight.clear();
         let sums: Vec<[f32; 4]> =
             read_buffer(context, &self.film, (self.width * self.height) as usize)?;
         let counters: Vec<u32> = read_buffer(context, &self.counters, COUNTER_WORDS)?;

@@ -566,10 +566,14 @@ fn test_spectral(@builtin(global_invocation_id) id: vec3u) {
 
     /// How far the GPU's rays may be from the CPU's: f32 rounding of the same operations
     /// (the GPU may fuse multiply-adds and its sqrt and division may differ in the last bit),
-    /// grown through a dozen refractions.
+    /// grown through a dozen refractions. The weight's is the widest: it multiplies cos⁴θ, the
+    /// pupil area over z² and a graded mask's transmission, read bilinearly where the ray
+    /// crosses the stop, so a rounding shift of that point moves it along the mask's gradient
+    /// (on an H200, 2026-11-26: 1.2e-3 at worst through the graded, notched mask, 1.1e-4
+    /// without one; lavapipe, which does not fuse, agrees exactly).
     const ORIGIN_TOLERANCE_M: f32 = 2e-6;
     const DIRECTION_TOLERANCE: f32 = 2e-5;
-    const WEIGHT_RELATIVE_TOLERANCE: f32 = 1e-4;
+    const WEIGHT_RELATIVE_TOLERANCE: f32 = 3e-3;
     /// Rays blocked on one device and not the other: those grazing an aperture's edge or a
     /// blade, where a last-bit difference decides. At most this many per 1000 rays.
     const BORDERLINE_PER_MILLE: usize = 3;
@@ -889,7 +893,8 @@ fn test_spectral(@builtin(global_invocation_id) id: vec3u) {
                 let scale = expected.iter().fold(0.0f32, |m, v| m.max(v.abs()));
                 for k in 0..3 {
                     assert!(
-                        (got[2 + 3 * c + k] - expected[k]).abs() <= 1e-6 * scale,
+                        // The GPU's exp and division may differ in the last bits (an H200: 3.5e-6).
+                        (got[2 + 3 * c + k] - expected[k]).abs() <= 2e-5 * scale,
                         "{} nm {rgb:?}: {:?} vs {expected:?}",
                         s.nm,
                         &got[2 + 3 * c..5 + 3 * c]

@@ -254,9 +254,14 @@ pub(super) fn read_film_back(world: &mut World) -> anyhow::Result<()> {
     let Some(mut data) = world.get_resource_mut::<GpuFilmData>() else {
         return Ok(());
     };
-    let Some(film) = data.film.as_ref().filter(|_| data.gpu_newer) else {
+    if !data.gpu_newer {
+        return Ok(());
+    }
+    let Some(film) = data.film.as_mut() else {
         return Ok(());
     };
+    // Waiting for the passes still queued is pass time: WriteFilm's, as on the CPU.
+    let start = std::time::Instant::now();
     let (width, height) = (film.width, film.height);
     let (sums, counts) = film
         .read(&backend.0)
@@ -274,6 +279,7 @@ pub(super) fn read_film_back(world: &mut World) -> anyhow::Result<()> {
         tile.load(&image);
     }
     let mut stats = world.resource_mut::<RenderStats>();
+    stats.add_time(Stage::WriteFilm, start);
     stats.lens_rays_passed += counts.lens_rays_passed;
     stats.rejected_samples += counts.rejected_samples;
     stats.rays_traced += counts.shading.rays_traced;

@@ -4,7 +4,7 @@
 //! correctly rounded multiply, floors, exact power-of-two scaling). Elsewhere the GPU may
 //! contract a multiply and an add into an FMA and its 1/x is not correctly rounded, so values
 //! agree to a few ulps: bilinear texels within 1e-6 (texels in [0, 1]); hit distances within
-//! 1e-5 relative, barycentrics within 1e-4; surface positions within 1e-6 of the triangle's
+//! 1e-5 relative (plus 4 ulp of the coordinates), barycentrics within 1e-3; surface positions within 1e-6 of the triangle's
 //! coordinate magnitude; normals, tangents and UVs within 1e-4.
 //!
 //! Ties. Where the CPU's hit lies within 1e-4 (barycentric) of its triangle's boundary, or the
@@ -219,13 +219,19 @@ fn assert_traces_agree(
             u: gpu.u,
             v: gpu.v,
         });
-        let close = |a: f32, b: f32| (a - b).abs() <= 1e-5 * b.abs();
+        // t's rounding error scales with the coordinates it is computed from (the origin's and
+        // the hit's), not with t alone: a hit 3 mm from a ray starting a metre away is known to
+        // about 1e-7 m (an H200 differed from the CPU by 1.4e-10 m at t = 3.3 mm).
+        let scale = origin.abs().max_element();
+        let close = |a: f32, b: f32| (a - b).abs() <= 1e-5 * b.abs() + 4.0 * f32::EPSILON * scale;
         let agree = match (cpu, gpu) {
             (None, None) => true,
             (Some(c), Some(g)) if c.triangle == g.triangle => {
                 assert!(close(g.t, c.t), "ray {i}: t {} vs {}", g.t, c.t);
+                // Barycentrics of grazing hits are ill-conditioned: fused multiply-adds moved
+                // them by 1.7e-4 on an H200. A wrong point on the triangle is off by O(1).
                 assert!(
-                    (g.u - c.u).abs() <= 1e-4 && (g.v - c.v).abs() <= 1e-4,
+                    (g.u - c.u).abs() <= 1e-3 && (g.v - c.v).abs() <= 1e-3,
                     "ray {i}: uv ({}, {}) vs ({}, {})",
                     g.u,
                     g.v,
