@@ -10,9 +10,7 @@ pub const PASS_WGSL: &str = include_str!("shaders/pass.wgsl");
 
 use std::collections::VecDeque;
 
-use super::compute::{
-    Access, Bindings, kernel_with, read_buffer, storage_buffer, uniform_buffer, zeroed_buffer,
-};
+use super::compute::{Access, Bindings, kernel_with, read_buffer, storage_buffer, zeroed_buffer};
 use super::context::{GpuContext, GpuUnavailable};
 use crate::shade::ShadeStats;
 
@@ -85,14 +83,14 @@ const WORKGROUP_SIDE: u32 = 8;
 impl GpuFilm {
     /// A cleared film of `width` × `height` pixels.
     pub fn new(context: &GpuContext, width: u32, height: u32) -> GpuFilm {
-        let params = uniform_buffer(context, "pass parameters", &PassParams::default());
+        let params = storage_buffer(context, "pass parameters", &[PassParams::default()]);
         let film = zeroed_buffer::<[f32; 4]>(context, "film sums", (width * height) as usize);
         let counters = storage_buffer(context, "pass counters", &[0u32; COUNTER_WORDS]);
         let bindings = Bindings::new(
             context,
             "pass",
             &[
-                (&params, Access::Uniform),
+                (&params, Access::ReadOnly),
                 (&film, Access::ReadWrite),
                 (&counters, Access::ReadWrite),
             ],

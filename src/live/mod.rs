@@ -454,6 +454,7 @@ impl RenderLoop {
         let samples = session.spp_done as f64 * (width as f64 * height as f64);
         let mut stats = Map::new();
         for (name, value) in [
+            ("device", json!(session.renderer().device())),
             ("scene_loads", json!(render_stats.scene_loads)),
             ("bvh_builds", json!(render_stats.bvh_builds)),
             ("triangles", json!(render_stats.triangles)),

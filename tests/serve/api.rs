@@ -774,3 +774,35 @@ fn a_closed_standard_output_does_not_stop_the_lab() {
     assert!(status.success(), "{status}: {said}");
     assert!(!said.contains("panicked"), "{said}");
 }
+
+#[test]
+fn the_live_lab_renders_on_the_gpu_and_swaps_lenses_there() {
+    if realcam::gpu::GpuContext::for_tests().is_none() {
+        return;
+    }
+    let args: Vec<&str> = SMALL.iter().copied().chain(["--device", "gpu"]).collect();
+    let served = Served::start(&args);
+    let first = served.wait_until_done();
+    assert!(
+        first["command"].as_str().unwrap().contains("--device gpu"),
+        "{first}"
+    );
+    let before = served.get("/api/image.png").body;
+    // A focus pull and a lens swap on the GPU: the lens buffer is rewritten, nothing reloads.
+    served.post("/api/settings", &json!({"focus_distance": 1.5}));
+    served.post("/api/settings", &json!({"lens": "wide.22mm"}));
+    let done = served.wait_until_done();
+    assert_eq!(done["lens"], "wide.22mm");
+    let after = served.get("/api/image.png");
+    assert_eq!(after.status, 200);
+    assert_eq!(png_size(&after.body), (64, 64));
+    assert_ne!(before, after.body, "the image did not change");
+    let stats = served.get("/api/stats").json();
+    assert_eq!(stats["device"], "gpu", "{stats}");
+    assert_eq!(stats["bvh_builds"], 1, "{stats}");
+    assert_eq!(stats["scene_loads"], 1, "{stats}");
+    assert!(
+        stats["samples_per_second"].as_f64().unwrap() > 0.0,
+        "{stats}"
+    );
+}

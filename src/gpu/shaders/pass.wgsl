@@ -10,7 +10,9 @@ struct PassParams {
     _pad: u32,
 }
 
-@group(3) @binding(0) var<uniform> pass_params: PassParams;
+// A storage buffer, not a uniform: lavapipe compiles a kernel variant per distinct uniform
+// value it inlines, which the sample index changing every pass would make a compile per pass.
+@group(3) @binding(0) var<storage, read> pass_params: PassParams;
 // Per pixel, row-major: the RGB sums of weighted radiance (w unused).
 @group(3) @binding(1) var<storage, read_write> pass_film: array<vec4f>;
 // What the passes counted, as 64-bit numbers in (low, high) word pairs, PASS_COUNT_ order: the
