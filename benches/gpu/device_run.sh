@@ -16,6 +16,11 @@
 #   2. the same on the GPU alone (and Mitsuba cuda_ad_rgb) at 1280², 256 spp, for the scenes
 #      whose step-1 GPU rate says they finish in time;
 #   3. the CPU path's thread scaling, both scenes: 1 thread and all cores (16), 640² at 16 spp;
+#   4. `realcam bench --device gpu`: the lens-tracing workload on the GPU beside the CPU kernels;
+#   5. the live lab's first image after a change at 1024² on the GPU (live_latency.py);
+#   0. (first, when $TESTS names the library's unit-test binary, built here with
+#      `cargo test --release --lib --no-run`) the GPU unit tests against the CPU, on this GPU.
+# STEPS picks which run (default "0 1 2 3 4 5"; step 0 only with $TESTS).
 # then a summary of M camera samples/s per row. Each render stops after $GPU_TIMEOUT seconds
 # (default 120), says so, and the rest go on; sizes and budget are the variables below (a
 # quick try elsewhere: SIZE=64 SPP=4 BIG_SIZE=128 BIG_SPP=8 SCALE_SPP=2). Everything lands in
@@ -31,6 +36,9 @@ WORK=${WORK:-.peers}
 SIZE=${SIZE:-640} SPP=${SPP:-64}                  # step 1
 BIG_SIZE=${BIG_SIZE:-1280} BIG_SPP=${BIG_SPP:-256}  # step 2
 SCALE_SPP=${SCALE_SPP:-16}                      # step 3, at $SIZE
+STEPS=${STEPS:-0 1 2 3 4 5}
+TESTS=${TESTS:-}
+want() { [[ " $STEPS " == *" $1 "* ]]; }
 mkdir -p "$OUT"
 exec > >(tee "$OUT/log.txt") 2>&1
 tee_pid=$!
@@ -74,12 +82,21 @@ compare() { # compare.py with the common options; the outer timeout keeps the bu
   local rc=$?; [ $rc -eq 124 ] && echo "compare.py stopped at the time budget"; return 0
 }
 
+if want 0 && [ -n "$TESTS" ]; then
+  step "0. the GPU unit tests (gpu::) on this GPU"
+  # The tests read tests/data at the path they were built in (CARGO_MANIFEST_DIR).
+  REALCAM_REQUIRE_GPU=1 timeout 120 "$TESTS" gpu:: 2>&1 | tail -25
+fi
+
+if want 1; then
 step "1. realcam cpu and gpu (and Mitsuba cuda_ad_rgb where present), ${SIZE}², $SPP spp"
 first=$OUT/results_${SIZE}_${SPP}spp.json
 rm -f "$WORK"/*.realcam.*.png
 compare --device cpu,gpu --peers cuda_ad_rgb --size "$SIZE" --spp "$SPP" --results "$first"
 (cd "$WORK" && tar -cf - *.realcam.*.png) > "$OUT/images_$SIZE.tar" 2>/dev/null || echo "no images to keep"
+fi
 
+if want 2; then
 step "2. realcam gpu (and Mitsuba cuda_ad_rgb), ${BIG_SIZE}², $BIG_SPP spp"
 # Only the scenes whose 640² GPU rate says both GPU renders finish within the per-render
 # timeout and the time left (16× the work of step 1).
@@ -113,11 +130,24 @@ if [ -n "$scenes" ]; then
 else
   echo "skipped: no scene's GPU rows in step 1 were fast enough (see above)"
 fi
+fi
 
+if want 3; then
 step "3. the CPU path's thread scaling: 1 and $THREADS_MAX threads, ${SIZE}², $SCALE_SPP spp"
 for threads in 1 "$THREADS_MAX"; do
   compare --device cpu --threads "$threads" --peers none --size "$SIZE" --spp "$SCALE_SPP" --results "$OUT/results_threads$threads.json"
 done
+fi
+
+if want 4; then
+  step "4. realcam bench --device gpu (the lens-tracing workload)"
+  timeout 120 "$REALCAM" bench --device gpu 2>&1
+fi
+
+if want 5; then
+  step "5. the live lab on the GPU: first image after a change, 1024²"
+  timeout 120 python3 benches/gpu/live_latency.py --realcam "$REALCAM" --device gpu --size 1024 --changes 12 2>&1
+fi
 
 step "summary"
 python3 - "$OUT" <<'PY' | tee "$OUT/summary.txt"

@@ -14,10 +14,13 @@ use serde_json::json;
 
 use super::values::whole;
 use crate::batch::RayBatch;
+use crate::gpu::GpuContext;
+use crate::gpu::lens_bench::GpuLensBench;
 use crate::lens::io::bundled::DEFAULT_LENS;
 use crate::lens::trace::Ray;
 use crate::lens::trace_batch::{DEFAULT_KERNEL, Isa, Kernel};
 use crate::lens::workload::LensWorkload;
+use crate::pipeline::RenderDevice;
 
 #[derive(Args, Debug, Clone)]
 pub struct BenchArgs {
@@ -40,6 +43,10 @@ pub struct BenchArgs {
     /// Print one JSON object instead of the summary.
     #[arg(long)]
     pub json: bool,
+    /// `gpu`: also trace the workload through the lens on the GPU (`realcam devices`), the
+    /// pass kernel's own lens code, repeated to at least 4M rays per dispatch.
+    #[arg(long, value_name = "cpu|gpu", default_value = "cpu")]
+    pub device: RenderDevice,
 }
 
 /// A way of tracing the workload.
@@ -225,6 +232,49 @@ struct Measured {
     variants: Vec<(Variant, f64)>,
     /// With `--sweep`: the SoA variants at every batch size of [`SWEEP_BATCHES`].
     sweep: Vec<(Variant, f64)>,
+    /// With `--device gpu`: what the GPU did.
+    gpu: Option<GpuMeasured>,
+}
+
+/// The workload traced on the GPU.
+struct GpuMeasured {
+    adapter: String,
+    /// Rays per dispatch (the workload repeated).
+    rays_per_dispatch: u64,
+    /// Median over the rounds, wall time from submit to done.
+    rays_per_s: f64,
+    pass_fraction: f64,
+}
+
+/// Rays per GPU dispatch: enough to fill a large GPU many times over.
+const GPU_RAYS_PER_DISPATCH: u64 = 1 << 22;
+
+fn measure_gpu(workload: &LensWorkload, rounds: usize) -> anyhow::Result<GpuMeasured> {
+    let context = GpuContext::shared().map_err(|why| anyhow::anyhow!("--device gpu: {why}"))?;
+    let bench = GpuLensBench::new(&context, workload).map_err(|why| anyhow::anyhow!("{why}"))?;
+    let count = workload.rays.len() as u64;
+    let repeats = GPU_RAYS_PER_DISPATCH
+        .div_ceil(count)
+        .min(u64::from(u32::MAX / 2)) as u32;
+    bench
+        .trace(&context, repeats)
+        .map_err(|why| anyhow::anyhow!("{why}"))?;
+    let mut rates = Vec::with_capacity(rounds);
+    for _ in 0..rounds {
+        let elapsed = bench
+            .trace(&context, repeats)
+            .map_err(|why| anyhow::anyhow!("{why}"))?;
+        rates.push((count * u64::from(repeats)) as f64 / elapsed.as_secs_f64());
+    }
+    let passed = bench
+        .passed(&context)
+        .map_err(|why| anyhow::anyhow!("{why}"))?;
+    Ok(GpuMeasured {
+        adapter: context.adapter.to_string(),
+        rays_per_dispatch: count * u64::from(repeats),
+        rays_per_s: median(rates),
+        pass_fraction: passed as f64 / count as f64,
+    })
 }
 
 impl Measured {
@@ -291,6 +341,10 @@ fn collect(args: &BenchArgs, min_time: Duration) -> anyhow::Result<Measured> {
     } else {
         Vec::new()
     };
+    let gpu = match args.device {
+        RenderDevice::Cpu => None,
+        RenderDevice::Gpu => Some(measure_gpu(&workload, args.rounds)?),
+    };
     Ok(Measured {
         surfaces: workload.system.surface_count(),
         rays: workload.rays.len(),
@@ -298,6 +352,7 @@ fn collect(args: &BenchArgs, min_time: Duration) -> anyhow::Result<Measured> {
         default,
         variants: variants.into_iter().zip(rates).collect(),
         sweep,
+        gpu,
     })
 }
 
@@ -335,6 +390,13 @@ fn json_report(args: &BenchArgs, m: &Measured) -> serde_json::Value {
         "variants": m.variants.iter().map(|&(v, r)| json_entry(v, r)).collect::<Vec<_>>(),
         "wide_uses_avx": wide_uses_avx(),
         "sweep": m.sweep.iter().map(|&(v, r)| json_entry(v, r)).collect::<Vec<_>>(),
+        "gpu": m.gpu.as_ref().map(|g| json!({
+            "adapter": g.adapter,
+            "rays_per_dispatch": g.rays_per_dispatch,
+            "rays_per_s": g.rays_per_s,
+            "pass_fraction": g.pass_fraction,
+            "speedup_over_soa": g.rays_per_s / m.soa(),
+        })),
     })
 }
 
@@ -367,6 +429,17 @@ fn print_summary(args: &BenchArgs, m: &Measured) {
         println!("    {:<50}{:>8.2} M rays/s{marker}", v.name(), mega(rate));
     }
     println!("  speedup SoA / scalar: {:.2}×", m.soa() / m.scalar());
+    if let Some(gpu) = &m.gpu {
+        println!(
+            "  GPU, {} rays per dispatch (the workload repeated), wall time: {:.2} M rays/s \
+             ({:.0} % pass), {:.1}× the renderer's SoA kernel on one thread\n    on {}",
+            gpu.rays_per_dispatch,
+            mega(gpu.rays_per_s),
+            gpu.pass_fraction * 100.0,
+            gpu.rays_per_s / m.soa(),
+            gpu.adapter
+        );
+    }
     if !m.sweep.is_empty() {
         println!("  batch-size sweep (M rays/s):");
         let columns = soa_variants(1).len();
@@ -406,6 +479,7 @@ mod tests {
             rounds: 1,
             sweep: false,
             json: true,
+            device: RenderDevice::Cpu,
         }
     }
 

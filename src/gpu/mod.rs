@@ -9,6 +9,7 @@
 //! - [`context`]: finding an adapter and opening a device (`realcam devices` lists them).
 //! - [`compute`]: buffers, readback and kernels with errors as values, never panics.
 //! - [`lens`]: the active lens for `camera_ray` (shaders: sampling, spectral, lens).
+//! - [`lens_bench`]: the lens-tracing workload on the GPU (`realcam bench --device gpu`).
 //! - [`scene`]: the BVH, triangles and textures uploaded once per scene, traversed and sampled
 //!   in WGSL as the CPU does.
 //! - [`shading`]: materials, lights and the environment for the path tracer of
@@ -19,6 +20,7 @@ pub mod compute;
 pub mod context;
 pub mod film;
 pub mod lens;
+pub mod lens_bench;
 pub mod scene;
 pub mod shading;
 

@@ -19,6 +19,8 @@ use crate::sampling::Rng;
 pub struct LensWorkload {
     pub system: LensSystem,
     pub film_distance: f64,
+    /// The exit-pupil bounds the rays were aimed within.
+    pub pupil: ExitPupil,
     pub rays: Vec<Ray<f32>>,
     pub batch: RayBatch,
 }
@@ -66,6 +68,7 @@ impl LensWorkload {
         Ok(LensWorkload {
             system,
             film_distance,
+            pupil,
             rays,
             batch,
         })

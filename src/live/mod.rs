@@ -408,8 +408,9 @@ impl RenderLoop {
         }
         let start = Instant::now();
         if self.session.render_next_pass()? {
-            self.pass_seconds += start.elapsed().as_secs_f64();
+            // The image is part of the pass: on a GPU, reading it back waits for the pass.
             let image = self.session.image()?;
+            self.pass_seconds += start.elapsed().as_secs_f64();
             self.first_image(&image);
             self.publish(Some(image));
         } else {
