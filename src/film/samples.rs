@@ -77,6 +77,14 @@ impl SampleSequence {
         }
     }
 
+    /// The first `n` indices (all of them when there are fewer).
+    pub fn first_n(&self, n: u32) -> SampleSequence {
+        SampleSequence {
+            count: self.count.min(n),
+            ..*self
+        }
+    }
+
     pub fn iter(&self) -> impl ExactSizeIterator<Item = u32> + use<> {
         let sequence = *self;
         (0..sequence.count).map(move |k| sequence.get(k))

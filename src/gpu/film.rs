@@ -12,6 +12,7 @@ use std::collections::VecDeque;
 
 use super::compute::{Access, Bindings, kernel_with, read_buffer, storage_buffer, zeroed_buffer};
 use super::context::{GpuContext, GpuUnavailable};
+use crate::film::samples::SampleSequence;
 use crate::shade::ShadeStats;
 
 /// The pass kernel's per-pass parameters (`PassParams` in pass.wgsl).
@@ -21,7 +22,9 @@ struct PassParams {
     width: u32,
     height: u32,
     sample: u32,
-    _pad: u32,
+    step: u32,
+    count: u32,
+    _pad: [u32; 3],
 }
 
 /// What the passes since the last [`GpuFilm::read`] counted.
@@ -145,13 +148,14 @@ impl GpuFilm {
         Ok(true)
     }
 
-    /// Renders sample index `sample` into every pixel, with the kernel [`GpuFilm::prepare_kernel`]
-    /// compiled and the same `upstream` bind groups (their buffers as they are now).
+    /// Renders `samples` (sample indices `first + k·step`, k < count) into every pixel, in
+    /// index order, with the kernel [`GpuFilm::prepare_kernel`] compiled and the same
+    /// `upstream` bind groups (their buffers as they are now).
     pub fn render_pass(
         &mut self,
         context: &GpuContext,
         upstream: [&Bindings; 3],
-        sample: u32,
+        samples: SampleSequence,
     ) -> Result<(), GpuUnavailable> {
         let Some(kernel) = self.kernel.as_ref() else {
             return Err(GpuUnavailable("the pass kernel was not compiled".into()));
@@ -159,8 +163,10 @@ impl GpuFilm {
         let params = PassParams {
             width: self.width,
             height: self.height,
-            sample,
-            _pad: 0,
+            sample: samples.first,
+            step: samples.step,
+            count: samples.count,
+            _pad: [0; 3],
         };
         context
             .queue

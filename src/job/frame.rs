@@ -208,10 +208,14 @@ pub(super) fn render_frame(
     progress.begin(samples.len() as u32, width * height);
     let render_start = Instant::now();
     let mut last_checkpoint = Instant::now();
-    for (done, sample) in samples.iter().enumerate() {
-        renderer.render_pass(sample)?;
-        progress.advance(done as u32 + 1);
-        let remaining = samples.after(done as u32 + 1);
+    let per_update = renderer.passes_per_update();
+    let mut done = 0;
+    while done < samples.count {
+        let batch = samples.after(done).first_n(per_update);
+        renderer.render_passes(batch)?;
+        done += batch.count;
+        progress.advance(done);
+        let remaining = samples.after(done);
         if let Some(code) = (context.stop)() {
             progress.finish();
             let image = renderer.image()?;

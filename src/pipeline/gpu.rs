@@ -16,6 +16,7 @@ use bevy_ecs::resource::Resource;
 use bevy_ecs::schedule::{IntoScheduleConfigs, Schedule, SystemCondition};
 use bevy_ecs::system::{Commands, Query, Res, ResMut};
 use bevy_ecs::world::World;
+use rayon::prelude::*;
 
 use super::Stage;
 use super::device::GpuBackend;
@@ -24,6 +25,7 @@ use super::resources::{
     PassCancel, PassState, PipelineFault, RenderSettings, RenderStats, SceneEnvironment,
 };
 use crate::accel::SceneAccel;
+use crate::film::samples::SampleSequence;
 use crate::film::{FilmTile, Image};
 use crate::gpu::film::GpuFilm;
 use crate::gpu::lens::GpuLens;
@@ -221,7 +223,12 @@ fn render_pass_on_gpu(
                 stats.gpu_kernel_time += compile_start.elapsed();
             }
             let start = std::time::Instant::now();
-            let result = gpu_film.render_pass(context, upstream, pass.sample);
+            let samples = SampleSequence {
+                first: pass.sample,
+                step: pass.step.max(1),
+                count: pass.count.max(1),
+            };
+            let result = gpu_film.render_pass(context, upstream, samples);
             stats.add_time(Stage::Shade, start);
             result
         });
@@ -230,10 +237,11 @@ fn render_pass_on_gpu(
         return;
     }
     data.gpu_newer = true;
+    let passes = pass.count.max(1);
     for mut tile in &mut tiles {
-        tile.samples += 1;
+        tile.samples += passes;
     }
-    stats.camera_samples += u64::from(width * height);
+    stats.camera_samples += u64::from(width * height) * u64::from(passes);
     pass.pending = false;
 }
 
@@ -275,9 +283,8 @@ pub(super) fn read_film_back(world: &mut World) -> anyhow::Result<()> {
         sums,
         samples,
     };
-    for mut tile in tiles.iter_mut(world) {
-        tile.load(&image);
-    }
+    let mut tiles: Vec<_> = tiles.iter_mut(world).collect();
+    tiles.par_iter_mut().for_each(|tile| tile.load(&image));
     let mut stats = world.resource_mut::<RenderStats>();
     stats.add_time(Stage::WriteFilm, start);
     stats.lens_rays_passed += counts.lens_rays_passed;

@@ -284,6 +284,42 @@ impl Renderer {
         self.world.insert_resource(PassState {
             pending: true,
             sample,
+            step: 1,
+            count: 1,
+        });
+        self.update()
+    }
+
+    /// How many passes one update should render: one on the CPU (its passes are long and
+    /// parallel inside); on a GPU enough for about four million samples a dispatch, so that
+    /// the CPU's share of a pass (the schedule, the submission) does not leave the GPU idle.
+    pub fn passes_per_update(&self) -> u32 {
+        if !self.world.contains_resource::<GpuBackend>() {
+            return 1;
+        }
+        let settings = self.world.resource::<RenderSettings>();
+        let pixels = (settings.width as u64 * settings.height as u64).max(1);
+        ((1u64 << 22) / pixels).clamp(1, 64) as u32
+    }
+
+    /// Renders the sample indices of `samples`: in one update on a GPU (see
+    /// [`Renderer::passes_per_update`] for how many to ask for), one pass per index on the CPU.
+    /// The film is the same either way.
+    pub fn render_passes(&mut self, samples: SampleSequence) -> anyhow::Result<()> {
+        if samples.is_empty() {
+            return Ok(());
+        }
+        if !self.world.contains_resource::<GpuBackend>() {
+            for sample in samples.iter() {
+                self.render_pass(sample)?;
+            }
+            return Ok(());
+        }
+        self.world.insert_resource(PassState {
+            pending: true,
+            sample: samples.first,
+            step: samples.step,
+            count: samples.count,
         });
         self.update()
     }

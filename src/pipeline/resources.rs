@@ -84,6 +84,11 @@ pub struct PassState {
     pub pending: bool,
     /// Sample index this pass renders into every pixel (the key of its random streams).
     pub sample: u32,
+    /// On a GPU, the passes of one update: `count` sample indices from `sample` in steps of
+    /// `step`, in one dispatch (each pixel adds them to its sums in index order, so the film
+    /// is the same as after `count` single passes). The CPU renders one pass per update.
+    pub step: u32,
+    pub count: u32,
 }
 
 /// A flag another thread raises to abandon the pass under way (a live session whose settings

@@ -6,8 +6,13 @@
 struct PassParams {
     width: u32,
     height: u32,
+    // This dispatch's sample indices: sample + k·step for k < count.
     sample: u32,
-    _pad: u32,
+    step: u32,
+    count: u32,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
 }
 
 // A storage buffer, not a uniform: lavapipe compiles a kernel variant per distinct uniform
@@ -33,14 +38,15 @@ fn pass_is_finite(v: vec3f) -> bool {
     return shade_is_finite(v.x) && shade_is_finite(v.y) && shade_is_finite(v.z);
 }
 
-fn pass_render_pixel(x: u32, y: u32) {
-    let ray = camera_ray(x, y, pass_params.sample);
+// One sample of pixel (x, y): its weighted, finite film contribution.
+fn pass_render_sample(x: u32, y: u32, sample: u32) -> vec3f {
+    let ray = camera_ray(x, y, sample);
     var rgb = vec3f(0.0);
     if ray.weight > 0.0 {
         atomicAdd(&pass_group_counts[PASS_COUNT_LENS_PASSED], 1u);
         shade_counts[SHADE_COUNT_RAYS_TRACED] += 1u;
         let hit = scene_intersect(ray.origin, ray.direction, SHADE_FAR);
-        var rng = shade_rng(ray.pixel_key, pass_params.sample);
+        var rng = shade_rng(ray.pixel_key, sample);
         rgb = path_radiance(ray.origin, ray.direction, hit, &rng) * ray.weight;
         if ray.wavelength > 0.0 {
             rgb = film_rgb(ray.wavelength, ray.wavelength_weight, rgb);
@@ -50,8 +56,19 @@ fn pass_render_pixel(x: u32, y: u32) {
             rgb = vec3f(0.0);
         }
     }
+    return rgb;
+}
+
+// The dispatch's samples of pixel (x, y), added to its sums one at a time in index order: the
+// same f32 additions, in the same order, as one pass per sample.
+fn pass_render_pixel(x: u32, y: u32) {
     let index = y * pass_params.width + x;
-    pass_film[index] = pass_film[index] + vec4f(rgb, 0.0);
+    var sums = pass_film[index];
+    for (var k = 0u; k < pass_params.count; k += 1u) {
+        let sample = pass_params.sample + k * pass_params.step;
+        sums = sums + vec4f(pass_render_sample(x, y, sample), 0.0);
+    }
+    pass_film[index] = sums;
 }
 
 @compute @workgroup_size(8, 8, 1)
