@@ -891,7 +891,9 @@ fn test_spectral(@builtin(global_invocation_id) id: vec3u) {
                 &got[0..2]
             );
             for (c, rgb) in colours.iter().enumerate() {
-                let expected = film.film_rgb(s.nm, s.inverse_pdf, *rgb);
+                // At the GPU's own wavelength: the film's response is steep in the red, where
+                // the picometre the wavelengths may differ by moves it by 2.4e-5.
+                let expected = film.film_rgb(got[0], got[1], *rgb);
                 let scale = expected.iter().fold(0.0f32, |m, v| m.max(v.abs()));
                 for k in 0..3 {
                     assert!(

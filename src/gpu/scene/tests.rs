@@ -239,10 +239,12 @@ fn assert_traces_agree(
                     (x - y).abs() <= (1e-5 * y.abs() + 4.0 * f32::EPSILON * scale) / cos.max(1e-3)
                 };
                 assert!(close(g.t, c.t), "ray {i}: t {} vs {}", g.t, c.t);
-                // Barycentrics of grazing hits are ill-conditioned: fused multiply-adds moved
-                // them by 1.7e-4 on an H200. A wrong point on the triangle is off by O(1).
+                // Barycentrics are ill-conditioned as t is (fused multiply-adds moved them by
+                // 1.7e-4, and by 1e-3 at cos 0.006, on an H200). A wrong point on the triangle is
+                // off by O(1).
+                let barycentric = 5e-4 / cos.max(1e-3);
                 assert!(
-                    (g.u - c.u).abs() <= 1e-3 && (g.v - c.v).abs() <= 1e-3,
+                    (g.u - c.u).abs() <= barycentric && (g.v - c.v).abs() <= barycentric,
                     "ray {i}: uv ({}, {}) vs ({}, {})",
                     g.u,
                     g.v,
