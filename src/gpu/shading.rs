@@ -1,7 +1,7 @@
 //! The shading data on the GPU (bind group 2): materials, the light-selection distribution with
 //! the punctual lights and emissive triangles, and the environment with its sampling
 //! distribution, laid out for `shaders/shade.wgsl`, whose path tracer mirrors
-//! [`crate::shade::Shader::path_radiance`] (see that file for the WGSL interface).
+//! `Shader::path_radiance` (see that file for the WGSL interface).
 //!
 //! Everything is copied from the CPU's own prepared structures ([`LightSet`], the
 //! [`Environment`]'s distributions), never rebuilt, so both devices sample the same
@@ -25,7 +25,7 @@
 //! 1. `array<ShadeMaterial>`: the library's materials, then its default material;
 //! 2. `array<ShadeLightSlot>`: one per light-selection slot (a punctual light carries its data);
 //! 3. `array<ShadeEmitter>`: emissive triangles (triangle, area), in increasing triangle order;
-//! 4. `array<f32>`: every [`Distribution1D`] as its probabilities followed by its cdf;
+//! 4. `array<f32>`: every `Distribution1D` as its probabilities followed by its cdf;
 //! 5. `array<vec4f>`: the environment image's texels (one zero texel for a uniform sky).
 
 use crate::scene::{Material, MaterialLibrary, PunctualLight, TextureRef};
