@@ -110,6 +110,18 @@ pub fn kernel(
     source: &str,
     entry: &str,
 ) -> Result<wgpu::ComputePipeline, GpuUnavailable> {
+    compile(context, label, source, entry, None)
+}
+
+/// The kernel `entry` of `source` with `layout` (`None`: derived from the source), wgpu's
+/// validation errors caught as a value.
+fn compile(
+    context: &GpuContext,
+    label: &str,
+    source: &str,
+    entry: &str,
+    layout: Option<&wgpu::PipelineLayout>,
+) -> Result<wgpu::ComputePipeline, GpuUnavailable> {
     let scope = context
         .device
         .push_error_scope(wgpu::ErrorFilter::Validation);
@@ -123,7 +135,7 @@ pub fn kernel(
         .device
         .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
             label: Some(label),
-            layout: None,
+            layout,
             module: &module,
             entry_point: Some(entry),
             compilation_options: Default::default(),
@@ -207,9 +219,6 @@ pub fn kernel_with(
     entry: &str,
     layouts: &[&wgpu::BindGroupLayout],
 ) -> Result<wgpu::ComputePipeline, GpuUnavailable> {
-    let scope = context
-        .device
-        .push_error_scope(wgpu::ErrorFilter::Validation);
     let layouts: Vec<Option<&wgpu::BindGroupLayout>> = layouts.iter().copied().map(Some).collect();
     let layout = context
         .device
@@ -218,28 +227,7 @@ pub fn kernel_with(
             bind_group_layouts: &layouts,
             immediate_size: 0,
         });
-    let module = context
-        .device
-        .create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some(label),
-            source: wgpu::ShaderSource::Wgsl(source.into()),
-        });
-    let pipeline = context
-        .device
-        .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-            label: Some(label),
-            layout: Some(&layout),
-            module: &module,
-            entry_point: Some(entry),
-            compilation_options: Default::default(),
-            cache: None,
-        });
-    match pollster::block_on(scope.pop()) {
-        None => Ok(pipeline),
-        Some(error) => Err(GpuUnavailable(format!(
-            "the GPU kernel {label} is invalid: {error}"
-        ))),
-    }
+    compile(context, label, source, entry, Some(&layout))
 }
 
 /// A bind group for group `group` of `pipeline`, binding `buffers` in order to bindings 0, 1, ….

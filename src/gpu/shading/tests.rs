@@ -1,8 +1,7 @@
 //! shade.wgsl and rng.wgsl against the CPU code they mirror, on the same inputs.
 //!
-//! The scene side comes from a test-only stand-in for scene.wgsl (`scene_stand_in.wgsl`:
-//! brute force over the accelerator's triangles, in its order), so these tests exercise the
-//! shading code alone.
+//! The scene side is the real one (`GpuScene`, scene.wgsl, itself tested against the CPU's
+//! accelerator in `gpu::scene`), so these tests also check the two together.
 
 use std::sync::Arc;
 
@@ -15,6 +14,7 @@ use crate::gpu::compute::{
     zeroed_buffer,
 };
 use crate::gpu::context::GpuContext;
+use crate::gpu::scene::{GpuScene, SCENE_WGSL};
 use crate::sampling::Rng;
 use crate::scene::{
     Material, MaterialLibrary, Mesh, MeshInstance, PunctualLight, Texture, TextureRef, WrapMode,
@@ -23,8 +23,6 @@ use crate::shade::bsdf::MetalRoughBsdf;
 use crate::shade::{
     Environment, EnvironmentMap, EnvironmentSampling, LightSet, SHADE_STREAM_KEY, Shader,
 };
-
-const STAND_IN_WGSL: &str = include_str!("scene_stand_in.wgsl");
 
 #[test]
 fn the_rng_draws_the_cpu_streams_bit_for_bit() {
@@ -141,50 +139,9 @@ impl TestScene {
         }
     }
 
-    /// The stand-in scene's buffers: triangles (five vec4s each, see scene_stand_in.wgsl),
-    /// texture descriptions and texels.
-    fn stand_in_buffers(&self, context: &GpuContext) -> [wgpu::Buffer; 3] {
-        let mut triangles: Vec<[f32; 4]> = Vec::new();
-        for t in 0..self.accel.triangle_count() as u32 {
-            let [p0, p1, p2] = self.accel.triangle_vertices(t);
-            let material = self
-                .accel
-                .triangle_material(t)
-                .map_or(u32::MAX, |m| m as u32);
-            let [uv0, uv1, uv2] =
-                [(0.0, 0.0), (1.0, 0.0), (0.0, 1.0)].map(|(u, v)| self.accel.uv_at(t, u, v));
-            triangles.push(p0.extend(f32::from_bits(material)).to_array());
-            triangles.push(p1.extend(0.0).to_array());
-            triangles.push(p2.extend(0.0).to_array());
-            triangles.push([uv0.x, uv0.y, uv1.x, uv1.y]);
-            triangles.push([uv2.x, uv2.y, 0.0, 0.0]);
-        }
-        let wrap = |mode: WrapMode| match mode {
-            WrapMode::Repeat => 0u32,
-            WrapMode::MirroredRepeat => 1,
-            WrapMode::ClampToEdge => 2,
-        };
-        let mut info: Vec<[u32; 4]> = Vec::new();
-        let mut texels: Vec<[f32; 4]> = Vec::new();
-        for texture in &self.materials.textures {
-            info.push([
-                texels.len() as u32,
-                texture.width,
-                texture.height,
-                wrap(texture.wrap_s) | wrap(texture.wrap_t) << 2 | (texture.nearest as u32) << 4,
-            ]);
-            texels.extend_from_slice(&texture.texels);
-        }
-        [
-            storage_buffer(context, "stand-in triangles", &triangles),
-            storage_buffer(context, "stand-in texture info", &info),
-            storage_buffer(context, "stand-in texels", &texels),
-        ]
-    }
-
-    /// Runs `body` (a kernel `main` reading `inputs` at group 3 binding 3 and writing
-    /// `output_len` `O`s at binding 4) over `inputs`, with this scene's shading data uploaded
-    /// at group 2 and the stand-in scene at group 3.
+    /// Runs `body` (a kernel `main` reading `inputs` at group 3 binding 0 and writing
+    /// `output_len` `O`s at binding 1) over `inputs`, with this scene uploaded as the renderer
+    /// uploads it: its geometry and textures at group 1, its shading data at group 2.
     fn run<I: bytemuck::Pod, O: bytemuck::Pod>(
         &self,
         context: &GpuContext,
@@ -203,22 +160,19 @@ impl TestScene {
             seed,
         )
         .unwrap();
-        let [triangles, info, texels] = self.stand_in_buffers(context);
+        let scene = GpuScene::upload(context, &self.accel, &self.materials).unwrap();
         let inputs_buffer = storage_buffer(context, "inputs", inputs);
         let outputs = zeroed_buffer::<O>(context, "outputs", output_len);
         let test_group = Bindings::new(
             context,
-            "stand-in scene and test",
+            "test",
             &[
-                (&triangles, Access::ReadOnly),
-                (&info, Access::ReadOnly),
-                (&texels, Access::ReadOnly),
                 (&inputs_buffer, Access::ReadOnly),
                 (&outputs, Access::ReadWrite),
             ],
         );
         let empty = Bindings::new(context, "unused", &[]);
-        let source = format!("{RNG_WGSL}\n{STAND_IN_WGSL}\n{SHADE_WGSL}\n{body}");
+        let source = format!("{RNG_WGSL}\n{SCENE_WGSL}\n{SHADE_WGSL}\n{body}");
         let pipeline = kernel_with(
             context,
             "shading test",
@@ -226,7 +180,7 @@ impl TestScene {
             "main",
             &[
                 &empty.layout,
-                &empty.layout,
+                &scene.bindings.layout,
                 &shading.bindings.layout,
                 &test_group.layout,
             ],
@@ -237,7 +191,7 @@ impl TestScene {
             &pipeline,
             &[
                 &empty.group,
-                &empty.group,
+                &scene.bindings.group,
                 &shading.bindings.group,
                 &test_group.group,
             ],
@@ -468,8 +422,8 @@ struct PathInput {
 
 const PATH_KERNEL: &str = "
     struct PathInput { origin: vec4f, direction: vec4f, key: vec4u }
-    @group(3) @binding(3) var<storage, read> rays: array<PathInput>;
-    @group(3) @binding(4) var<storage, read_write> radiances: array<vec4f>;
+    @group(3) @binding(0) var<storage, read> rays: array<PathInput>;
+    @group(3) @binding(1) var<storage, read_write> radiances: array<vec4f>;
     @compute @workgroup_size(64) fn main(@builtin(global_invocation_id) id: vec3u) {
         let i = id.x;
         if i >= arrayLength(&rays) { return; }
@@ -587,8 +541,8 @@ struct BsdfCase {
 
 const BSDF_KERNEL: &str = "
     struct BsdfCase { material: vec4f, wo: vec4f, u: vec4f, wi: vec4f }
-    @group(3) @binding(3) var<storage, read> cases: array<BsdfCase>;
-    @group(3) @binding(4) var<storage, read_write> results: array<vec4f>;
+    @group(3) @binding(0) var<storage, read> cases: array<BsdfCase>;
+    @group(3) @binding(1) var<storage, read_write> results: array<vec4f>;
     @compute @workgroup_size(64) fn main(@builtin(global_invocation_id) id: vec3u) {
         let i = id.x;
         if i >= arrayLength(&cases) { return; }
@@ -640,7 +594,7 @@ fn bsdf_sample_eval_and_pdf_match_the_cpu() {
             });
         }
     }
-    // Any stand-in scene will do: the kernel reads none of it.
+    // Any scene will do: the kernel reads none of it.
     let scene = lit_room();
     let gpu: Vec<[f32; 4]> = scene.run(&context, 1, 0, BSDF_KERNEL, &cases, 3 * cases.len());
     let mut mismatches = Vec::new();
@@ -691,8 +645,8 @@ struct LightQuery {
 
 const LIGHT_KERNEL: &str = "
     struct LightQuery { position: vec4f, direction: vec4f }
-    @group(3) @binding(3) var<storage, read> queries: array<LightQuery>;
-    @group(3) @binding(4) var<storage, read_write> results: array<vec4f>;
+    @group(3) @binding(0) var<storage, read> queries: array<LightQuery>;
+    @group(3) @binding(1) var<storage, read_write> results: array<vec4f>;
     @compute @workgroup_size(64) fn main(@builtin(global_invocation_id) id: vec3u) {
         let i = id.x;
         if i >= arrayLength(&queries) { return; }
