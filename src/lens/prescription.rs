@@ -11,6 +11,7 @@ use std::path::{Path, PathBuf};
 
 use super::info::LensInfo;
 use super::shape::{Asphere, Profile};
+use super::spacing::{VariableSpacings, rows_at};
 use crate::glass::Glass;
 use crate::units::MAX_LENGTH_MM;
 
@@ -197,6 +198,8 @@ pub struct Prescription {
     pub info: LensInfo,
     /// Things worth telling the user that do not stop the lens from loading.
     pub warnings: Vec<String>,
+    /// The gaps that change with zoom and focus (empty for a lens with fixed spacings).
+    pub spacings: VariableSpacings,
 }
 
 /// A problem with a prescription file, located by line where it has one.
@@ -239,11 +242,58 @@ impl Prescription {
             rows,
             info: LensInfo::default(),
             warnings: Vec::new(),
+            spacings: VariableSpacings::default(),
         };
         prescription.check_rows()?;
         prescription.trim_touching_rims();
         prescription.check_overlaps()?;
         Ok(prescription)
+    }
+
+    /// The prescription with variable `spacings`, each zoom position (at infinity and at close
+    /// focus, for focus groups) validated as a lens of its own.
+    pub fn with_spacings(
+        mut self,
+        spacings: VariableSpacings,
+    ) -> Result<Prescription, PrescriptionError> {
+        let error = |message: String| PrescriptionError {
+            file: self.source.clone(),
+            line: None,
+            message,
+        };
+        spacings.check(&self.rows).map_err(error)?;
+        let positions: Vec<Option<usize>> = if spacings.zoom.is_empty() {
+            vec![None]
+        } else {
+            (0..spacings.zoom.len()).map(Some).collect()
+        };
+        let focus_distances: Vec<Option<f64>> = match &spacings.focus {
+            Some(groups) => vec![Some(f64::INFINITY), Some(groups.close_focus_m)],
+            None => vec![None],
+        };
+        for &position in &positions {
+            for &metres in &focus_distances {
+                let zoom = position.map(|i| &spacings.zoom[i]);
+                let focus = spacings.focus.as_ref().zip(metres);
+                let rows = rows_at(&self.rows, zoom, focus).map_err(error)?;
+                let at = match (position, metres) {
+                    (Some(i), Some(m)) if m.is_finite() => {
+                        format!("zoom position {} focused at {m} m", i + 1)
+                    }
+                    (Some(i), _) => format!("zoom position {}", i + 1),
+                    (None, Some(m)) if m.is_finite() => format!("focused at {m} m"),
+                    (None, _) => "focused at infinity".into(),
+                };
+                Prescription::from_rows(&self.name, &self.source, self.format, rows).map_err(
+                    |e| PrescriptionError {
+                        message: format!("{at}: {}", e.message),
+                        ..e
+                    },
+                )?;
+            }
+        }
+        self.spacings = spacings;
+        Ok(self)
     }
 
     /// Index of the aperture stop row.

@@ -5,6 +5,7 @@
 
 use std::path::Path;
 
+use super::configurations;
 use super::decode::number;
 use super::parse::{ZemaxSurface, ZemaxSystem};
 use crate::glass::{FRAUNHOFER_D_NM, Glass, catalogue};
@@ -15,6 +16,7 @@ use crate::lens::prescription::{
     LensFormat, Prescription, PrescriptionError, SurfaceBase, SurfaceRow,
 };
 use crate::lens::shape::{ASPHERIC_TERMS, Asphere};
+use crate::lens::spacing::VariableSpacings;
 
 /// Surface types realcam traces.
 const SUPPORTED_TYPES: [&str; 2] = ["STANDARD", "EVENASPH"];
@@ -69,6 +71,20 @@ pub(super) fn convert(
         conversion.fill_clear_apertures(&mut rows, &missing_aperture)?;
     }
     let mut prescription = conversion.validate(rows)?;
+    let configurations = configurations::zoom_positions(
+        system,
+        &prescription.rows,
+        prescription.stop_index(),
+        conversion.scale,
+    )
+    .map_err(|(line, m)| conversion.error(Some(line).filter(|&l| l > 0), m))?;
+    if !configurations.positions.is_empty() {
+        prescription = prescription.with_spacings(VariableSpacings {
+            zoom: configurations.positions,
+            focus: None,
+        })?;
+    }
+    prescription.warnings.extend(configurations.warnings);
     prescription.info = conversion.info();
     prescription
         .warnings
@@ -91,8 +107,7 @@ struct Conversion<'a> {
 }
 
 impl<'a> Conversion<'a> {
-    /// Refuses a file whose system realcam cannot read (not sequential, several
-    /// configurations, no lens surface).
+    /// Refuses a file whose system realcam cannot read (not sequential, no lens surface).
     fn new(
         system: &'a ZemaxSystem,
         surfaces: &'a [ZemaxSurface],
@@ -110,16 +125,6 @@ impl<'a> Conversion<'a> {
             return Err(error(
                 Some(*line),
                 format!("MODE {mode}: realcam reads sequential (MODE SEQ) lens files only"),
-            ));
-        }
-        if let Some((count, line)) = system.configurations
-            && count > 1
-        {
-            return Err(error(
-                Some(line),
-                format!(
-                    "MNUM {count}: a multi-configuration file (a zoom or focus series of {count} configurations); realcam reads single-configuration lenses: save one configuration on its own"
-                ),
             ));
         }
         if surfaces.len() < 3 {
