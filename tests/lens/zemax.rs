@@ -435,7 +435,11 @@ fn unrepresentable_zemax_files_are_refused_clearly() {
         }
     }
     let whole_file_cases = [
-        ("zoom", format!("MNUM 3 1\n{LENS}"), "multi-configuration"),
+        (
+            "zoom changing a curvature",
+            format!("{LENS}\nMNUM 2 1\nCRVT 1 1 0.02 0 0\nCRVT 1 2 0.03 0 0\n"),
+            "multi-configuration operand CRVT",
+        ),
         ("non-sequential", format!("MODE NSC\n{LENS}"), "sequential"),
         (
             "no stop size",
