@@ -24,6 +24,11 @@
 //! medium after the surface: a catalogue name, `{ n_d, v_d }`, `{ n = … }` for a fixed index,
 //! or absent for air. `diameter` is the clear aperture's full diameter. `aspheric` lists
 //! [A₂, A₄, …] (the coefficients of r², r⁴, …, in mm units).
+//!
+//! Optional `[zoom]` (`surfaces`, 1-based, and `positions`, each with `gaps` after those
+//! surfaces, optionally `focal_length_mm` and `stop_diameter`) and `[focus]` (`close_focus_m`,
+//! `surfaces`, and their gaps at `infinity` and at `close` focus) tables give a zoom lens's
+//! positions and a lens's focus groups (see [`crate::lens::spacing`]).
 
 use std::fmt::Write;
 use std::path::Path;
