@@ -345,6 +345,15 @@ type SpacingParts = (
     Option<Ref<'static, FocusSetting>>,
 );
 
+/// What the geometry of a lens root is derived from, besides its surfaces.
+type GeometryInputs = (
+    Entity,
+    &'static Lens,
+    Ref<'static, Children>,
+    Ref<'static, ApertureSetting>,
+    SpacingParts,
+);
+
 /// Builds the geometry of every lens whose surfaces (a row, an asphere, a glass, the stop's
 /// diaphragm: changed, added or taken away), aperture or variable spacings (zoom positions, the
 /// zoom setting, focus groups, and for a lens with groups the focus) changed.
@@ -352,13 +361,7 @@ type SpacingParts = (
 #[allow(clippy::too_many_arguments)]
 pub fn derive_geometry(
     mut commands: Commands,
-    lenses: Query<(
-        Entity,
-        &Lens,
-        Ref<Children>,
-        Ref<ApertureSetting>,
-        SpacingParts,
-    )>,
+    lenses: Query<GeometryInputs>,
     surfaces: Query<SurfaceParts>,
     mut removed_aspheres: RemovedComponents<SurfaceAsphere>,
     mut removed_glasses: RemovedComponents<SurfaceGlass>,

@@ -147,11 +147,12 @@ pub(super) fn parse(text: &str) -> Result<(ZemaxSystem, Vec<ZemaxSurface>), Pars
                 ))
             }
         };
-        if in_configurations && keyword != "SURF" {
-            if let Some(operand) = configuration_operand(keyword, args, line) {
-                system.operands.push(operand);
-                continue;
-            }
+        if in_configurations
+            && keyword != "SURF"
+            && let Some(operand) = configuration_operand(keyword, args, line)
+        {
+            system.operands.push(operand);
+            continue;
         }
         if keyword == "SURF" {
             in_configurations = false;
