@@ -292,7 +292,7 @@ impl LensReport {
             "vertex_span_mm": system.rear_z(),
             "film_distance_mm": self.film_distance,
             "focus_distance_m": match self.focus { FocusSetting::Distance { metres, .. } => json!(metres), FocusSetting::FilmDistance(_) => Value::Null },
-            "closest_focus_m": closest_focus_mm(system, fo) / 1000.0,
+            "closest_focus_m": self.prescription.spacings.closest_focus_mm(closest_focus_mm(system, fo)) / 1000.0,
             "film_diagonal_mm": self.film_diagonal,
             "field_of_view_deg": self.field_of_view_degrees(),
             "image_circle": self.image_circle().map(|(radius, angle)| json!({
@@ -383,7 +383,10 @@ impl LensReport {
             system.stop_diameter(),
             system.rear_z() + self.film_distance,
             self.film_distance,
-            closest_focus_mm(system, fo) / 1000.0,
+            self.prescription
+                .spacings
+                .closest_focus_mm(closest_focus_mm(system, fo))
+                / 1000.0,
             self.film_diagonal,
             self.pupil.segments.len(),
             self.pupil.rays_traced,
@@ -415,6 +418,18 @@ impl LensReport {
         }
         if self.wavelength_nm != FRAUNHOFER_D_NM {
             out += &format!("first-order data at {} nm\n", self.wavelength_nm);
+        }
+        for (i, position) in self.zoom_positions.iter().enumerate() {
+            out += &format!(
+                "{:<20}f {:.2} mm, f/{:.2}, {} diagonal (--zoom-position {})\n",
+                if i == 0 { "zoom positions" } else { "" },
+                position.focal_length_mm,
+                position.f_number,
+                position
+                    .field_of_view_deg
+                    .map_or("n/a".to_string(), |d| format!("{d:.1}°")),
+                i + 1
+            );
         }
         out += "\nz: lens frame, mm, origin at the front vertex, +z toward the film.\n";
         out

@@ -97,6 +97,14 @@ pub struct VariableSpacings {
 }
 
 impl VariableSpacings {
+    /// The closest focus distance (mm from the film) of a lens that focuses by moving groups,
+    /// else `unit_focus_mm`, the closest the whole lens moved away from the film reaches.
+    pub fn closest_focus_mm(&self, unit_focus_mm: f64) -> f64 {
+        self.focus
+            .as_ref()
+            .map_or(unit_focus_mm, |g| g.close_focus_m * 1000.0)
+    }
+
     /// True for a lens with fixed spacings.
     pub fn is_empty(&self) -> bool {
         self.zoom.is_empty() && self.focus.is_none()

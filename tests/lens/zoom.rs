@@ -287,6 +287,8 @@ fn a_focus_group_lens_puts_the_image_of_its_focus_distance_on_the_film() {
                 ..LensSettings::default()
             },
         );
+        // The lens's closest focus is its groups'.
+        assert_eq!(at.to_json()["closest_focus_m"], 0.5);
         // The gap, linear in 1/d between infinity (20) and 0.5 m (14).
         let gap = 20.0 + (14.0 - 20.0) * (0.5 / metres);
         let rows = &at.geometry.system.rows;
