@@ -47,8 +47,8 @@ positions = [
 const GAPS: [f64; 3] = [20.0, 50.0, 90.0];
 
 /// The same zoom as a Zemax multi-configuration file: an f-number per configuration (`APER`
-/// under `FNUM`), the stop sized by OpticStudio's rule, the image distance (`THIC 5`) per
-/// configuration too.
+/// under `FNUM`), the stop sized by OpticStudio's rule, the image distance (`THIC 5`) and the
+/// first surface's semi-diameter (`SDIA 1`) per configuration too, and the fields (ignored).
 const ZOOM_ZMX: &str = "VERS 190513 80 123457 L123457
 MODE SEQ
 UNIT MM X W X CM MR CPMM
@@ -99,6 +99,9 @@ THIC 2 3 90 0 0 0 1 1 1 0 0 \"\" 0
 THIC 5 1 40 0 0 0 1 1 1 0 0 \"\" 0
 THIC 5 2 35 0 0 0 1 1 1 0 0 \"\" 0
 THIC 5 3 30 0 0 0 1 1 1 0 0 \"\" 0
+SDIA 1 1 15 0 0 0 1 1 1 0 0 \"\" 0
+SDIA 1 2 15.5 0 0 0 1 1 1 0 0 \"\" 0
+SDIA 1 3 15.2 0 0 0 1 1 1 0 0 \"\" 0
 YFIE 2 1 10 0 0 0 1 1 1 0 0 \"\" 0
 YFIE 2 2 8 0 0 0 1 1 1 0 0 \"\" 0
 YFIE 2 3 5 0 0 0 1 1 1 0 0 \"\" 0
@@ -332,6 +335,9 @@ fn a_multi_configuration_file_is_a_zoom_and_round_trips_through_the_toml() {
     std::fs::write(&path, ZOOM_ZMX).unwrap();
     let zemax = Prescription::load(&path, None).unwrap();
     assert_eq!(zemax.spacings.zoom.len(), 3);
+    // A semi-diameter per configuration: the element is as wide as its widest.
+    assert_eq!(zemax.rows[0].base.aperture, 31.0);
+    assert_eq!(zemax.rows[1].base.aperture, 30.0);
     let all = report(&zemax, LensSettings::default());
     for (k, gap) in GAPS.into_iter().enumerate() {
         let position = &all.zoom_positions[k];
@@ -371,5 +377,5 @@ fn a_multi_configuration_file_is_a_zoom_and_round_trips_through_the_toml() {
         ZOOM_ZMX.to_string() + "CRVT 4 1 0.02 0 0\nCRVT 4 2 0.025 0 0\nCRVT 4 3 0.02 0 0\n";
     std::fs::write(&path, curvature).unwrap();
     let e = Prescription::load(&path, None).unwrap_err().to_string();
-    assert!(e.contains("CRVT") && e.contains("THIC and APER"), "{e}");
+    assert!(e.contains("CRVT") && e.contains("reads THIC, APER"), "{e}");
 }

@@ -70,21 +70,22 @@ pub(super) fn convert(
     if missing_aperture.iter().any(|&m| m) {
         conversion.fill_clear_apertures(&mut rows, &missing_aperture)?;
     }
+    let configurations = configurations::read(system, rows.len(), stop, conversion.scale)
+        .map_err(|(line, m)| conversion.error(Some(line), m))?;
+    if let Some(configurations) = &configurations {
+        configurations.widen(&mut rows, stop);
+    }
     let mut prescription = conversion.validate(rows)?;
-    let configurations = configurations::zoom_positions(
-        system,
-        &prescription.rows,
-        prescription.stop_index(),
-        conversion.scale,
-    )
-    .map_err(|(line, m)| conversion.error(Some(line).filter(|&l| l > 0), m))?;
-    if !configurations.positions.is_empty() {
+    if let Some(configurations) = configurations {
+        let (positions, warnings) = configurations
+            .zoom_positions(system, &prescription.rows, stop, conversion.scale)
+            .map_err(|m| conversion.error(system.configurations.map(|(_, line)| line), m))?;
         prescription = prescription.with_spacings(VariableSpacings {
-            zoom: configurations.positions,
+            zoom: positions,
             focus: None,
         })?;
+        prescription.warnings.extend(warnings);
     }
-    prescription.warnings.extend(configurations.warnings);
     prescription.info = conversion.info();
     prescription
         .warnings
