@@ -379,3 +379,85 @@ fn a_multi_configuration_file_is_a_zoom_and_round_trips_through_the_toml() {
     let e = Prescription::load(&path, None).unwrap_err().to_string();
     assert!(e.contains("CRVT") && e.contains("reads THIC, APER"), "{e}");
 }
+
+/// A real ray through spheres and planes in the meridional (y, z) plane, written out here
+/// independently of realcam's tracer: from `p` along unit `d`, the point on the last surface
+/// and the direction after it. Each surface: the sphere of curvature c about z = vertex + 1/c
+/// (the vertex-side intersection), the plane z = vertex for c = 0; vector Snell's law.
+fn real_ray(surfaces: &[Surface], mut p: [f64; 2], mut d: [f64; 2]) -> ([f64; 2], [f64; 2]) {
+    let (mut vertex, mut n) = (0.0, 1.0);
+    for &(c, t, n_after) in surfaces {
+        let (q, mut normal) = if c == 0.0 {
+            let s = (vertex - p[1]) / d[1];
+            ([p[0] + s * d[0], vertex], [0.0, -1.0])
+        } else {
+            let r = 1.0 / c;
+            let centre = vertex + r;
+            let (oy, oz) = (p[0], p[1] - centre);
+            let b = oy * d[0] + oz * d[1];
+            let s = -b - r.signum() * (b * b - (oy * oy + oz * oz - r * r)).sqrt();
+            let q = [p[0] + s * d[0], p[1] + s * d[1]];
+            (q, [q[0] / r, (q[1] - centre) / r])
+        };
+        if normal[0] * d[0] + normal[1] * d[1] > 0.0 {
+            normal = [-normal[0], -normal[1]];
+        }
+        let mu = n / n_after;
+        let cos_i = -(normal[0] * d[0] + normal[1] * d[1]);
+        let cos_t = (1.0 - mu * mu * (1.0 - cos_i * cos_i)).sqrt();
+        d = [
+            mu * d[0] + (mu * cos_i - cos_t) * normal[0],
+            mu * d[1] + (mu * cos_i - cos_t) * normal[1],
+        ];
+        p = q;
+        vertex += t;
+        n = n_after;
+    }
+    (p, d)
+}
+
+/// Real rays through each zoom position, as realcam traces the position's geometry, land where
+/// the independent trace of that position's gaps puts them.
+#[test]
+fn real_rays_through_each_zoom_position_follow_its_gaps() {
+    use realcam::lens::trace::{Ray, Travel, trace};
+    let lens = zoom();
+    let oblique = {
+        let norm = (0.03f64 * 0.03 + 1.0).sqrt();
+        ([-0.6, -20.0], [0.03 / norm, 1.0 / norm])
+    };
+    for (k, gap) in GAPS.into_iter().enumerate() {
+        let at = report(
+            &lens,
+            LensSettings {
+                zoom_position: Some(k + 1),
+                ..LensSettings::default()
+            },
+        );
+        for (p, d) in [
+            ([2.0, -10.0], [0.0, 1.0]),
+            ([3.0, -10.0], [0.0, 1.0]),
+            oblique,
+        ] {
+            let (point, direction) = real_ray(&zoom_surfaces(gap), p, d);
+            let out = trace(
+                &at.geometry.system.f64s,
+                Ray {
+                    origin: [0.0, p[0], p[1]],
+                    direction: [0.0, d[0], d[1]],
+                },
+                Travel::SceneToFilm,
+            )
+            .unwrap_or_else(|e| panic!("position {}: blocked {e:?}", k + 1));
+            for (got, expected) in [(out.origin, point), (out.direction, direction)] {
+                assert!(
+                    got[0].abs() < 1e-12
+                        && (got[1] - expected[0]).abs() < 1e-9
+                        && (got[2] - expected[1]).abs() < 1e-9,
+                    "position {}: {got:?} vs {expected:?}",
+                    k + 1
+                );
+            }
+        }
+    }
+}
