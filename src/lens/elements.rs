@@ -7,7 +7,7 @@
 //!
 //! | step | writes | reruns when |
 //! |---|---|---|
-//! | [`derive_geometry`] | [`LensGeometry`] (packed surfaces, first-order data) | a surface or the aperture changes |
+//! | [`derive_geometry`] | [`LensGeometry`] (packed surfaces, first-order data) | a surface, the aperture, the zoom positions or setting, or the focus groups change (for a lens with focus groups, the focus too: see [`super::spacing`]) |
 //! | [`place_film`] | [`FilmPlacement`] (film distance) | the geometry or the focus changes |
 //! | [`focus_on_pixel`](super::focus_probe::focus_on_pixel) | [`FilmPlacement`], [`FocusProbe`] for a lens with [`FocusOnPixel`] | the geometry, focus target, movements, camera, film or scene changes |
 //! | [`bound_exit_pupil`] | [`ExitPupil`] bounds | the placement, the [`FilmMovements`] or the [`FilmFormat`] changes |
