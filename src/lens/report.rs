@@ -50,6 +50,9 @@ pub struct ZoomPositionReport {
     /// Diagonal field of view on the report's film (real chief rays); `None` where no chief
     /// ray reaches the film's corner.
     pub field_of_view_deg: Option<f64>,
+    /// The closest focus distance, metres from the film (the focus groups' where the lens has
+    /// them, else moving the whole lens).
+    pub close_focus_m: f64,
 }
 
 /// The first-order data of every zoom position of `prescription`, derived as
@@ -78,6 +81,10 @@ fn zoom_position_reports(
             f_number: geometry.first_order.f_number,
             field_of_view_deg: field_angle(&geometry.system, film_distance, film_diagonal / 2.0)
                 .map(|a| 2.0 * a.to_degrees()),
+            close_focus_m: prescription
+                .spacings
+                .closest_focus_mm(closest_focus_mm(&geometry.system, &geometry.first_order))
+                / 1000.0,
         });
     }
     Ok(reports)

@@ -22,6 +22,7 @@ use realcam::lens::elements::{
 use realcam::lens::io::toml::write_lens_file;
 use realcam::lens::report::LensReport;
 use realcam::lens::settings::LensSettings;
+use serde_json::json;
 
 /// The test zoom as realcam's `.toml`; the stop opens 10, 9 and 8 mm at the three positions.
 const ZOOM_TOML: &str = r#"
@@ -187,6 +188,10 @@ fn each_zoom_position_has_the_focal_length_of_its_gaps() {
         assert_eq!(
             all.zoom_positions[k].field_of_view_deg,
             at.field_of_view_degrees()
+        );
+        assert_eq!(
+            json!(all.zoom_positions[k].close_focus_m),
+            at.to_json()["closest_focus_m"]
         );
     }
     // The focal length grows as the groups part, as f₁f₂/(f₁ + f₂ − d) says of thin groups
