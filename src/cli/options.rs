@@ -5,7 +5,7 @@ use std::path::PathBuf;
 
 use clap::Args;
 
-use super::values::{number, whole};
+use super::values::{number, whole, whole_within};
 
 use crate::lens::LensFormat;
 use crate::lens::focus::FocusMode;
@@ -74,7 +74,14 @@ pub struct LensOptions {
     /// several glasses.
     #[arg(long, value_name = "NAME=GLASS", allow_hyphen_values = true)]
     pub glass: Vec<GlassSubstitute>,
+    /// A zoom lens's zoom position N, 1-based as Zemax numbers its configurations
+    /// [default: the lens as its surfaces are written].
+    #[arg(long, value_name = "N", allow_hyphen_values = true, value_parser = whole_within::<usize>(1, MAX_ZOOM_POSITIONS))]
+    pub zoom_position: Option<usize>,
 }
+
+/// The most zoom positions `--zoom-position` counts to (Zemax's configurations are far fewer).
+const MAX_ZOOM_POSITIONS: i128 = 1000;
 
 impl LensOptions {
     /// The settings these options give.
@@ -93,6 +100,7 @@ impl LensOptions {
             blade_curvature,
             aperture_image,
             glass,
+            zoom_position,
         } = self.clone();
         LensSettings {
             focus_distance,
@@ -108,6 +116,7 @@ impl LensOptions {
             blade_curvature,
             aperture_image,
             glasses: glass,
+            zoom_position,
         }
     }
 }

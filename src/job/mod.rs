@@ -171,6 +171,7 @@ impl<'a> Job<'a> {
                     lens.insert(FocusOnPixel { x, y });
                 }
                 renderer.set_diaphragm(entity, diaphragm.clone());
+                renderer.set_zoom_position(entity, spec.lens.zoom_setting());
                 RunLens {
                     film_diagonal: film_diagonal(&prescription),
                     prescription,

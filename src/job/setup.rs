@@ -176,7 +176,11 @@ pub fn frame_scene(
     let half_field = ((film_diagonal / (2.0 * 2f64.sqrt())) / efl).atan();
     let radius = (bounds.diagonal() / 2.0) as f64;
     let fit = radius / half_field.sin() * 1.05;
-    let closest = closest_focus_mm(&geometry.system, &geometry.first_order) / 1000.0 * 1.02;
+    let closest = prescription
+        .spacings
+        .closest_focus_mm(closest_focus_mm(&geometry.system, &geometry.first_order))
+        / 1000.0
+        * 1.02;
     if fit < closest {
         eprintln!(
             "note: the scene ({:.3} m across) is smaller than {} can fill the frame with; it will look small (closest focus {:.3} m)",
@@ -204,7 +208,9 @@ pub fn within_focus_range(prescription: &Prescription, focus: FocusSetting) -> F
     let Ok(geometry) = build_geometry(&lens, &prescription.rows, ApertureSetting::Full) else {
         return focus;
     };
-    let closest_mm = closest_focus_mm(&geometry.system, &geometry.first_order);
+    let closest_mm = prescription
+        .spacings
+        .closest_focus_mm(closest_focus_mm(&geometry.system, &geometry.first_order));
     if metres * 1000.0 >= closest_mm {
         return focus;
     }

@@ -7,7 +7,7 @@
 //!
 //! | step | writes | reruns when |
 //! |---|---|---|
-//! | [`derive_geometry`] | [`LensGeometry`] (packed surfaces, first-order data) | a surface or the aperture changes |
+//! | [`derive_geometry`] | [`LensGeometry`] (packed surfaces, first-order data) | a surface, the aperture, the zoom positions or setting, or the focus groups change (for a lens with focus groups, the focus too: see [`super::spacing`]) |
 //! | [`place_film`] | [`FilmPlacement`] (film distance) | the geometry or the focus changes |
 //! | [`focus_on_pixel`](super::focus_probe::focus_on_pixel) | [`FilmPlacement`], [`FocusProbe`] for a lens with [`FocusOnPixel`] | the geometry, focus target, movements, camera, film or scene changes |
 //! | [`bound_exit_pupil`] | [`ExitPupil`] bounds | the placement, the [`FilmMovements`] or the [`FilmFormat`] changes |
@@ -42,6 +42,7 @@ use super::movements::FilmMovements;
 use super::prescription::{LensFormat, Prescription, SurfaceBase, SurfaceRow};
 use super::pupil::{ExitPupil, PupilSampling};
 use super::shape::Asphere;
+use super::spacing::{FocusGroups, ZoomPositions, ZoomSetting, rows_at};
 use super::system::LensSystem;
 use crate::glass::Glass;
 
@@ -241,6 +242,12 @@ pub fn spawn_lens(
 ) -> Entity {
     let lens = Lens::of(prescription);
     let mut entity = world.spawn((lens, focus, aperture));
+    if !prescription.spacings.zoom.is_empty() {
+        entity.insert(ZoomPositions(prescription.spacings.zoom.clone()));
+    }
+    if let Some(groups) = &prescription.spacings.focus {
+        entity.insert(groups.clone());
+    }
     entity.with_children(|children| {
         for (order, row) in prescription.rows.iter().enumerate() {
             let mut surface = children.spawn(LensSurface {
@@ -294,6 +301,21 @@ pub fn set_diaphragm(world: &mut World, lens: Entity, diaphragm: Option<Diaphrag
     true
 }
 
+/// Sets the zoom position `lens` renders at (0-based; `None`: as its rows give it), touching
+/// the component only when it changes.
+pub fn set_zoom_position(world: &mut World, lens: Entity, position: Option<usize>) {
+    let mut entity = world.entity_mut(lens);
+    match position {
+        Some(p) if entity.get::<ZoomSetting>() != Some(&ZoomSetting(p)) => {
+            entity.insert(ZoomSetting(p));
+        }
+        None if entity.contains::<ZoomSetting>() => {
+            entity.remove::<ZoomSetting>();
+        }
+        _ => {}
+    }
+}
+
 /// Makes `lens` the only [`ActiveLens`].
 pub fn activate_lens(world: &mut World, lens: Entity) {
     let active: Vec<Entity> = world
@@ -314,17 +336,39 @@ type SurfaceParts = (
     Option<Ref<'static, Diaphragm>>,
 );
 
+/// A lens root's variable spacings, each with its change ticks: the positions, the chosen
+/// one, the focus groups and the focus they follow.
+type SpacingParts = (
+    Option<Ref<'static, ZoomPositions>>,
+    Option<Ref<'static, ZoomSetting>>,
+    Option<Ref<'static, FocusGroups>>,
+    Option<Ref<'static, FocusSetting>>,
+);
+
+/// What the geometry of a lens root is derived from, besides its surfaces.
+type GeometryInputs = (
+    Entity,
+    &'static Lens,
+    Ref<'static, Children>,
+    Ref<'static, ApertureSetting>,
+    SpacingParts,
+);
+
 /// Builds the geometry of every lens whose surfaces (a row, an asphere, a glass, the stop's
-/// diaphragm: changed, added or taken away) or aperture changed.
+/// diaphragm: changed, added or taken away), aperture or variable spacings (zoom positions, the
+/// zoom setting, focus groups, and for a lens with groups the focus) changed.
 // A system's parameters are its explicit queries and resources (bevy style), not a bundle.
 #[allow(clippy::too_many_arguments)]
 pub fn derive_geometry(
     mut commands: Commands,
-    lenses: Query<(Entity, &Lens, Ref<Children>, Ref<ApertureSetting>)>,
+    lenses: Query<GeometryInputs>,
     surfaces: Query<SurfaceParts>,
     mut removed_aspheres: RemovedComponents<SurfaceAsphere>,
     mut removed_glasses: RemovedComponents<SurfaceGlass>,
     mut removed_diaphragms: RemovedComponents<Diaphragm>,
+    mut removed_zoom: RemovedComponents<ZoomSetting>,
+    mut removed_spacings: RemovedComponents<ZoomPositions>,
+    mut removed_groups: RemovedComponents<FocusGroups>,
     mut stats: ResMut<LensDerivationStats>,
 ) {
     let removed: Vec<Entity> = removed_aspheres
@@ -332,7 +376,17 @@ pub fn derive_geometry(
         .chain(removed_glasses.read())
         .chain(removed_diaphragms.read())
         .collect();
-    for (entity, lens, children, aperture) in &lenses {
+    let respaced: Vec<Entity> = removed_zoom
+        .read()
+        .chain(removed_spacings.read())
+        .chain(removed_groups.read())
+        .collect();
+    for (entity, lens, children, aperture, (positions, zoom, groups, focus)) in &lenses {
+        let spacing_changed = respaced.contains(&entity)
+            || positions.as_ref().is_some_and(|p| p.is_changed())
+            || zoom.as_ref().is_some_and(|z| z.is_changed())
+            || groups.as_ref().is_some_and(|g| g.is_changed())
+            || (groups.is_some() && focus.as_ref().is_some_and(|f| f.is_changed()));
         let surface_changed = children.iter().any(|c| {
             removed.contains(c)
                 || surfaces.get(*c).is_ok_and(|(s, a, g, d)| {
@@ -342,7 +396,7 @@ pub fn derive_geometry(
                         || d.is_some_and(|d| d.is_changed())
                 })
         });
-        if !(children.is_changed() || aperture.is_changed() || surface_changed) {
+        if !(children.is_changed() || aperture.is_changed() || surface_changed || spacing_changed) {
             continue;
         }
         let start = Instant::now();
@@ -357,7 +411,17 @@ pub fn derive_geometry(
         parts.sort_by_key(|(order, _, _)| *order);
         let diaphragm = parts.iter().find_map(|(_, _, d)| *d);
         let rows: Vec<SurfaceRow> = parts.into_iter().map(|(_, row, _)| row).collect();
-        match build_geometry_with(lens, &rows, *aperture, diaphragm) {
+        let spaced = spaced_rows(
+            &rows,
+            positions.as_deref(),
+            zoom.as_deref(),
+            groups.as_deref(),
+            focus.as_deref(),
+        );
+        let built = spaced
+            .map_err(|e| format!("{}: {e}", lens.source.display()))
+            .and_then(|rows| build_geometry_with(lens, &rows, *aperture, diaphragm));
+        match built {
             Ok(geometry) => {
                 commands
                     .entity(entity)
@@ -374,6 +438,44 @@ pub fn derive_geometry(
         stats.geometry_runs += 1;
         stats.total_time += start.elapsed();
     }
+}
+
+/// `rows` at the chosen zoom position, with the focus groups where `focus` puts them (at
+/// infinity for a film distance set directly): the rows themselves for a lens without
+/// variable spacings.
+fn spaced_rows(
+    rows: &[SurfaceRow],
+    positions: Option<&ZoomPositions>,
+    zoom: Option<&ZoomSetting>,
+    groups: Option<&FocusGroups>,
+    focus: Option<&FocusSetting>,
+) -> Result<Vec<SurfaceRow>, String> {
+    if positions.is_none() && zoom.is_none() && groups.is_none() {
+        return Ok(rows.to_vec());
+    }
+    let position = match (positions, zoom) {
+        (_, None) => None,
+        (Some(ZoomPositions(list)), Some(&ZoomSetting(i))) if i < list.len() => Some(&list[i]),
+        (Some(ZoomPositions(list)), Some(&ZoomSetting(i))) => {
+            return Err(format!(
+                "zoom position {}: the lens has {} (1 to {})",
+                i + 1,
+                list.len(),
+                list.len()
+            ));
+        }
+        (None, Some(&ZoomSetting(i))) => {
+            return Err(format!(
+                "zoom position {}: this lens has fixed spacings, no zoom positions",
+                i + 1
+            ));
+        }
+    };
+    let metres = match focus {
+        Some(FocusSetting::Distance { metres, .. }) => *metres,
+        _ => f64::INFINITY,
+    };
+    rows_at(rows, position, groups.map(|g| (g, metres)))
 }
 
 /// Re-validates `rows` (an edit may have broken them), sizes the stop, computes first-order data.

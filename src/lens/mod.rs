@@ -40,6 +40,7 @@ pub mod ray;
 pub mod report;
 pub mod settings;
 pub mod shape;
+pub mod spacing;
 pub mod system;
 pub mod trace;
 pub mod trace_batch;

@@ -11,6 +11,7 @@ use std::path::{Path, PathBuf};
 
 use super::info::LensInfo;
 use super::shape::{Asphere, Profile};
+use super::spacing::{VariableSpacings, rows_at};
 use crate::glass::Glass;
 use crate::units::MAX_LENGTH_MM;
 
@@ -197,6 +198,8 @@ pub struct Prescription {
     pub info: LensInfo,
     /// Things worth telling the user that do not stop the lens from loading.
     pub warnings: Vec<String>,
+    /// The gaps that change with zoom and focus (empty for a lens with fixed spacings).
+    pub spacings: VariableSpacings,
 }
 
 /// A problem with a prescription file, located by line where it has one.
@@ -232,16 +235,65 @@ impl Prescription {
                 message: "no surfaces".into(),
             });
         }
-        let prescription = Prescription {
+        let mut prescription = Prescription {
             name: name.to_string(),
             source: source.to_path_buf(),
             format,
             rows,
             info: LensInfo::default(),
             warnings: Vec::new(),
+            spacings: VariableSpacings::default(),
         };
-        prescription.validate()?;
+        prescription.check_rows()?;
+        prescription.trim_touching_rims();
+        prescription.check_overlaps()?;
         Ok(prescription)
+    }
+
+    /// The prescription with variable `spacings`, each zoom position (at infinity and at close
+    /// focus, for focus groups) validated as a lens of its own.
+    pub fn with_spacings(
+        mut self,
+        spacings: VariableSpacings,
+    ) -> Result<Prescription, PrescriptionError> {
+        let error = |message: String| PrescriptionError {
+            file: self.source.clone(),
+            line: None,
+            message,
+        };
+        spacings.check(&self.rows).map_err(error)?;
+        let positions: Vec<Option<usize>> = if spacings.zoom.is_empty() {
+            vec![None]
+        } else {
+            (0..spacings.zoom.len()).map(Some).collect()
+        };
+        let focus_distances: Vec<Option<f64>> = match &spacings.focus {
+            Some(groups) => vec![Some(f64::INFINITY), Some(groups.close_focus_m)],
+            None => vec![None],
+        };
+        for &position in &positions {
+            for &metres in &focus_distances {
+                let zoom = position.map(|i| &spacings.zoom[i]);
+                let focus = spacings.focus.as_ref().zip(metres);
+                let rows = rows_at(&self.rows, zoom, focus).map_err(error)?;
+                let at = match (position, metres) {
+                    (Some(i), Some(m)) if m.is_finite() => {
+                        format!("zoom position {} focused at {m} m", i + 1)
+                    }
+                    (Some(i), _) => format!("zoom position {}", i + 1),
+                    (None, Some(m)) if m.is_finite() => format!("focused at {m} m"),
+                    (None, _) => "focused at infinity".into(),
+                };
+                Prescription::from_rows(&self.name, &self.source, self.format, rows).map_err(
+                    |e| PrescriptionError {
+                        message: format!("{at}: {}", e.message),
+                        ..e
+                    },
+                )?;
+            }
+        }
+        self.spacings = spacings;
+        Ok(self)
     }
 
     /// Index of the aperture stop row.
@@ -257,7 +309,8 @@ impl Prescription {
             .sum()
     }
 
-    fn validate(&self) -> Result<(), PrescriptionError> {
+    /// Each row on its own, and the stops: everything [`Self::check_overlaps`] does not check.
+    fn check_rows(&self) -> Result<(), PrescriptionError> {
         let error = |line: usize, message: String| PrescriptionError {
             file: self.source.clone(),
             line: (line > 0).then_some(line),
@@ -343,7 +396,51 @@ impl Prescription {
                     .into(),
             ));
         }
-        self.check_overlaps()
+        Ok(())
+    }
+
+    /// Neighbouring surfaces whose clear apertures reach a little past the circle where they
+    /// meet (a designer's rounded semi-diameters, an element whose edge is where its two
+    /// surfaces meet): both apertures are reduced to that circle, as the real element's edge
+    /// is, with a warning. Only when the circle lies within [`TOUCHING_RIM_TOLERANCE`] of the
+    /// smaller aperture's rim; a crossing further in is left for [`Self::check_overlaps`] to
+    /// refuse (a wrong thickness or layout, not a rounded aperture).
+    fn trim_touching_rims(&mut self) {
+        for i in 0..self.rows.len().saturating_sub(1) {
+            let (front, back) = (&self.rows[i], &self.rows[i + 1]);
+            let semi = front.base.aperture.min(back.base.aperture) / 2.0;
+            let Some(meet) = meeting_height(front, back, semi) else {
+                continue;
+            };
+            if meet < semi * (1.0 - TOUCHING_RIM_TOLERANCE) {
+                continue;
+            }
+            // A diameter rounded down to a micrometre, so the surfaces do not cross inside it.
+            let diameter = (2.0 * meet * 1000.0).floor() / 1000.0;
+            if diameter < MIN_APERTURE_MM {
+                continue;
+            }
+            let what = if front.base.index > 1.0 {
+                "glass"
+            } else {
+                "air gap"
+            };
+            let gap = gap_at(front, back, semi);
+            for row in [i, i + 1] {
+                let base = &mut self.rows[row].base;
+                if base.aperture > diameter {
+                    self.warnings.push(format!(
+                        "{}surface {} meets surface {} {meet:.3} mm from the axis, inside the clear apertures the file gives (the {what} between them would be {gap:.4} mm thick at ⌀{:.3} mm): its clear aperture ⌀{:.3} mm is reduced to ⌀{diameter} mm, where the surfaces meet",
+                        line_prefix(base.line),
+                        row + 1,
+                        if row == i { i + 2 } else { i + 1 },
+                        2.0 * semi,
+                        base.aperture,
+                    ));
+                    base.aperture = diameter;
+                }
+            }
+        }
     }
 
     /// Neighbouring surfaces must not cross inside their common clear aperture: a lens whose
@@ -351,13 +448,12 @@ impl Prescription {
     /// would send rays backwards.
     fn check_overlaps(&self) -> Result<(), PrescriptionError> {
         const SAMPLES: usize = 64;
-        const TOLERANCE_MM: f64 = 1e-6;
         for pair in self.rows.windows(2) {
             let (front, back) = (&pair[0], &pair[1]);
             let semi = front.base.aperture.min(back.base.aperture) / 2.0;
             for k in 0..=SAMPLES {
                 let h = semi * k as f64 / SAMPLES as f64;
-                let gap = front.base.thickness + sag(back, h) - sag(front, h);
+                let gap = gap_at(front, back, h);
                 if gap < -TOLERANCE_MM {
                     return Err(PrescriptionError {
                         file: self.source.clone(),
@@ -382,6 +478,61 @@ impl Prescription {
             }
         }
         Ok(())
+    }
+}
+
+/// Surfaces closer than this (mm) anywhere inside their clear apertures cross: a micrometre's
+/// overlap is rounding in a file, not glass through glass.
+const TOLERANCE_MM: f64 = 1e-6;
+
+/// How far inside the smaller clear aperture's rim (a fraction of its semi-diameter) two
+/// neighbouring surfaces may meet for the apertures to be reduced to where they meet, with a
+/// warning, rather than the lens refused: a tenth. A designer's semi-diameters, rounded up or
+/// left at a ray trace's value, reach a little past an element's edge (Canon's EF 35 mm f/2 as
+/// DeepLens gives it: surfaces 8 and 9 meet 9.538 mm from the axis, 8.7 % inside the smaller
+/// of its file's semi-apertures, 10.444 mm); a crossing further in is a wrong thickness, not an edge.
+pub const TOUCHING_RIM_TOLERANCE: f64 = 0.1;
+
+/// Axial thickness (mm) of the glass or air between `front` and `back` at height `h`.
+fn gap_at(front: &SurfaceRow, back: &SurfaceRow, h: f64) -> f64 {
+    front.base.thickness + sag(back, h) - sag(front, h)
+}
+
+/// The height at which `back` first comes closer to `front` than [`TOLERANCE_MM`] (they meet),
+/// searched up to `semi`; `None` when they stay apart that far. Sampled as
+/// [`Prescription::check_overlaps`] samples, then bisected to 1e-9 mm.
+fn meeting_height(front: &SurfaceRow, back: &SurfaceRow, semi: f64) -> Option<f64> {
+    const SAMPLES: usize = 2048;
+    let crosses = |h: f64| gap_at(front, back, h) < 0.0;
+    if crosses(0.0) {
+        return Some(0.0);
+    }
+    let mut previous = 0.0;
+    for k in 1..=SAMPLES {
+        let h = semi * k as f64 / SAMPLES as f64;
+        if crosses(h) {
+            let (mut lo, mut hi) = (previous, h);
+            while hi - lo > 1e-9 {
+                let mid = 0.5 * (lo + hi);
+                if crosses(mid) {
+                    hi = mid;
+                } else {
+                    lo = mid;
+                }
+            }
+            return (gap_at(front, back, semi) < -TOLERANCE_MM).then_some(lo);
+        }
+        previous = h;
+    }
+    None
+}
+
+/// `"line N: "` for a row read from a file, nothing for one made in code.
+fn line_prefix(line: usize) -> String {
+    if line > 0 {
+        format!("line {line}: ")
+    } else {
+        String::new()
     }
 }
 
@@ -441,5 +592,74 @@ mod tests {
         let h: f64 = 10.0;
         let expected = -(40.0 - (40.0f64 * 40.0 - h * h).sqrt());
         assert!((sag(&row, h) - expected).abs() < 1e-12);
+    }
+
+    /// A biconvex element of radii ±50 mm, 2 mm thick at the axis: its sags, 50 − √(2500 − h²)
+    /// each, close the 2 mm where √(2500 − h²) = 49, at h = √99 = 9.94987 mm. Then a stop and
+    /// a rear element.
+    fn biconvex(diameter: f64) -> Vec<SurfaceRow> {
+        vec![
+            SurfaceRow::new(50.0, 2.0, 1.5, diameter),
+            SurfaceRow::new(-50.0, 5.0, 1.0, diameter),
+            SurfaceRow::new(0.0, 5.0, 1.0, 8.0),
+            SurfaceRow::new(100.0, 3.0, 1.5, 20.0),
+            SurfaceRow::new(-100.0, 0.0, 1.0, 20.0),
+        ]
+    }
+
+    #[test]
+    fn apertures_a_little_past_where_the_surfaces_meet_are_reduced_to_it() {
+        let meet = 99f64.sqrt();
+        // 20.8 mm: the element's edge (⌀19.8997) lies 4.3 % inside the file's semi-aperture.
+        let lens = Prescription::from_rows(
+            "t",
+            Path::new("t.dat"),
+            LensFormat::ThicknessAfter,
+            biconvex(20.8),
+        )
+        .expect("a hair's overlap loads");
+        let expected = (2.0 * meet * 1000.0).floor() / 1000.0;
+        assert_eq!(expected, 19.899);
+        assert_eq!(lens.rows[0].base.aperture, expected);
+        assert_eq!(lens.rows[1].base.aperture, expected);
+        assert_eq!(
+            lens.rows[3].base.aperture, 20.0,
+            "the rear element is untouched"
+        );
+        assert_eq!(lens.warnings.len(), 2, "{:?}", lens.warnings);
+        for warning in &lens.warnings {
+            assert!(warning.contains("9.950 mm from the axis"), "{warning}");
+            assert!(warning.contains("reduced to ⌀19.899 mm"), "{warning}");
+        }
+        // The glass is still (just) there at the new rim.
+        let rim = expected / 2.0;
+        assert!(gap_at(&lens.rows[0], &lens.rows[1], rim) >= 0.0);
+        assert!(gap_at(&lens.rows[0], &lens.rows[1], rim) < 1e-3);
+    }
+
+    #[test]
+    fn apertures_well_past_where_the_surfaces_meet_are_refused() {
+        // ⌀24: the surfaces meet 17 % inside the rim, beyond the 10 % tolerance.
+        let error = Prescription::from_rows(
+            "t",
+            Path::new("t.dat"),
+            LensFormat::ThicknessAfter,
+            biconvex(24.0),
+        )
+        .unwrap_err();
+        assert!(
+            error.message.contains("crosses the one before it"),
+            "{error}"
+        );
+        // ⌀19.8: inside the edge, nothing to change.
+        let lens = Prescription::from_rows(
+            "t",
+            Path::new("t.dat"),
+            LensFormat::ThicknessAfter,
+            biconvex(19.8),
+        )
+        .unwrap();
+        assert!(lens.warnings.is_empty());
+        assert_eq!(lens.rows[0].base.aperture, 19.8);
     }
 }

@@ -13,14 +13,16 @@ use crate::lens::aperture::ApertureSetting;
 use crate::lens::camera::FilmResolution;
 use crate::lens::chromatic::{LATERAL_FIELD, axial_colour, lateral_colour};
 use crate::lens::elements::{
-    FilmFormat, FilmPlacement, FocusSetting, LensDerivationStats, LensFault, LensGeometry,
-    activate_lens, add_lens_systems, set_diaphragm, spawn_lens,
+    FilmFormat, FilmPlacement, FocusSetting, Lens, LensDerivationStats, LensFault, LensGeometry,
+    activate_lens, add_lens_systems, build_geometry, film_distance_for, set_diaphragm,
+    set_zoom_position, spawn_lens,
 };
 use crate::lens::field::{field_angle, field_edge};
 use crate::lens::first_order::FirstOrder;
 use crate::lens::focus::{closest_focus_mm, paraxial_focus_distance};
 use crate::lens::pupil::ExitPupil;
 use crate::lens::settings::LensSettings;
+use crate::lens::spacing::rows_at;
 use crate::lens::{Prescription, SurfaceKind};
 
 /// Everything `realcam lens` reports, derived through the same entities and systems the
@@ -35,6 +37,57 @@ pub struct LensReport {
     pub focus: FocusSetting,
     pub pupil: ExitPupil,
     pub pupil_seconds: f64,
+    /// A zoom lens's first-order data at each of its positions (empty for a fixed lens).
+    pub zoom_positions: Vec<ZoomPositionReport>,
+}
+
+/// What `realcam lens --json` says of one zoom position: the lens at that position, focused
+/// and stopped as the report's settings say, at the d line.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct ZoomPositionReport {
+    pub focal_length_mm: f64,
+    pub f_number: f64,
+    /// Diagonal field of view on the report's film (real chief rays); `None` where no chief
+    /// ray reaches the film's corner.
+    pub field_of_view_deg: Option<f64>,
+    /// The closest focus distance, metres from the film (the focus groups' where the lens has
+    /// them, else moving the whole lens).
+    pub close_focus_m: f64,
+}
+
+/// The first-order data of every zoom position of `prescription`, derived as
+/// [`derive_geometry`](crate::lens::elements::derive_geometry) and
+/// [`place_film`](crate::lens::elements::place_film) derive the rendered one.
+fn zoom_position_reports(
+    prescription: &Prescription,
+    focus: FocusSetting,
+    aperture: ApertureSetting,
+    film_diagonal: f64,
+) -> anyhow::Result<Vec<ZoomPositionReport>> {
+    let lens = Lens::of(prescription);
+    let metres = match focus {
+        FocusSetting::Distance { metres, .. } => metres,
+        FocusSetting::FilmDistance(_) => f64::INFINITY,
+    };
+    let groups = prescription.spacings.focus.as_ref().map(|g| (g, metres));
+    let mut reports = Vec::new();
+    for (i, position) in prescription.spacings.zoom.iter().enumerate() {
+        let at = |e: String| anyhow::anyhow!("zoom position {}: {e}", i + 1);
+        let rows = rows_at(&prescription.rows, Some(position), groups).map_err(at)?;
+        let geometry = build_geometry(&lens, &rows, aperture).map_err(at)?;
+        let film_distance = film_distance_for(&geometry, focus).map_err(at)?;
+        reports.push(ZoomPositionReport {
+            focal_length_mm: geometry.first_order.focal_length,
+            f_number: geometry.first_order.f_number,
+            field_of_view_deg: field_angle(&geometry.system, film_distance, film_diagonal / 2.0)
+                .map(|a| 2.0 * a.to_degrees()),
+            close_focus_m: prescription
+                .spacings
+                .closest_focus_mm(closest_focus_mm(&geometry.system, &geometry.first_order))
+                / 1000.0,
+        });
+    }
+    Ok(reports)
 }
 
 impl LensReport {
@@ -45,6 +98,12 @@ impl LensReport {
         options.validate()?;
         let focus = options.focus(FocusSetting::default());
         let film_diagonal = options.film_diagonal_for(&prescription, None);
+        let zoom_positions = zoom_position_reports(
+            &prescription,
+            focus,
+            options.aperture(ApertureSetting::Full),
+            film_diagonal,
+        )?;
         // The lens's own derivation systems on a world of its own: the report needs no scene.
         let mut world = World::new();
         world.init_resource::<LensDerivationStats>();
@@ -65,6 +124,7 @@ impl LensReport {
             options.aperture(ApertureSetting::Full),
         );
         set_diaphragm(&mut world, entity, options.diaphragm()?);
+        set_zoom_position(&mut world, entity, options.zoom_setting());
         activate_lens(&mut world, entity);
         let start = std::time::Instant::now();
         derivation.run(&mut world);
@@ -100,6 +160,7 @@ impl LensReport {
             focus,
             pupil,
             pupil_seconds,
+            zoom_positions,
         })
     }
 
@@ -238,7 +299,7 @@ impl LensReport {
             "vertex_span_mm": system.rear_z(),
             "film_distance_mm": self.film_distance,
             "focus_distance_m": match self.focus { FocusSetting::Distance { metres, .. } => json!(metres), FocusSetting::FilmDistance(_) => Value::Null },
-            "closest_focus_m": closest_focus_mm(system, fo) / 1000.0,
+            "closest_focus_m": self.prescription.spacings.closest_focus_mm(closest_focus_mm(system, fo)) / 1000.0,
             "film_diagonal_mm": self.film_diagonal,
             "field_of_view_deg": self.field_of_view_degrees(),
             "image_circle": self.image_circle().map(|(radius, angle)| json!({
@@ -250,6 +311,7 @@ impl LensReport {
                 "rays_traced": self.pupil.rays_traced,
             },
             "surfaces": surfaces,
+            "zoom_positions": self.zoom_positions,
         })
     }
 
@@ -328,7 +390,10 @@ impl LensReport {
             system.stop_diameter(),
             system.rear_z() + self.film_distance,
             self.film_distance,
-            closest_focus_mm(system, fo) / 1000.0,
+            self.prescription
+                .spacings
+                .closest_focus_mm(closest_focus_mm(system, fo))
+                / 1000.0,
             self.film_diagonal,
             self.pupil.segments.len(),
             self.pupil.rays_traced,
@@ -360,6 +425,18 @@ impl LensReport {
         }
         if self.wavelength_nm != FRAUNHOFER_D_NM {
             out += &format!("first-order data at {} nm\n", self.wavelength_nm);
+        }
+        for (i, position) in self.zoom_positions.iter().enumerate() {
+            out += &format!(
+                "{:<20}f {:.2} mm, f/{:.2}, {} diagonal (--zoom-position {})\n",
+                if i == 0 { "zoom positions" } else { "" },
+                position.focal_length_mm,
+                position.f_number,
+                position
+                    .field_of_view_deg
+                    .map_or("n/a".to_string(), |d| format!("{d:.1}°")),
+                i + 1
+            );
         }
         out += "\nz: lens frame, mm, origin at the front vertex, +z toward the film.\n";
         out

@@ -13,6 +13,8 @@ use crate::lens::elements::FocusSetting;
 use crate::lens::focus::FocusMode;
 use crate::lens::io::{GlassSubstitute, ReadOptions};
 use crate::lens::pupil::PupilSampling;
+#[cfg(doc)]
+use crate::lens::spacing::ZoomSetting;
 use crate::lens::{LensFormat, Prescription};
 
 /// Largest film distance accepted. Film distances far beyond the focal length focus near the
@@ -49,6 +51,9 @@ pub struct LensSettings {
     pub aperture_image: Option<PathBuf>,
     /// Glasses a lens file names, read as others (`--glass NAME=GLASS`).
     pub glasses: Vec<GlassSubstitute>,
+    /// The zoom position of a zoom lens, 1-based as Zemax numbers its configurations
+    /// (`--zoom-position`; `None`: the lens as its surfaces are written).
+    pub zoom_position: Option<usize>,
 }
 
 impl LensSettings {
@@ -150,8 +155,16 @@ impl LensSettings {
             .transpose()
     }
 
+    /// The zoom position as the lens entity's [`ZoomSetting`] counts it (0-based).
+    pub fn zoom_setting(&self) -> Option<usize> {
+        self.zoom_position.map(|n| n.saturating_sub(1))
+    }
+
     pub fn validate(&self) -> anyhow::Result<()> {
         self.blades_setting()?;
+        if self.zoom_position == Some(0) {
+            anyhow::bail!("--zoom-position counts from 1, as Zemax numbers its configurations");
+        }
         let positive = |name: &str, v: Option<f64>| match v {
             Some(x) if !(x.is_finite() && x > 0.0) => Err(anyhow::anyhow!(
                 "--{name} must be a positive number, got {x}"

@@ -270,6 +270,8 @@ impl Session {
         }
         // The diaphragm and the film movements are the session's, whichever lens is on.
         self.renderer.set_diaphragm(self.lens, diaphragm);
+        self.renderer
+            .set_zoom_position(self.lens, spec.lens.zoom_setting());
         self.renderer.set_movements(self.lens, spec.movements());
         let film_diagonal = spec
             .lens

@@ -23,7 +23,7 @@ use crate::lens::camera::CameraPose;
 use crate::lens::diaphragm::Diaphragm;
 use crate::lens::elements::{
     ActiveLens, FilmFormat, FocusSetting, LensDerivationStats, LensFault, activate_lens,
-    set_diaphragm, spawn_lens,
+    set_diaphragm, set_zoom_position, spawn_lens,
 };
 use crate::lens::movements::FilmMovements;
 use crate::lens::pupil::PupilSampling;
@@ -115,6 +115,11 @@ impl Renderer {
         aperture: ApertureSetting,
     ) -> Entity {
         spawn_lens(&mut self.world, prescription, focus, aperture)
+    }
+
+    /// Sets the zoom position `lens` renders at (0-based; `None`: as its surfaces are written).
+    pub fn set_zoom_position(&mut self, lens: Entity, position: Option<usize>) {
+        set_zoom_position(&mut self.world, lens, position);
     }
 
     /// Puts `diaphragm` (blades, a mask) on the stop of `lens`; `None`: the stop's circle.

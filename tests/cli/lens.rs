@@ -231,3 +231,99 @@ fn diagram_names_other_than_svg_are_refused() {
     let svg = std::fs::read_to_string(&path).unwrap();
     assert!(svg.starts_with("<svg"), "{svg}");
 }
+
+/// A two-group zoom (see tests/lens/zoom.rs): the gap after surface 2 is 20, 50 or 90 mm.
+const ZOOM: &str = r#"surfaces = [
+  { radius = 100.0, thickness = 3.0, glass = { n = 1.5 }, diameter = 30.0 },
+  { radius = -100.0, thickness = 20.0, diameter = 30.0 },
+  { stop = true, thickness = 2.0, diameter = 10.0 },
+  { radius = 50.0, thickness = 4.0, glass = { n = 1.5 }, diameter = 24.0 },
+  { radius = -50.0, thickness = 40.0, diameter = 24.0 },
+]
+
+[zoom]
+surfaces = [2]
+positions = [{ gaps = [20.0] }, { gaps = [50.0] }, { gaps = [90.0], stop_diameter = 8.0 }]
+"#;
+
+/// `realcam lens` lists a zoom's positions, reports any one of them with `--zoom-position`,
+/// and exports them; `realcam render` renders each position.
+#[test]
+fn zoom_positions_are_reported_exported_and_rendered() {
+    use support::cli::{ok, realcam as run, refused};
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("zoom.toml"), ZOOM).unwrap();
+    let json = |args: &[&str]| -> serde_json::Value {
+        let output = run(dir.path(), args);
+        ok(&output);
+        serde_json::from_slice(&output.stdout).unwrap()
+    };
+    let all = json(&["lens", "zoom.toml", "--json"]);
+    let positions = all["zoom_positions"].as_array().unwrap().clone();
+    assert_eq!(positions.len(), 3);
+    let focal = |v: &serde_json::Value| v["focal_length_mm"].as_f64().unwrap();
+    assert!(
+        focal(&positions[0]) < focal(&positions[1]) && focal(&positions[1]) < focal(&positions[2])
+    );
+    for (k, position) in positions.iter().enumerate() {
+        let n = (k + 1).to_string();
+        let one = json(&["lens", "zoom.toml", "--json", "--zoom-position", &n]);
+        assert!((focal(&one) - focal(position)).abs() < 1e-9, "position {n}");
+        assert_eq!(one["f_number"], position["f_number"], "position {n}");
+        assert_eq!(
+            one["field_of_view_deg"], position["field_of_view_deg"],
+            "position {n}"
+        );
+    }
+    ok(&run(
+        dir.path(),
+        &["lens", "zoom.toml", "--export", "again.toml"],
+    ));
+    assert_eq!(
+        json(&["lens", "again.toml", "--json"])["zoom_positions"],
+        all["zoom_positions"]
+    );
+    refused(
+        &run(dir.path(), &["lens", "zoom.toml", "--export", "zoom.dat"]),
+        &["zoom positions", ".toml"],
+    );
+    refused(
+        &run(dir.path(), &["lens", "zoom.toml", "--zoom-position", "4"]),
+        &["zoom position 4", "1 to 3"],
+    );
+
+    let small = [
+        "render",
+        "--spp",
+        "1",
+        "--width",
+        "16",
+        "--height",
+        "16",
+        "--focus-distance",
+        "3",
+    ];
+    for (n, out) in [("1", "wide.png"), ("3", "long.png")] {
+        let mut args = small.to_vec();
+        args.extend(["--lens", "zoom.toml", "--zoom-position", n, "--out", out]);
+        ok(&run(dir.path(), &args));
+    }
+    let (wide, long) = (
+        std::fs::read(dir.path().join("wide.png")).unwrap(),
+        std::fs::read(dir.path().join("long.png")).unwrap(),
+    );
+    assert_ne!(wide, long, "the two zoom positions frame the scene alike");
+    let mut fixed = small.to_vec();
+    fixed.extend([
+        "--lens",
+        "dgauss.50mm",
+        "--zoom-position",
+        "2",
+        "--out",
+        "x.png",
+    ]);
+    refused(
+        &run(dir.path(), &fixed),
+        &["zoom position 2", "fixed spacings"],
+    );
+}

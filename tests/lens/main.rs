@@ -18,3 +18,4 @@ mod optics;
 mod properties;
 mod swapping;
 mod zemax;
+mod zoom;

@@ -54,7 +54,7 @@ pub fn parse_dat(
         .map(|n| n.to_string_lossy().trim_end_matches(".dat").to_string())
         .unwrap_or_else(|| "lens".into());
     let mut prescription = Prescription::from_rows(&name, source, format, rows)?;
-    prescription.warnings = warnings;
+    prescription.warnings.extend(warnings);
     Ok(prescription)
 }
 

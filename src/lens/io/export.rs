@@ -33,8 +33,15 @@ pub fn export_text(prescription: &Prescription, path: &Path) -> Result<String, S
 }
 
 /// A pbrt-v3/v4 `.dat` table (thickness after each surface; radius 0 for the stop). Refuses
-/// what the format cannot say: aspheres and a stop on a refracting surface.
+/// what the format cannot say: aspheres, a stop on a refracting surface, zoom positions and
+/// focus groups.
 pub fn write_dat(prescription: &Prescription) -> Result<String, String> {
+    if !prescription.spacings.is_empty() {
+        return Err(
+            "the lens has zoom positions or focus groups: a pbrt .dat table holds fixed spacings only; export to .toml instead"
+                .into(),
+        );
+    }
     let mut out = String::new();
     let _ = writeln!(
         out,

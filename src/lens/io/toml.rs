@@ -24,6 +24,11 @@
 //! medium after the surface: a catalogue name, `{ n_d, v_d }`, `{ n = … }` for a fixed index,
 //! or absent for air. `diameter` is the clear aperture's full diameter. `aspheric` lists
 //! [A₂, A₄, …] (the coefficients of r², r⁴, …, in mm units).
+//!
+//! Optional `[zoom]` (`surfaces`, 1-based, and `positions`, each with `gaps` after those
+//! surfaces, optionally `focal_length_mm` and `stop_diameter`) and `[focus]` (`close_focus_m`,
+//! `surfaces`, and their gaps at `infinity` and at `close` focus) tables give a zoom lens's
+//! positions and a lens's focus groups (see [`crate::lens::spacing`]).
 
 use std::fmt::Write;
 use std::path::Path;
@@ -36,6 +41,7 @@ use crate::lens::prescription::{
     LensFormat, Prescription, PrescriptionError, SurfaceBase, SurfaceRow,
 };
 use crate::lens::shape::{ASPHERIC_TERMS, Asphere};
+use crate::lens::spacing::{FocusGap, FocusGroups, Gap, VariableSpacings, ZoomPosition};
 
 /// The file's top level: the lens's name, [`LensInfo`]'s fields, and the surfaces.
 #[derive(Deserialize)]
@@ -52,6 +58,35 @@ struct LensFile {
     film_diagonal_mm: Option<f64>,
     notes: Option<String>,
     surfaces: Vec<::toml::Spanned<SurfaceEntry>>,
+    zoom: Option<ZoomTable>,
+    focus: Option<FocusTable>,
+}
+
+/// `[zoom]`: the surfaces (1-based) whose gaps change, and each position's gaps after them, as
+/// a patent tabulates them.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ZoomTable {
+    surfaces: Vec<usize>,
+    positions: Vec<ZoomEntry>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ZoomEntry {
+    focal_length_mm: Option<f64>,
+    gaps: Vec<f64>,
+    stop_diameter: Option<f64>,
+}
+
+/// `[focus]`: the focus groups' gaps at infinity and at the closest focus.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FocusTable {
+    close_focus_m: f64,
+    surfaces: Vec<usize>,
+    infinity: Vec<f64>,
+    close: Vec<f64>,
 }
 
 #[derive(Deserialize)]
@@ -218,7 +253,137 @@ pub fn read_lens_file(text: &str, source: &Path) -> Result<Prescription, Prescri
         film_distance_mm: film_distance,
         notes: i.notes.clone(),
     };
-    Ok(prescription)
+    let spacings = spacings(&file).map_err(|m| error(None, m))?;
+    if spacings.is_empty() {
+        Ok(prescription)
+    } else {
+        prescription.with_spacings(spacings)
+    }
+}
+
+/// The `[zoom]` and `[focus]` tables as variable spacings (surface numbers made 0-based).
+fn spacings(file: &LensFile) -> Result<VariableSpacings, String> {
+    let surface = |table: &str, s: usize| {
+        s.checked_sub(1).ok_or_else(|| {
+            format!("[{table}] surfaces are numbered from 1, as the surfaces list counts them")
+        })
+    };
+    let mut spacings = VariableSpacings::default();
+    if let Some(zoom) = &file.zoom {
+        if zoom.positions.is_empty() {
+            return Err("[zoom] has no positions".into());
+        }
+        let surfaces = zoom
+            .surfaces
+            .iter()
+            .map(|&s| surface("zoom", s))
+            .collect::<Result<Vec<_>, _>>()?;
+        for (i, entry) in zoom.positions.iter().enumerate() {
+            if entry.gaps.len() != surfaces.len() {
+                return Err(format!(
+                    "[zoom] position {} gives {} gaps for {} surfaces",
+                    i + 1,
+                    entry.gaps.len(),
+                    surfaces.len()
+                ));
+            }
+            spacings.zoom.push(ZoomPosition {
+                focal_length_mm: entry.focal_length_mm,
+                gaps: surfaces
+                    .iter()
+                    .zip(&entry.gaps)
+                    .map(|(&surface, &thickness)| Gap { surface, thickness })
+                    .collect(),
+                stop_diameter: entry.stop_diameter,
+            });
+        }
+    }
+    if let Some(focus) = &file.focus {
+        let n = focus.surfaces.len();
+        if focus.infinity.len() != n || focus.close.len() != n {
+            return Err(format!(
+                "[focus] gives {} infinity and {} close gaps for {n} surfaces",
+                focus.infinity.len(),
+                focus.close.len()
+            ));
+        }
+        let gaps = (0..n)
+            .map(|k| {
+                Ok(FocusGap {
+                    surface: surface("focus", focus.surfaces[k])?,
+                    infinity: focus.infinity[k],
+                    close: focus.close[k],
+                })
+            })
+            .collect::<Result<Vec<_>, String>>()?;
+        spacings.focus = Some(FocusGroups {
+            close_focus_m: focus.close_focus_m,
+            gaps,
+        });
+    }
+    Ok(spacings)
+}
+
+/// The `[zoom]` and `[focus]` tables of `spacings` (nothing for fixed spacings).
+fn write_spacings(out: &mut String, spacings: &VariableSpacings, rows: &[SurfaceRow]) {
+    let list = |values: &[f64]| {
+        values
+            .iter()
+            .map(|&v| num(v))
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    if !spacings.zoom.is_empty() {
+        // Every surface any position moves; a position that leaves one alone has the row's.
+        let mut surfaces: Vec<usize> = spacings
+            .zoom
+            .iter()
+            .flat_map(|p| p.gaps.iter().map(|g| g.surface))
+            .collect();
+        surfaces.sort_unstable();
+        surfaces.dedup();
+        let numbers: Vec<String> = surfaces.iter().map(|s| (s + 1).to_string()).collect();
+        let _ = writeln!(out, "\n[zoom]");
+        let _ = writeln!(out, "surfaces = [{}]", numbers.join(", "));
+        let _ = writeln!(out, "positions = [");
+        for position in &spacings.zoom {
+            let gaps: Vec<f64> = surfaces
+                .iter()
+                .map(|&s| {
+                    position
+                        .gaps
+                        .iter()
+                        .rev()
+                        .find(|g| g.surface == s)
+                        .map_or(rows[s].base.thickness, |g| g.thickness)
+                })
+                .collect();
+            let mut fields = Vec::new();
+            if let Some(f) = position.focal_length_mm {
+                fields.push(format!("focal_length_mm = {}", num(f)));
+            }
+            fields.push(format!("gaps = [{}]", list(&gaps)));
+            if let Some(d) = position.stop_diameter {
+                fields.push(format!("stop_diameter = {}", num(d)));
+            }
+            let _ = writeln!(out, "  {{ {} }},", fields.join(", "));
+        }
+        let _ = writeln!(out, "]");
+    }
+    if let Some(focus) = &spacings.focus {
+        let numbers: Vec<String> = focus
+            .gaps
+            .iter()
+            .map(|g| (g.surface + 1).to_string())
+            .collect();
+        let infinity: Vec<f64> = focus.gaps.iter().map(|g| g.infinity).collect();
+        let close: Vec<f64> = focus.gaps.iter().map(|g| g.close).collect();
+        let _ = writeln!(out, "\n[focus]");
+        let _ = writeln!(out, "close_focus_m = {}", num(focus.close_focus_m));
+        let _ = writeln!(out, "surfaces = [{}]", numbers.join(", "));
+        let _ = writeln!(out, "infinity = [{}]", list(&infinity));
+        let _ = writeln!(out, "close = [{}]", list(&close));
+    }
 }
 
 fn stem(path: &Path) -> String {
@@ -352,5 +517,6 @@ pub fn write_lens_file(prescription: &Prescription) -> String {
         let _ = writeln!(out, "  {{ {} }},", fields.join(", "));
     }
     let _ = writeln!(out, "]");
+    write_spacings(&mut out, &prescription.spacings, &prescription.rows);
     out
 }

@@ -5,6 +5,7 @@
 
 use std::path::Path;
 
+use super::configurations;
 use super::decode::number;
 use super::parse::{ZemaxSurface, ZemaxSystem};
 use crate::glass::{FRAUNHOFER_D_NM, Glass, catalogue};
@@ -15,6 +16,7 @@ use crate::lens::prescription::{
     LensFormat, Prescription, PrescriptionError, SurfaceBase, SurfaceRow,
 };
 use crate::lens::shape::{ASPHERIC_TERMS, Asphere};
+use crate::lens::spacing::VariableSpacings;
 
 /// Surface types realcam traces.
 const SUPPORTED_TYPES: [&str; 2] = ["STANDARD", "EVENASPH"];
@@ -68,7 +70,22 @@ pub(super) fn convert(
     if missing_aperture.iter().any(|&m| m) {
         conversion.fill_clear_apertures(&mut rows, &missing_aperture)?;
     }
+    let configurations = configurations::read(system, rows.len(), stop, conversion.scale)
+        .map_err(|(line, m)| conversion.error(Some(line), m))?;
+    if let Some(configurations) = &configurations {
+        configurations.widen(&mut rows, stop);
+    }
     let mut prescription = conversion.validate(rows)?;
+    if let Some(configurations) = configurations {
+        let (positions, warnings) = configurations
+            .zoom_positions(system, &prescription.rows, stop, conversion.scale)
+            .map_err(|m| conversion.error(system.configurations.map(|(_, line)| line), m))?;
+        prescription = prescription.with_spacings(VariableSpacings {
+            zoom: positions,
+            focus: None,
+        })?;
+        prescription.warnings.extend(warnings);
+    }
     prescription.info = conversion.info();
     prescription
         .warnings
@@ -91,8 +108,7 @@ struct Conversion<'a> {
 }
 
 impl<'a> Conversion<'a> {
-    /// Refuses a file whose system realcam cannot read (not sequential, several
-    /// configurations, no lens surface).
+    /// Refuses a file whose system realcam cannot read (not sequential, no lens surface).
     fn new(
         system: &'a ZemaxSystem,
         surfaces: &'a [ZemaxSurface],
@@ -110,16 +126,6 @@ impl<'a> Conversion<'a> {
             return Err(error(
                 Some(*line),
                 format!("MODE {mode}: realcam reads sequential (MODE SEQ) lens files only"),
-            ));
-        }
-        if let Some((count, line)) = system.configurations
-            && count > 1
-        {
-            return Err(error(
-                Some(line),
-                format!(
-                    "MNUM {count}: a multi-configuration file (a zoom or focus series of {count} configurations); realcam reads single-configuration lenses: save one configuration on its own"
-                ),
             ));
         }
         if surfaces.len() < 3 {

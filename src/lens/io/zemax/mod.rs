@@ -12,13 +12,19 @@
 //!
 //! Everything is converted to millimetres in realcam's lens frame. What realcam cannot
 //! represent (mirrors, coordinate breaks, tilted or decentred surfaces and apertures,
-//! non-rotationally-symmetric or diffractive surfaces, multi-configuration zooms, unknown glass
-//! names) is refused, naming the file, the `SURF` number and what it is: never misread.
+//! non-rotationally-symmetric or diffractive surfaces, multi-configuration operands other than
+//! the thicknesses and the system aperture, unknown glass names) is refused, naming the file, the `SURF` number and what it is: never misread.
 //!
-//! Three steps, a module each: `decode` (bytes to text; numbers and units), `parse` (the
-//! keyword lines into the system and its `SURF` blocks, in file units) and `convert` (the
-//! refusals, then the rows in millimetres, the stop and clear apertures, validation).
+//! A multi-configuration file (`MNUM n active`, then the editor's rows such as
+//! `THIC surface configuration value …`) is a zoom: each configuration a zoom position
+//! (`configurations`), the `SURF` blocks the active one.
+//!
+//! Four steps, a module each: `decode` (bytes to text; numbers and units), `parse` (the
+//! keyword lines into the system and its `SURF` blocks, in file units), `convert` (the
+//! refusals, then the rows in millimetres, the stop and clear apertures, validation) and
+//! `configurations` (the zoom positions).
 
+mod configurations;
 mod convert;
 mod decode;
 mod parse;

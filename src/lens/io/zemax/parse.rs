@@ -62,8 +62,50 @@ pub(super) struct ZemaxSystem {
     pub(super) fields_x: Vec<f64>,
     pub(super) fields_y: Vec<f64>,
     pub(super) field_count: Option<usize>,
+    /// `MNUM count active`: the number of configurations, and the line.
     pub(super) configurations: Option<(usize, usize)>,
+    /// The multi-configuration editor's rows that follow `MNUM`.
+    pub(super) operands: Vec<ConfigurationOperand>,
     pub(super) mode: Option<(String, usize)>,
+}
+
+/// One row of the multi-configuration editor: `OPER number configuration value …`, e.g.
+/// `THIC 5 2 12.3 0 0 0 1 1 1 0 0 "" 0` (surface 5's thickness in configuration 2) or
+/// `APER 0 2 4.0 …` (the system aperture's value in configuration 2). Rows come operand by
+/// operand, each with its value in every configuration.
+#[derive(Clone, Debug)]
+pub(super) struct ConfigurationOperand {
+    pub(super) name: String,
+    /// The operand's own number: a surface for `THIC`, a field or wavelength for others.
+    pub(super) number: i64,
+    /// 1-based configuration.
+    pub(super) configuration: usize,
+    /// The value, where it is a number (a glass operand's is a name).
+    pub(super) value: Option<f64>,
+    pub(super) line: usize,
+}
+
+/// A multi-configuration row's shape: an operand name, then two whole numbers (its number and
+/// its configuration) and a value.
+fn configuration_operand(
+    keyword: &str,
+    args: &[&str],
+    line: usize,
+) -> Option<ConfigurationOperand> {
+    let name_like = (3..=4).contains(&keyword.len())
+        && keyword
+            .bytes()
+            .all(|b| b.is_ascii_uppercase() || b.is_ascii_digit());
+    if !name_like || args.len() < 3 {
+        return None;
+    }
+    Some(ConfigurationOperand {
+        name: keyword.to_string(),
+        number: args[0].parse().ok()?,
+        configuration: args[1].parse().ok()?,
+        value: number(args[2]),
+        line,
+    })
 }
 
 /// A parse failure: the line (where there is one) and what is wrong.
@@ -74,6 +116,8 @@ pub(super) type ParseError = (Option<usize>, String);
 pub(super) fn parse(text: &str) -> Result<(ZemaxSystem, Vec<ZemaxSurface>), ParseError> {
     let mut system = ZemaxSystem::default();
     let mut surfaces: Vec<ZemaxSurface> = Vec::new();
+    // After `MNUM`, lines of an operand row's shape are the multi-configuration editor's.
+    let mut in_configurations = false;
     for (i, raw) in text.lines().enumerate() {
         let line = i + 1;
         let tokens: Vec<&str> = raw.split_whitespace().collect();
@@ -103,7 +147,15 @@ pub(super) fn parse(text: &str) -> Result<(ZemaxSystem, Vec<ZemaxSurface>), Pars
                 ))
             }
         };
+        if in_configurations
+            && keyword != "SURF"
+            && let Some(operand) = configuration_operand(keyword, args, line)
+        {
+            system.operands.push(operand);
+            continue;
+        }
         if keyword == "SURF" {
+            in_configurations = false;
             let number = args
                 .first()
                 .and_then(|t| t.parse::<usize>().ok())
@@ -240,6 +292,7 @@ pub(super) fn parse(text: &str) -> Result<(ZemaxSystem, Vec<ZemaxSurface>), Pars
             "MNUM" => {
                 let count = args.first().and_then(|t| t.parse().ok()).unwrap_or(1);
                 system.configurations = Some((count, line));
+                in_configurations = true;
             }
             _ => {}
         }
