@@ -311,3 +311,31 @@ fn duck_renderer() -> Renderer {
     renderer.check_active_lens().unwrap();
     renderer
 }
+
+/// `realcam` with the Vulkan loader pointed at no driver: as on a machine without a GPU.
+fn without_gpu(args: &[&str]) -> std::process::Output {
+    std::process::Command::new(env!("CARGO_BIN_EXE_realcam"))
+        .args(args)
+        .env("VK_DRIVER_FILES", "/nonexistent/icd.json")
+        .env("VK_ICD_FILENAMES", "/nonexistent/icd.json")
+        .current_dir(std::env::temp_dir())
+        .output()
+        .unwrap()
+}
+
+#[test]
+fn without_a_gpu_the_device_is_refused_in_words_and_devices_says_none() {
+    let render = without_gpu(&["render", "--device", "gpu", "--out", "-"]);
+    let stderr = String::from_utf8_lossy(&render.stderr);
+    assert_eq!(render.status.code(), Some(1), "{stderr}");
+    assert!(render.stdout.is_empty(), "an image went out");
+    assert!(
+        stderr.contains("--device gpu: no GPU adapter found") && stderr.contains("--device cpu"),
+        "{stderr}"
+    );
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    let devices = without_gpu(&["devices"]);
+    let stdout = String::from_utf8_lossy(&devices.stdout);
+    assert!(devices.status.success());
+    assert!(stdout.contains("gpu: none found"), "{stdout}");
+}
