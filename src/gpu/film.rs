@@ -8,6 +8,18 @@
 /// The pass kernel's entry point (pass.wgsl): it calls every stage's functions.
 pub const PASS_WGSL: &str = include_str!("shaders/pass.wgsl");
 
+/// The pass kernel's whole WGSL source: every stage's functions, then the entry point.
+pub fn pass_source() -> String {
+    [
+        super::lens::lens_source().as_str(),
+        super::shading::RNG_WGSL,
+        super::scene::SCENE_WGSL,
+        super::shading::SHADE_WGSL,
+        PASS_WGSL,
+    ]
+    .concat()
+}
+
 use std::collections::VecDeque;
 
 use super::compute::{Access, Bindings, kernel_with, read_buffer, storage_buffer, zeroed_buffer};

@@ -27,7 +27,7 @@ use super::resources::{
 use crate::accel::SceneAccel;
 use crate::film::samples::SampleSequence;
 use crate::film::{FilmTile, Image};
-use crate::gpu::film::GpuFilm;
+use crate::gpu::film::{GpuFilm, pass_source};
 use crate::gpu::lens::GpuLens;
 use crate::gpu::scene::GpuScene;
 use crate::gpu::shading::GpuShading;
@@ -57,18 +57,6 @@ pub(super) fn init_resources(world: &mut World) {
     world.init_resource::<GpuSceneData>();
     world.init_resource::<GpuLensData>();
     world.init_resource::<GpuFilmData>();
-}
-
-/// The pass kernel's whole WGSL source: every stage's functions, then the entry point.
-fn pass_source() -> String {
-    [
-        crate::gpu::lens::lens_source().as_str(),
-        crate::gpu::shading::RNG_WGSL,
-        crate::gpu::scene::SCENE_WGSL,
-        crate::gpu::shading::SHADE_WGSL,
-        crate::gpu::film::PASS_WGSL,
-    ]
-    .concat()
 }
 
 /// Adds the GPU pass systems: they run instead of the CPU's while a [`GpuBackend`] is present.

@@ -63,6 +63,8 @@ impl Renderer {
     pub fn set_device(&mut self, device: RenderDevice) -> anyhow::Result<()> {
         match device {
             RenderDevice::Cpu => {
+                // Passes the GPU rendered come back to the tiles before it stands aside.
+                super::gpu::read_film_back(&mut self.world)?;
                 self.world.remove_resource::<GpuBackend>();
             }
             RenderDevice::Gpu => {
