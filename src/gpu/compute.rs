@@ -288,6 +288,17 @@ pub fn submit(
     bind_groups: &[&wgpu::BindGroup],
     workgroups: [u32; 3],
 ) -> Result<wgpu::SubmissionIndex, GpuUnavailable> {
+    submit_steps(context, &[(pipeline, workgroups)], bind_groups)
+}
+
+/// Queues `steps` (kernels with their workgroups, sharing `bind_groups`) in one submission, in
+/// order: each step sees what the one before wrote (wgpu puts a barrier between dispatches
+/// that share a storage buffer).
+pub fn submit_steps(
+    context: &GpuContext,
+    steps: &[(&wgpu::ComputePipeline, [u32; 3])],
+    bind_groups: &[&wgpu::BindGroup],
+) -> Result<wgpu::SubmissionIndex, GpuUnavailable> {
     let scope = context
         .device
         .push_error_scope(wgpu::ErrorFilter::Validation);
@@ -296,11 +307,13 @@ pub fn submit(
         .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
     {
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor::default());
-        pass.set_pipeline(pipeline);
         for (group, bind_group) in bind_groups.iter().enumerate() {
             pass.set_bind_group(group as u32, *bind_group, &[]);
         }
-        pass.dispatch_workgroups(workgroups[0], workgroups[1], workgroups[2]);
+        for (pipeline, workgroups) in steps {
+            pass.set_pipeline(pipeline);
+            pass.dispatch_workgroups(workgroups[0], workgroups[1], workgroups[2]);
+        }
     }
     let submission = context.queue.submit([encoder.finish()]);
     if let Some(error) = pollster::block_on(scope.pop()) {

@@ -5,8 +5,12 @@
 //! checkpoint, a live preview). One invocation owns one pixel's sums, so accumulation is in a
 //! fixed order and a seed gives the same image on every run.
 
-/// The pass kernel's entry point (pass.wgsl): it calls every stage's functions.
+/// The pass kernel's entry points (pass.wgsl): they call every stage's functions.
 pub const PASS_WGSL: &str = include_str!("shaders/pass.wgsl");
+
+/// The second kernel of a several-sample dispatch: each pixel adds its samples from the
+/// scratch buffer to its sums, in index order. It reads only the pass's own bindings.
+const ACCUMULATE_WGSL: &str = include_str!("shaders/accumulate.wgsl");
 
 /// The pass kernel's whole WGSL source: every stage's functions, then the entry point.
 pub fn pass_source() -> String {
@@ -80,11 +84,29 @@ pub struct GpuFilm {
     params: wgpu::Buffer,
     film: wgpu::Buffer,
     counters: wgpu::Buffer,
+    /// Each sample's weighted radiance, `[k][pixel]`, between the two kernels of a dispatch of
+    /// several samples (one element when a dispatch renders one sample per pixel).
+    _scratch: wgpu::Buffer,
     bindings: Bindings,
-    kernel: Option<wgpu::ComputePipeline>,
+    kernels: Option<Kernels>,
     /// Passes submitted and perhaps not yet done, oldest first.
     in_flight: VecDeque<wgpu::SubmissionIndex>,
 }
+
+/// The pass's kernels (pass.wgsl): one invocation per pixel and sample of a single-sample
+/// dispatch (`render_pass`); or, for several samples, one per pixel and sample in parallel
+/// (`render_samples`, into the scratch buffer) and then one per pixel adding them to its sums
+/// in index order (`accumulate`): the same f32 additions, in the same order, as single passes,
+/// with enough invocations to fill a large GPU at any image size.
+struct Kernels {
+    render_pass: wgpu::ComputePipeline,
+    render_samples: wgpu::ComputePipeline,
+    accumulate: wgpu::ComputePipeline,
+}
+
+/// Samples one dispatch renders, pixels × samples per pixel: enough to fill a large GPU many
+/// times over (a million invocations), little enough scratch (16 bytes each) to stay small.
+const SAMPLES_PER_DISPATCH: u64 = 1 << 22;
 
 /// Passes the GPU may have queued before the CPU waits for the oldest: with the next pass
 /// already queued when one finishes, the GPU never idles between passes, and progress and
@@ -96,11 +118,26 @@ const PASSES_IN_FLIGHT: usize = 2;
 const WORKGROUP_SIDE: u32 = 8;
 
 impl GpuFilm {
+    /// Sample indices per pixel one dispatch renders on a film of `pixels`: about
+    /// [`SAMPLES_PER_DISPATCH`] samples, at most 64 a pixel (progress, cancellation and
+    /// checkpoints come between dispatches).
+    pub fn samples_per_pixel_per_dispatch(pixels: u64) -> u32 {
+        (SAMPLES_PER_DISPATCH / pixels.max(1)).clamp(1, 64) as u32
+    }
+
     /// A cleared film of `width` × `height` pixels.
     pub fn new(context: &GpuContext, width: u32, height: u32) -> GpuFilm {
+        let pixels = width as u64 * height as u64;
         let params = storage_buffer(context, "pass parameters", &[PassParams::default()]);
-        let film = zeroed_buffer::<[f32; 4]>(context, "film sums", (width * height) as usize);
+        let film = zeroed_buffer::<[f32; 4]>(context, "film sums", pixels as usize);
         let counters = storage_buffer(context, "pass counters", &[0u32; COUNTER_WORDS]);
+        let per_pixel = Self::samples_per_pixel_per_dispatch(pixels);
+        let scratch_len = if per_pixel > 1 {
+            pixels * u64::from(per_pixel)
+        } else {
+            1
+        };
+        let scratch = zeroed_buffer::<[f32; 4]>(context, "sample scratch", scratch_len as usize);
         let bindings = Bindings::new(
             context,
             "pass",
@@ -108,6 +145,7 @@ impl GpuFilm {
                 (&params, Access::ReadOnly),
                 (&film, Access::ReadWrite),
                 (&counters, Access::ReadWrite),
+                (&scratch, Access::ReadWrite),
             ],
         );
         GpuFilm {
@@ -116,8 +154,9 @@ impl GpuFilm {
             params,
             film,
             counters,
+            _scratch: scratch,
             bindings,
-            kernel: None,
+            kernels: None,
             in_flight: VecDeque::new(),
         }
     }
@@ -141,7 +180,7 @@ impl GpuFilm {
         upstream: [&Bindings; 3],
         source: impl FnOnce() -> String,
     ) -> Result<bool, GpuUnavailable> {
-        if self.kernel.is_some() {
+        if self.kernels.is_some() {
             return Ok(false);
         }
         let layouts = [
@@ -150,13 +189,15 @@ impl GpuFilm {
             &upstream[2].layout,
             &self.bindings.layout,
         ];
-        self.kernel = Some(kernel_with(
-            context,
-            "render pass",
-            &source(),
-            "render_pass",
-            &layouts,
-        )?);
+        let source = source();
+        let compile = |label: &str, source: &str, entry: &str| {
+            kernel_with(context, label, source, entry, &layouts)
+        };
+        self.kernels = Some(Kernels {
+            render_pass: compile("render pass", &source, "render_pass")?,
+            render_samples: compile("render samples", &source, "render_samples")?,
+            accumulate: compile("accumulate", ACCUMULATE_WGSL, "accumulate")?,
+        });
         Ok(true)
     }
 
@@ -169,7 +210,24 @@ impl GpuFilm {
         upstream: [&Bindings; 3],
         samples: SampleSequence,
     ) -> Result<(), GpuUnavailable> {
-        let Some(kernel) = self.kernel.as_ref() else {
+        let pixels = self.width as u64 * self.height as u64;
+        let per_dispatch = Self::samples_per_pixel_per_dispatch(pixels);
+        let mut done = 0;
+        while done < samples.count {
+            let chunk = samples.after(done).first_n(per_dispatch);
+            self.dispatch(context, upstream, chunk)?;
+            done += chunk.count;
+        }
+        Ok(())
+    }
+
+    fn dispatch(
+        &mut self,
+        context: &GpuContext,
+        upstream: [&Bindings; 3],
+        samples: SampleSequence,
+    ) -> Result<(), GpuUnavailable> {
+        let Some(kernels) = self.kernels.as_ref() else {
             return Err(GpuUnavailable("the pass kernel was not compiled".into()));
         };
         let params = PassParams {
@@ -183,21 +241,26 @@ impl GpuFilm {
         context
             .queue
             .write_buffer(&self.params, 0, bytemuck::bytes_of(&params));
-        let submission = super::compute::submit(
-            context,
-            kernel,
-            &[
-                &upstream[0].group,
-                &upstream[1].group,
-                &upstream[2].group,
-                &self.bindings.group,
-            ],
-            [
-                self.width.div_ceil(WORKGROUP_SIDE),
-                self.height.div_ceil(WORKGROUP_SIDE),
-                1,
-            ],
-        )?;
+        let groups = [
+            &upstream[0].group,
+            &upstream[1].group,
+            &upstream[2].group,
+            &self.bindings.group,
+        ];
+        let tiles = [
+            self.width.div_ceil(WORKGROUP_SIDE),
+            self.height.div_ceil(WORKGROUP_SIDE),
+        ];
+        let pixels = self.width * self.height;
+        let steps: Vec<(&wgpu::ComputePipeline, [u32; 3])> = if samples.count == 1 {
+            vec![(&kernels.render_pass, [tiles[0], tiles[1], 1])]
+        } else {
+            vec![
+                (&kernels.render_samples, [tiles[0], tiles[1], samples.count]),
+                (&kernels.accumulate, [pixels.div_ceil(64), 1, 1]),
+            ]
+        };
+        let submission = super::compute::submit_steps(context, &steps, &groups)?;
         self.in_flight.push_back(submission);
         while self.in_flight.len() > PASSES_IN_FLIGHT {
             let oldest = self.in_flight.pop_front().expect("longer than the bound");

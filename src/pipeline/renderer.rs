@@ -17,6 +17,7 @@ use super::resources::{
 use crate::film::samples::SampleSequence;
 use crate::film::{FilmTile, Image, tiles};
 use crate::gpu::GpuContext;
+use crate::gpu::film::GpuFilm;
 use crate::lens::Prescription;
 use crate::lens::aperture::ApertureSetting;
 use crate::lens::camera::CameraPose;
@@ -305,8 +306,7 @@ impl Renderer {
             return 1;
         }
         let settings = self.world.resource::<RenderSettings>();
-        let pixels = (settings.width as u64 * settings.height as u64).max(1);
-        ((1u64 << 22) / pixels).clamp(1, 64) as u32
+        GpuFilm::samples_per_pixel_per_dispatch(settings.width as u64 * settings.height as u64)
     }
 
     /// Renders the sample indices of `samples`: in one update on a GPU (see

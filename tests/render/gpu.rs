@@ -6,6 +6,7 @@
 
 use std::path::{Path, PathBuf};
 
+use realcam::film::samples::SampleSequence;
 use realcam::gpu::GpuContext;
 use realcam::lens::aperture::ApertureSetting;
 use realcam::lens::elements::FocusSetting;
@@ -283,6 +284,17 @@ fn a_gpu_render_is_the_same_bytes_every_time_and_resumes_to_the_direct_render() 
     assert_eq!(
         direct.sums, resumed.sums,
         "resuming on the GPU changed the image"
+    );
+
+    // The four samples in one dispatch (in parallel, then added in index order) give the same
+    // film as four single-sample passes.
+    renderer.begin_film(None).unwrap();
+    renderer.render_passes(SampleSequence::all(4)).unwrap();
+    let batched = renderer.image().unwrap();
+    assert_eq!(batched.samples, 4);
+    assert_eq!(
+        direct.sums, batched.sums,
+        "one dispatch of four samples changed the image"
     );
 }
 

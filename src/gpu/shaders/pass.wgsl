@@ -25,6 +25,8 @@ struct PassParams {
 // through and samples rejected as non-finite. Integer sums, so the order of the adds cannot
 // change them.
 @group(3) @binding(2) var<storage, read_write> pass_counters: array<atomic<u32>, 20>;
+// Sample k of pixel p at k·pixels + p, between render_samples and accumulate.wgsl.
+@group(3) @binding(3) var<storage, read_write> pass_scratch: array<vec4f>;
 
 const PASS_COUNT_LENS_PASSED: u32 = 8u;
 const PASS_COUNT_REJECTED: u32 = 9u;
@@ -71,14 +73,10 @@ fn pass_render_pixel(x: u32, y: u32) {
     pass_film[index] = sums;
 }
 
-@compute @workgroup_size(8, 8, 1)
-fn render_pass(
-    @builtin(global_invocation_id) id: vec3u,
-    @builtin(local_invocation_index) local: u32,
-) {
-    // No early return: every invocation must reach the barriers below.
-    if id.x < pass_params.width && id.y < pass_params.height {
-        pass_render_pixel(id.x, id.y);
+// What this invocation counted, into the workgroup's counts, then (one invocation per count)
+// into the 64-bit totals. Every invocation of the workgroup must call it (it has a barrier).
+fn pass_add_counts(local: u32, counted: bool) {
+    if counted {
         for (var i = 0u; i < 8u; i += 1u) {
             if shade_counts[i] != 0u {
                 atomicAdd(&pass_group_counts[i], shade_counts[i]);
@@ -95,4 +93,35 @@ fn render_pass(
             }
         }
     }
+}
+
+// A dispatch of one sample per pixel (or several, in a loop, in index order).
+@compute @workgroup_size(8, 8, 1)
+fn render_pass(
+    @builtin(global_invocation_id) id: vec3u,
+    @builtin(local_invocation_index) local: u32,
+) {
+    // No early return: every invocation must reach the barrier in pass_add_counts.
+    let inside = id.x < pass_params.width && id.y < pass_params.height;
+    if inside {
+        pass_render_pixel(id.x, id.y);
+    }
+    pass_add_counts(local, inside);
+}
+
+// A dispatch of several samples per pixel, all in parallel: sample k (the grid's z) of pixel
+// (x, y) into the scratch buffer; accumulate.wgsl then adds them to the film in index order.
+@compute @workgroup_size(8, 8, 1)
+fn render_samples(
+    @builtin(global_invocation_id) id: vec3u,
+    @builtin(local_invocation_index) local: u32,
+) {
+    let inside = id.x < pass_params.width && id.y < pass_params.height;
+    if inside {
+        let pixels = pass_params.width * pass_params.height;
+        let sample = pass_params.sample + id.z * pass_params.step;
+        let rgb = pass_render_sample(id.x, id.y, sample);
+        pass_scratch[id.z * pixels + id.y * pass_params.width + id.x] = vec4f(rgb, 0.0);
+    }
+    pass_add_counts(local, inside);
 }
