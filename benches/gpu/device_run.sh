@@ -37,6 +37,7 @@ SIZE=${SIZE:-640} SPP=${SPP:-64}                  # step 1
 BIG_SIZE=${BIG_SIZE:-1280} BIG_SPP=${BIG_SPP:-256}  # step 2
 SCALE_SPP=${SCALE_SPP:-16}                      # step 3, at $SIZE
 STEPS=${STEPS:-0 1 2 3 4 5}
+REPEAT=${REPEAT:-1}                             # rounds per renderer in steps 1–3 (median)
 TESTS=${TESTS:-}
 want() { [[ " $STEPS " == *" $1 "* ]]; }
 mkdir -p "$OUT"
@@ -78,7 +79,7 @@ compare() { # compare.py with the common options; the outer timeout keeps the bu
   local limit; limit=$(left)
   [ "$limit" -gt 10 ] || { echo "skipped: the time budget ($BUDGET s) is spent"; return 1; }
   timeout -k 5 "$limit" python3 benches/peers/compare.py --skip-install --skip-convert \
-    --realcam "$REALCAM" --work "$WORK" --timeout "$GPU_TIMEOUT" "$@"
+    --realcam "$REALCAM" --work "$WORK" --timeout "$GPU_TIMEOUT" --repeat "$REPEAT" "$@"
   local rc=$?; [ $rc -eq 124 ] && echo "compare.py stopped at the time budget"; return 0
 }
 

@@ -193,11 +193,32 @@ impl GpuFilm {
         let compile = |label: &str, source: &str, entry: &str| {
             kernel_with(context, label, source, entry, &layouts)
         };
-        self.kernels = Some(Kernels {
+        let kernels = Kernels {
             render_pass: compile("render pass", &source, "render_pass")?,
             render_samples: compile("render samples", &source, "render_samples")?,
             accumulate: compile("accumulate", ACCUMULATE_WGSL, "accumulate")?,
-        });
+        };
+        // A driver may compile a pipeline only when it first runs: one dispatch of each on an
+        // empty film (every invocation outside it, nothing written) keeps that in set-up, out
+        // of the first pass's time.
+        let empty = PassParams::default();
+        context
+            .queue
+            .write_buffer(&self.params, 0, bytemuck::bytes_of(&empty));
+        let groups = [
+            &upstream[0].group,
+            &upstream[1].group,
+            &upstream[2].group,
+            &self.bindings.group,
+        ];
+        let steps = [
+            (&kernels.render_pass, [1, 1, 1]),
+            (&kernels.render_samples, [1, 1, 1]),
+            (&kernels.accumulate, [1, 1, 1]),
+        ];
+        let submission = super::compute::submit_steps(context, &steps, &groups)?;
+        super::compute::wait_for(context, submission)?;
+        self.kernels = Some(kernels);
         Ok(true)
     }
 
