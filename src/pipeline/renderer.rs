@@ -211,14 +211,27 @@ impl Renderer {
         Ok(())
     }
 
-    /// Clears the film and renders samples 0..`spp`, calling `progress(done, total)` after each
-    /// pass; stops early (keeping what was rendered) when `progress` returns false.
+    /// Clears the film and renders samples 0..`spp` in the device's batches
+    /// ([`Renderer::passes_per_update`]), calling `progress(done, total)` after each; stops
+    /// early (keeping what was rendered) when `progress` returns false.
     pub fn render(
         &mut self,
         spp: u32,
-        progress: impl FnMut(u32, u32) -> bool,
+        mut progress: impl FnMut(u32, u32) -> bool,
     ) -> anyhow::Result<Image> {
-        self.render_sequence(None, SampleSequence::all(spp).iter(), progress)
+        self.begin_film(None)?;
+        let samples = SampleSequence::all(spp);
+        let per_update = self.passes_per_update();
+        let mut done = 0;
+        while done < spp {
+            let batch = samples.after(done).first_n(per_update);
+            self.render_passes(batch)?;
+            done += batch.count;
+            if !progress(done, spp) {
+                break;
+            }
+        }
+        self.image()
     }
 
     /// Renders one pass per sample index in `samples`, in order, onto the film cleared or, with
