@@ -1,8 +1,9 @@
 //! The pass stages on a GPU: GenerateRays → Trace → Shade → Weight → WriteFilm as one kernel
 //! (`gpu::film`), fed by uploads that follow the ECS's change detection:
 //!
-//! - the scene (BVH, triangles, textures) and its shading data (materials, lights, environment)
-//!   go up once, and again only when the scene, its lights or the environment change;
+//! - the scene's geometry and textures (BVH, triangles, texels) go up once per scene; its
+//!   shading data (materials, lights, environment, path depth, seed) again only when one of
+//!   those changes, not for a new film size;
 //! - the active lens, as the lens systems derived it, goes up when any of its derived components,
 //!   the camera pose, the film or the settings change: a lens swap, a focus pull or a new stop
 //!   rewrites that one small buffer;
@@ -36,9 +37,14 @@ use crate::lens::elements::{ActiveLens, FilmFormat};
 use crate::scene::MaterialLibrary;
 use crate::shade::{Environment, LightSet};
 
-/// The scene and its shading data on the GPU, once uploaded.
+/// The scene's geometry and textures on the GPU, once uploaded.
 #[derive(Resource, Default)]
-pub struct GpuSceneData(Option<(GpuScene, GpuShading)>);
+pub struct GpuSceneData(Option<GpuScene>);
+
+/// The scene's shading data on the GPU, once uploaded, with the path depth and seed it was
+/// uploaded for (the only settings it holds: a new film size leaves it as it is).
+#[derive(Resource, Default)]
+pub struct GpuShadingData(Option<(GpuShading, u32, u64)>);
 
 /// The active lens on the GPU, once uploaded.
 #[derive(Resource, Default)]
@@ -55,6 +61,7 @@ pub struct GpuFilmData {
 /// Makes the (empty) GPU resources the systems fill in.
 pub(super) fn init_resources(world: &mut World) {
     world.init_resource::<GpuSceneData>();
+    world.init_resource::<GpuShadingData>();
     world.init_resource::<GpuLensData>();
     world.init_resource::<GpuFilmData>();
 }
@@ -62,7 +69,12 @@ pub(super) fn init_resources(world: &mut World) {
 /// Adds the GPU pass systems: they run instead of the CPU's while a [`GpuBackend`] is present.
 pub(super) fn add_systems(schedule: &mut Schedule) {
     schedule.add_systems(
-        (upload_scene, upload_lens, render_pass_on_gpu)
+        (
+            upload_scene,
+            upload_shading,
+            upload_lens,
+            render_pass_on_gpu,
+        )
             .chain()
             .in_set(Stage::Shade)
             .run_if(pass_pending.and_then(on_gpu)),
@@ -74,46 +86,64 @@ pub(super) fn on_gpu(backend: Option<Res<GpuBackend>>) -> bool {
     backend.is_some()
 }
 
-/// Uploads the scene and its shading data when there is none yet or any of it changed.
-#[allow(clippy::too_many_arguments)]
+/// Uploads the scene's geometry and textures when there are none yet or they changed (a new
+/// scene: the BVH, triangles and texels, the large part, go up once per scene).
 fn upload_scene(
     mut commands: Commands,
     backend: Res<GpuBackend>,
     mut uploaded: ResMut<GpuSceneData>,
     accel: Option<Res<SceneAccel>>,
     materials: Option<Res<MaterialLibrary>>,
+) {
+    let (Some(accel), Some(materials)) = (accel, materials) else {
+        return;
+    };
+    if uploaded.0.is_some() && !accel.is_changed() && !materials.is_changed() {
+        return;
+    }
+    match GpuScene::upload(&backend.0, &accel, &materials) {
+        Ok(scene) => uploaded.0 = Some(scene),
+        Err(why) => commands.insert_resource(PipelineFault(format!("GPU: {why}"))),
+    }
+}
+
+/// Uploads the shading data (materials, lights, environment, path depth and seed) when there
+/// is none yet or any of it changed.
+fn upload_shading(
+    mut commands: Commands,
+    backend: Res<GpuBackend>,
+    mut uploaded: ResMut<GpuShadingData>,
+    materials: Option<Res<MaterialLibrary>>,
     lights: Option<Res<LightSet>>,
     environment: Option<Res<SceneEnvironment>>,
     settings: Res<RenderSettings>,
 ) {
-    let (Some(accel), Some(materials), Some(lights)) = (accel, materials, lights) else {
+    let (Some(materials), Some(lights)) = (materials, lights) else {
         return;
     };
-    let changed = uploaded.0.is_none()
-        || accel.is_changed()
+    let wanted = (settings.max_depth, settings.seed);
+    let current = uploaded
+        .0
+        .as_ref()
+        .is_some_and(|(_, depth, seed)| (*depth, *seed) == wanted);
+    let changed = !current
         || materials.is_changed()
         || lights.is_changed()
-        || environment.as_ref().is_some_and(|e| e.is_changed())
-        || settings.is_changed();
+        || environment.as_ref().is_some_and(|e| e.is_changed());
     if !changed {
         return;
     }
     let black = Environment::Uniform(glam::Vec3::ZERO);
     let environment = environment.as_deref().map_or(&black, |e| &e.0);
-    let context = &backend.0;
-    let upload = GpuScene::upload(context, &accel, &materials).and_then(|scene| {
-        GpuShading::upload(
-            context,
-            &materials,
-            &lights,
-            environment,
-            settings.max_depth,
-            settings.seed,
-        )
-        .map(|shading| (scene, shading))
-    });
-    match upload {
-        Ok(data) => uploaded.0 = Some(data),
+    match GpuShading::upload(
+        &backend.0,
+        &materials,
+        &lights,
+        environment,
+        wanted.0,
+        wanted.1,
+    ) {
+        Ok(shading) => uploaded.0 = Some((shading, wanted.0, wanted.1)),
         Err(why) => commands.insert_resource(PipelineFault(format!("GPU: {why}"))),
     }
 }
@@ -164,6 +194,7 @@ fn render_pass_on_gpu(
     mut commands: Commands,
     backend: Res<GpuBackend>,
     scene: Res<GpuSceneData>,
+    shading: Res<GpuShadingData>,
     lens: Res<GpuLensData>,
     mut film: ResMut<GpuFilmData>,
     settings: Res<RenderSettings>,
@@ -172,7 +203,7 @@ fn render_pass_on_gpu(
     mut tiles: Query<&mut FilmTile>,
     mut stats: ResMut<RenderStats>,
 ) {
-    let (Some((scene, shading)), Some(lens)) = (&scene.0, &lens.0) else {
+    let (Some(scene), Some((shading, ..)), Some(lens)) = (&scene.0, &shading.0, &lens.0) else {
         commands.insert_resource(PipelineFault(
             "no active lens with a valid focus, or no camera pose".into(),
         ));
