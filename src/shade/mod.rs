@@ -23,7 +23,7 @@ pub mod material;
 pub(crate) mod warp;
 
 #[cfg(test)]
-mod tests;
+pub(crate) mod tests;
 
 use glam::Vec3;
 use rayon::prelude::*;

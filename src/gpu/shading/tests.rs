@@ -8,7 +8,6 @@ use std::sync::Arc;
 use glam::{Mat4, Vec2, Vec3};
 
 use super::{GpuShading, RNG_WGSL, SHADE_WGSL};
-use crate::accel::SceneAccel;
 use crate::gpu::compute::{
     Access, Bindings, dispatch, kernel_with, read_buffer, storage_buffer, workgroups_for,
     zeroed_buffer,
@@ -20,9 +19,8 @@ use crate::scene::{
     Material, MaterialLibrary, Mesh, MeshInstance, PunctualLight, Texture, TextureRef, WrapMode,
 };
 use crate::shade::bsdf::MetalRoughBsdf;
-use crate::shade::{
-    Environment, EnvironmentMap, EnvironmentSampling, LightSet, SHADE_STREAM_KEY, Shader,
-};
+use crate::shade::tests::TestScene;
+use crate::shade::{Environment, EnvironmentMap, EnvironmentSampling, SHADE_STREAM_KEY};
 
 #[test]
 fn the_rng_draws_the_cpu_streams_bit_for_bit() {
@@ -96,49 +94,8 @@ fn the_rng_draws_the_cpu_streams_bit_for_bit() {
     }
 }
 
-/// A scene with everything a [`Shader`] borrows, on both devices.
-struct TestScene {
-    accel: SceneAccel,
-    materials: MaterialLibrary,
-    lights: LightSet,
-    environment: Environment,
-}
-
+/// The shading tests' scene (`shade::tests::TestScene`), uploaded to the GPU as well.
 impl TestScene {
-    fn new(
-        instances: &[MeshInstance],
-        materials: MaterialLibrary,
-        punctual: &[PunctualLight],
-        environment: Environment,
-        environment_sampling: EnvironmentSampling,
-    ) -> TestScene {
-        let accel = SceneAccel::build(instances, &materials).expect("accel");
-        let lights = LightSet::build_with(
-            punctual,
-            &accel,
-            &materials,
-            &environment,
-            environment_sampling,
-        );
-        TestScene {
-            accel,
-            materials,
-            lights,
-            environment,
-        }
-    }
-
-    fn shader(&self, max_depth: u32, seed: u64) -> Shader<'_> {
-        Shader {
-            accel: &self.accel,
-            materials: &self.materials,
-            lights: &self.lights,
-            environment: &self.environment,
-            max_depth,
-            seed,
-        }
-    }
-
     /// Runs `body` (a kernel `main` reading `inputs` at group 3 binding 0 and writing
     /// `output_len` `O`s at binding 1) over `inputs`, with this scene uploaded as the renderer
     /// uploads it: its geometry and textures at group 1, its shading data at group 2.
@@ -319,7 +276,7 @@ fn lit_room() -> TestScene {
             node_name: None,
         },
     ];
-    TestScene::new(
+    TestScene::with_library(
         &instances,
         materials,
         &[PunctualLight::Point {
@@ -388,7 +345,7 @@ fn sunlit_yard() -> TestScene {
             2,
         ),
     ];
-    TestScene::new(
+    TestScene::with_library(
         &instances,
         materials,
         &[

@@ -17,8 +17,8 @@ use crate::accel::SceneAccel;
 use crate::sampling::Rng;
 use crate::scene::{Material, MaterialLibrary, Mesh, MeshInstance, PunctualLight};
 
-/// A scene with everything a [`Shader`] borrows.
-pub(super) struct TestScene {
+/// A scene with everything a [`Shader`] borrows (the GPU's shading tests upload it too).
+pub(crate) struct TestScene {
     pub accel: SceneAccel,
     pub materials: MaterialLibrary,
     pub lights: LightSet,
@@ -53,6 +53,23 @@ impl TestScene {
             materials,
             ..Default::default()
         };
+        Self::with_library(
+            instances,
+            materials,
+            punctual,
+            environment,
+            environment_sampling,
+        )
+    }
+
+    /// A scene of a whole material library (textures included).
+    pub fn with_library(
+        instances: &[MeshInstance],
+        materials: MaterialLibrary,
+        punctual: &[PunctualLight],
+        environment: Environment,
+        environment_sampling: EnvironmentSampling,
+    ) -> Self {
         let accel = SceneAccel::build(instances, &materials).expect("accel");
         let lights = LightSet::build_with(
             punctual,
