@@ -102,25 +102,14 @@ pub fn read_buffer<T: bytemuck::Pod>(
     Ok(values)
 }
 
-/// A compute kernel: `entry` of the WGSL `source`, its bind group layouts derived from the
-/// source. A shader that fails validation is an error naming the kernel, not a panic.
-pub fn kernel(
-    context: &GpuContext,
-    label: &str,
-    source: &str,
-    entry: &str,
-) -> Result<wgpu::ComputePipeline, GpuUnavailable> {
-    compile(context, label, source, entry, None)
-}
-
-/// The kernel `entry` of `source` with `layout` (`None`: derived from the source), wgpu's
-/// validation errors caught as a value.
+/// The kernel `entry` of `source` with `layout`: a shader that fails validation is an error
+/// naming the kernel, not a panic.
 fn compile(
     context: &GpuContext,
     label: &str,
     source: &str,
     entry: &str,
-    layout: Option<&wgpu::PipelineLayout>,
+    layout: &wgpu::PipelineLayout,
 ) -> Result<wgpu::ComputePipeline, GpuUnavailable> {
     let scope = context
         .device
@@ -135,7 +124,7 @@ fn compile(
         .device
         .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
             label: Some(label),
-            layout,
+            layout: Some(layout),
             module: &module,
             entry_point: Some(entry),
             compilation_options: Default::default(),
@@ -211,7 +200,8 @@ impl Bindings {
     }
 }
 
-/// A compute kernel with explicit bind group layouts (group i = `layouts[i]`); see [`kernel`].
+/// A compute kernel: `entry` of the WGSL `source`, with explicit bind group layouts (group i =
+/// `layouts[i]`, so a kernel may leave bindings unused).
 pub fn kernel_with(
     context: &GpuContext,
     label: &str,
@@ -227,31 +217,7 @@ pub fn kernel_with(
             bind_group_layouts: &layouts,
             immediate_size: 0,
         });
-    compile(context, label, source, entry, Some(&layout))
-}
-
-/// A bind group for group `group` of `pipeline`, binding `buffers` in order to bindings 0, 1, ….
-pub fn bind_buffers(
-    context: &GpuContext,
-    pipeline: &wgpu::ComputePipeline,
-    group: u32,
-    buffers: &[&wgpu::Buffer],
-) -> wgpu::BindGroup {
-    let entries: Vec<wgpu::BindGroupEntry> = buffers
-        .iter()
-        .enumerate()
-        .map(|(binding, buffer)| wgpu::BindGroupEntry {
-            binding: binding as u32,
-            resource: buffer.as_entire_binding(),
-        })
-        .collect();
-    context
-        .device
-        .create_bind_group(&wgpu::BindGroupDescriptor {
-            label: None,
-            layout: &pipeline.get_bind_group_layout(group),
-            entries: &entries,
-        })
+    compile(context, label, source, entry, &layout)
 }
 
 /// Runs `pipeline` over `workgroups` with `bind_groups` (group i = the i-th), and waits for it.
@@ -339,14 +305,15 @@ mod tests {
         let source = "@group(0) @binding(0) var<storage, read_write> values: array<f32>;\n\
             @compute @workgroup_size(64) fn main(@builtin(global_invocation_id) id: vec3u) {\n\
             if id.x < arrayLength(&values) { values[id.x] = 2.0 * values[id.x]; } }";
-        let pipeline = kernel(&context, "double", source, "main").unwrap();
         let input: Vec<f32> = (0..1000).map(|i| i as f32).collect();
         let buffer = storage_buffer(&context, "values", &input);
-        let group = bind_buffers(&context, &pipeline, 0, &[&buffer]);
+        let bindings = Bindings::new(&context, "values", &[(&buffer, Access::ReadWrite)]);
+        let pipeline =
+            kernel_with(&context, "double", source, "main", &[&bindings.layout]).unwrap();
         dispatch(
             &context,
             &pipeline,
-            &[&group],
+            &[&bindings.group],
             [workgroups_for(1000, 64), 1, 1],
         )
         .unwrap();
@@ -378,11 +345,12 @@ mod tests {
         let Some(context) = GpuContext::for_tests() else {
             return;
         };
-        let error = kernel(
+        let error = kernel_with(
             &context,
             "broken",
             "fn main() { let x: f32 = true; }",
             "main",
+            &[],
         )
         .unwrap_err();
         assert!(error.0.contains("broken"), "{error}");

@@ -119,7 +119,7 @@ const WORKGROUP_SIDE: u32 = 8;
 
 impl GpuFilm {
     /// Sample indices per pixel one dispatch renders on a film of `pixels`: about
-    /// [`SAMPLES_PER_DISPATCH`] samples, at most 64 a pixel (progress, cancellation and
+    /// four million samples, at most 64 a pixel (progress, cancellation and
     /// checkpoints come between dispatches).
     pub fn samples_per_pixel_per_dispatch(pixels: u64) -> u32 {
         (SAMPLES_PER_DISPATCH / pixels.max(1)).clamp(1, 64) as u32
