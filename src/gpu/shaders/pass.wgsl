@@ -61,18 +61,6 @@ fn pass_render_sample(x: u32, y: u32, sample: u32) -> vec3f {
     return rgb;
 }
 
-// The dispatch's samples of pixel (x, y), added to its sums one at a time in index order: the
-// same f32 additions, in the same order, as one pass per sample.
-fn pass_render_pixel(x: u32, y: u32) {
-    let index = y * pass_params.width + x;
-    var sums = pass_film[index];
-    for (var k = 0u; k < pass_params.count; k += 1u) {
-        let sample = pass_params.sample + k * pass_params.step;
-        sums = sums + vec4f(pass_render_sample(x, y, sample), 0.0);
-    }
-    pass_film[index] = sums;
-}
-
 // What this invocation counted, into the workgroup's counts, then (one invocation per count)
 // into the 64-bit totals. Every invocation of the workgroup must call it (it has a barrier).
 fn pass_add_counts(local: u32, counted: bool) {
@@ -95,7 +83,7 @@ fn pass_add_counts(local: u32, counted: bool) {
     }
 }
 
-// A dispatch of one sample per pixel (or several, in a loop, in index order).
+// A dispatch of one sample per pixel (`sample`), added straight to the film.
 @compute @workgroup_size(8, 8, 1)
 fn render_pass(
     @builtin(global_invocation_id) id: vec3u,
@@ -104,7 +92,9 @@ fn render_pass(
     // No early return: every invocation must reach the barrier in pass_add_counts.
     let inside = id.x < pass_params.width && id.y < pass_params.height;
     if inside {
-        pass_render_pixel(id.x, id.y);
+        let index = id.y * pass_params.width + id.x;
+        let rgb = pass_render_sample(id.x, id.y, pass_params.sample);
+        pass_film[index] = pass_film[index] + vec4f(rgb, 0.0);
     }
     pass_add_counts(local, inside);
 }
