@@ -1,162 +1,176 @@
-//! Colour noise of spectral camera rays: a flat grey wall filling the view under a white sky,
-//! 128², through lenses with glass data, rendered spectrally and at the lens files' indices
-//! (`--dispersion off`) at 64 spp. Noise is each channel's RMS difference, over the central
-//! half of the frame, from a 1024-spp render of the same setting, relative to its mean.
-//! Prints a table (no timing): `cargo bench --bench colour_noise`.
+//! Colour grain of spectral renders, against the RGB render (`--dispersion off`) at equal time.
+//!
+//! The default scene (the course's dof-dragons) through the four course lenses at 256², each
+//! rendered by the `realcam` binary: a converged reference per estimator family (spectral and
+//! RGB, 4096 spp), then at 64 spp the RGB render and the spectral one with 1, 2, 4 and 8
+//! wavelengths per sample (`--wavelengths`). Per render: its wall time (`--stats`), the
+//! luminance RMS error against its family's reference and the chroma RMS error (opponent
+//! axes (R−G)/√2 and (R+G−2B)/√6 of linear sRGB), both relative to the reference's mean
+//! luminance; and the equal-time luminance ratio against RGB, (e / e_rgb)·√(t / t_rgb) (errors
+//! fall as 1/√spp). Then the issue's floor figure: the default render (512², 64 spp,
+//! dgauss.50mm), mean chroma (max−min)/max over rows 330–420, columns 150–350.
+//! Prints tables (no timing asserts): `cargo bench --bench colour_noise` (about 10 minutes on 2
+//! cores; `-- --reference-spp N` for a quicker, noisier run).
 
-use glam::{Mat4, Vec3};
-use realcam::film::Image;
-use realcam::lens::aperture::ApertureSetting;
-use realcam::lens::elements::{Dispersion, FocusSetting};
-use realcam::lens::focus::FocusMode;
-use realcam::lens::io::bundled::load_lens;
-use realcam::lens::pupil::PupilSampling;
-use realcam::pipeline::{RenderSettings, Renderer, SceneSource};
-use realcam::scene::look_at;
-use realcam::shade::Environment;
+use std::path::{Path, PathBuf};
+use std::process::Command;
 
-const SIZE: u32 = 128;
+const SIZE: u32 = 256;
 const SPP: u32 = 64;
-const REFERENCE_SPP: u32 = 1024;
+const LENSES: [&str; 4] = [
+    "dgauss.50mm",
+    "wide.22mm",
+    "telephoto.250mm",
+    "fisheye.10mm",
+];
+/// Spectral estimators: wavelengths per sample.
+const WAVELENGTHS: [u32; 4] = [1, 2, 4, 8];
 
-/// A 20 m grey (albedo 0.5) square at z = 0 facing +z, as an embedded glTF.
-fn grey_wall() -> &'static [u8] {
-    let positions: [[f32; 3]; 4] = [
-        [-10.0, -10.0, 0.0],
-        [10.0, -10.0, 0.0],
-        [10.0, 10.0, 0.0],
-        [-10.0, 10.0, 0.0],
-    ];
-    let mut buffer: Vec<u8> = Vec::new();
-    for p in positions {
-        for v in p {
-            buffer.extend(v.to_le_bytes());
-        }
-    }
-    for _ in 0..4 {
-        for v in [0.0f32, 0.0, 1.0] {
-            buffer.extend(v.to_le_bytes());
-        }
-    }
-    for i in [0u16, 1, 2, 0, 2, 3] {
-        buffer.extend(i.to_le_bytes());
-    }
-    let uri = format!("data:application/octet-stream;base64,{}", base64(&buffer));
-    let gltf = serde_json::json!({
-        "asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": [0]}],
-        "nodes": [{"mesh": 0}],
-        "meshes": [{"primitives": [{"attributes": {"POSITION": 0, "NORMAL": 1}, "indices": 2, "material": 0}]}],
-        "materials": [{"pbrMetallicRoughness": {"baseColorFactor": [0.5, 0.5, 0.5, 1.0], "metallicFactor": 0.0, "roughnessFactor": 1.0}}],
-        "buffers": [{"byteLength": buffer.len(), "uri": uri}],
-        "bufferViews": [
-            {"buffer": 0, "byteOffset": 0, "byteLength": 48},
-            {"buffer": 0, "byteOffset": 48, "byteLength": 48},
-            {"buffer": 0, "byteOffset": 96, "byteLength": 12}],
-        "accessors": [
-            {"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3", "min": [-10.0, -10.0, 0.0], "max": [10.0, 10.0, 0.0]},
-            {"bufferView": 1, "componentType": 5126, "count": 4, "type": "VEC3"},
-            {"bufferView": 2, "componentType": 5123, "count": 6, "type": "SCALAR"}]
-    });
-    Box::leak(serde_json::to_vec(&gltf).expect("json").into_boxed_slice())
+/// A linear render and its wall time.
+struct Render {
+    pixels: Vec<[f32; 3]>,
+    seconds: f64,
 }
 
-fn base64(bytes: &[u8]) -> String {
-    const TABLE: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-    let mut out = String::new();
-    for chunk in bytes.chunks(3) {
-        let b = [
-            chunk[0],
-            *chunk.get(1).unwrap_or(&0),
-            *chunk.get(2).unwrap_or(&0),
-        ];
-        let n = (u32::from(b[0]) << 16) | (u32::from(b[1]) << 8) | u32::from(b[2]);
-        for k in 0..4 {
-            if k <= chunk.len() {
-                out.push(TABLE[((n >> (18 - 6 * k)) & 63) as usize] as char);
-            } else {
-                out.push('=');
-            }
-        }
-    }
-    out
-}
-
-fn render(lens: &str, dispersion: Dispersion, spp: u32) -> Image {
-    let mut renderer = Renderer::new();
-    renderer.set_scene(SceneSource {
-        path: "grey-wall.gltf".into(),
-        embedded: Some(grey_wall()),
-    });
-    renderer.update().expect("the wall loads");
-    renderer.set_environment(Environment::Uniform(Vec3::ONE));
-    let camera: Mat4 = look_at(Vec3::new(0.0, 0.0, 3.0), Vec3::ZERO, Vec3::Y);
-    renderer.set_camera(camera);
-    renderer.set_film(24.0, PupilSampling::Bounds);
-    renderer.set_settings(RenderSettings {
-        width: SIZE,
-        height: SIZE,
-        seed: 5,
-        max_depth: 3,
-        tile_size: 32,
-    });
-    let prescription = load_lens(lens, None).expect("bundled lens");
-    let entity = renderer.add_lens(
-        &prescription,
-        FocusSetting::Distance {
-            metres: 3.0,
-            mode: FocusMode::Paraxial,
-        },
-        ApertureSetting::Full,
+fn render(dir: &Path, args: &[String]) -> Render {
+    let exr = dir.join("render.exr");
+    let stats = dir.join("stats.json");
+    let output = Command::new(env!("CARGO_BIN_EXE_realcam"))
+        .arg("render")
+        .args(args)
+        .args(["--out".as_ref(), dir.join("render.png").as_os_str()])
+        .args(["--exr".as_ref(), exr.as_os_str()])
+        .args(["--stats".as_ref(), stats.as_os_str()])
+        .output()
+        .expect("realcam runs");
+    assert!(
+        output.status.success(),
+        "realcam render {args:?}: {}",
+        String::from_utf8_lossy(&output.stderr)
     );
-    renderer.world.entity_mut(entity).insert(dispersion);
-    renderer.set_active_lens(entity);
-    renderer.render(spp, |_, _| true).expect("renders")
+    let image = image::open(&exr).expect("the EXR reads").into_rgb32f();
+    let stats: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(&stats).expect("stats")).expect("stats JSON");
+    Render {
+        pixels: image.pixels().map(|p| p.0).collect(),
+        seconds: stats["wall_seconds"].as_f64().expect("wall_seconds"),
+    }
 }
 
-/// Per channel: RMS of (image − reference) over the central half, relative to the mean there.
-fn noise(image: &Image, reference: &Image) -> [f64; 3] {
-    let (a, r) = (image.mean(), reference.mean());
-    let (mut squares, mut means, mut count) = ([0.0f64; 3], [0.0f64; 3], 0.0);
-    for y in SIZE / 4..3 * SIZE / 4 {
-        for x in SIZE / 4..3 * SIZE / 4 {
-            let i = (y * SIZE + x) as usize;
-            for k in 0..3 {
-                squares[k] += (a[i][k] as f64 - r[i][k] as f64).powi(2);
-                means[k] += r[i][k] as f64;
+fn luminance(p: [f32; 3]) -> f64 {
+    0.2126 * p[0] as f64 + 0.7152 * p[1] as f64 + 0.0722 * p[2] as f64
+}
+
+/// Luminance and chroma RMS errors of `image` against `reference`, relative to the
+/// reference's mean luminance.
+fn errors(image: &[[f32; 3]], reference: &[[f32; 3]]) -> (f64, f64) {
+    let mean = reference.iter().map(|&p| luminance(p)).sum::<f64>() / reference.len() as f64;
+    let (mut lum, mut chroma) = (0.0, 0.0);
+    for (&a, &r) in image.iter().zip(reference) {
+        let d: [f64; 3] = std::array::from_fn(|c| a[c] as f64 - r[c] as f64);
+        lum += (0.2126 * d[0] + 0.7152 * d[1] + 0.0722 * d[2]).powi(2);
+        let o1 = (d[0] - d[1]) / 2f64.sqrt();
+        let o2 = (d[0] + d[1] - 2.0 * d[2]) / 6f64.sqrt();
+        chroma += o1 * o1 + o2 * o2;
+    }
+    let n = image.len() as f64;
+    ((lum / n).sqrt() / mean, (chroma / n).sqrt() / mean)
+}
+
+/// Mean (max − min)/max over the issue's floor region of a 512² default render.
+fn floor_chroma(pixels: &[[f32; 3]]) -> f64 {
+    let (mut sum, mut n) = (0.0, 0.0);
+    for y in 330..420 {
+        for x in 150..350 {
+            let p = pixels[y * 512 + x];
+            let max = p[0].max(p[1]).max(p[2]);
+            let min = p[0].min(p[1]).min(p[2]);
+            if max > 0.0 {
+                sum += ((max - min) / max) as f64;
+                n += 1.0;
             }
-            count += 1.0;
         }
     }
-    std::array::from_fn(|k| (squares[k] / count).sqrt() / (means[k] / count))
+    sum / n
+}
+
+fn strings(args: &[&str]) -> Vec<String> {
+    args.iter().map(|s| s.to_string()).collect()
 }
 
 fn main() {
-    if std::env::args().any(|a| a == "--list") {
+    let args: Vec<String> = std::env::args().collect();
+    if args.iter().any(|a| a == "--list") {
         return;
     }
+    let reference_spp: u32 = args
+        .iter()
+        .position(|a| a == "--reference-spp")
+        .and_then(|i| args.get(i + 1))
+        .map_or(4096, |v| v.parse().expect("a whole number"));
+    let dir = tempfile::tempdir().expect("a temporary directory");
+    let dir: PathBuf = dir.path().to_path_buf();
     println!(
-        "colour noise, grey wall under a white sky, {SIZE}², {SPP} spp (relative RMS vs {REFERENCE_SPP} spp)"
+        "colour grain, default scene, {SIZE}², {SPP} spp against {reference_spp} spp references; \
+         errors relative to mean luminance; equal-time ratio = (e / e_rgb)·√(t / t_rgb)"
     );
     println!(
-        "{:<20} {:>24} {:>24} {:>20}",
-        "lens", "fixed index (R G B)", "spectral (R G B)", "ratio (R G B)"
+        "{:<16} {:<14} {:>8} {:>10} {:>10} {:>16}",
+        "lens", "estimator", "time s", "lum RMSE", "chroma RMSE", "lum equal-time"
     );
-    for lens in ["dgauss.50mm", "canon-ef-35mm-f2"] {
-        let fixed = noise(
-            &render(lens, Dispersion::Off, SPP),
-            &render(lens, Dispersion::Off, REFERENCE_SPP),
-        );
-        let spectral = noise(
-            &render(lens, Dispersion::On, SPP),
-            &render(lens, Dispersion::On, REFERENCE_SPP),
-        );
-        let show = |v: [f64; 3]| format!("{:.4} {:.4} {:.4}", v[0], v[1], v[2]);
-        let ratio: [f64; 3] = std::array::from_fn(|k| spectral[k] / fixed[k]);
+    for lens in LENSES {
+        let base = |spp: u32| {
+            strings(&[
+                "--lens",
+                lens,
+                "--width",
+                &SIZE.to_string(),
+                "--height",
+                &SIZE.to_string(),
+                "--spp",
+                &spp.to_string(),
+                "--seed",
+                "3",
+            ])
+        };
+        let with = |spp: u32, extra: &[&str]| [base(spp), strings(extra)].concat();
+        let rgb_reference = render(&dir, &with(reference_spp, &["--dispersion", "off"]));
+        let spectral_reference = render(&dir, &with(reference_spp, &["--wavelengths", "4"]));
+        let rgb = render(&dir, &with(SPP, &["--dispersion", "off"]));
+        let (rgb_lum, rgb_chroma) = errors(&rgb.pixels, &rgb_reference.pixels);
         println!(
-            "{lens:<20} {:>24} {:>24} {:>20}",
-            show(fixed),
-            show(spectral),
-            format!("{:.2} {:.2} {:.2}", ratio[0], ratio[1], ratio[2])
+            "{lens:<16} {:<14} {:>8.2} {:>10.4} {:>10.4} {:>16}",
+            "rgb", rgb.seconds, rgb_lum, rgb_chroma, "1.00"
+        );
+        for n in WAVELENGTHS {
+            let spectral = render(&dir, &with(SPP, &["--wavelengths", &n.to_string()]));
+            let (lum, chroma) = errors(&spectral.pixels, &spectral_reference.pixels);
+            let equal_time = lum / rgb_lum * (spectral.seconds / rgb.seconds).sqrt();
+            println!(
+                "{lens:<16} {:<14} {:>8.2} {:>10.4} {:>10.4} {:>16.2}",
+                format!("spectral ×{n}"),
+                spectral.seconds,
+                lum,
+                chroma,
+                equal_time
+            );
+        }
+    }
+    println!("\nthe default render's grey floor (512², 64 spp, dgauss.50mm): mean (max−min)/max");
+    let rgb = render(&dir, &strings(&["--dispersion", "off"]));
+    println!(
+        "{:<14} {:>8.4}  ({:.2} s)",
+        "rgb",
+        floor_chroma(&rgb.pixels),
+        rgb.seconds
+    );
+    for n in WAVELENGTHS {
+        let spectral = render(&dir, &strings(&["--wavelengths", &n.to_string()]));
+        println!(
+            "{:<14} {:>8.4}  ({:.2} s)",
+            format!("spectral ×{n}"),
+            floor_chroma(&spectral.pixels),
+            spectral.seconds
         );
     }
 }

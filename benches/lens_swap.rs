@@ -47,6 +47,7 @@ fn default_scene(width: u32, height: u32) -> Renderer {
         seed: 0,
         max_depth: 8,
         tile_size: 32,
+        ..RenderSettings::default()
     });
     renderer
 }

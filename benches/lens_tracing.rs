@@ -103,6 +103,7 @@ fn camera_generate<const PASS: u32>(bencher: Bencher, lens: &str) {
         film: FilmGeometry::new(512, 512, LensWorkload::FILM_DIAGONAL_MM),
         world_from_camera: Mat4::IDENTITY,
         dispersion: None,
+        wavelengths: 1,
     };
     let pixels: Vec<(u32, u32)> = (0..32)
         .flat_map(|y| (0..32).map(move |x| (240 + x, 240 + y)))

@@ -166,6 +166,7 @@ fn renderer(name: &str) -> Renderer {
         seed: 1,
         max_depth: MAX_DEPTH,
         tile_size: 32,
+        ..RenderSettings::default()
     });
     let focus = FocusSetting::Distance {
         metres: camera.hints.focus_distance_m.unwrap_or(3.0),

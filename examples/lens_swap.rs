@@ -40,6 +40,7 @@ fn main() -> anyhow::Result<()> {
         seed: 1,
         max_depth: 4,
         tile_size: 32,
+        ..RenderSettings::default()
     });
 
     // Several lens entity sets side by side in one world; only the active one renders.

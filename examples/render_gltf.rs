@@ -56,6 +56,7 @@ fn main() -> anyhow::Result<()> {
         seed: 1,
         max_depth: 4,
         tile_size: 32,
+        ..RenderSettings::default()
     });
     renderer.check_active_lens()?;
 

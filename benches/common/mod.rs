@@ -179,6 +179,7 @@ pub fn frame_renderer(
         seed: 1,
         max_depth,
         tile_size: 32,
+        ..RenderSettings::default()
     });
     let lens = renderer.add_lens(
         &load_lens(FRAME_LENS, None).expect("bundled lens"),

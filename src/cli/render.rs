@@ -143,6 +143,17 @@ pub struct RenderArgs {
     /// renders every ray at the lens file's indices (n_d), as for a lens without glass data.
     #[arg(long, value_name = "on|off", default_value = "on")]
     pub dispersion: DispersionArg,
+    /// Wavelengths each camera sample carries when it disperses, 1–8: one scene path serves
+    /// them all (each traced back through the lens to its own film point), so a grey surface
+    /// renders grey instead of in colour speckles; 1 is one wavelength per sample.
+    #[arg(
+        long,
+        default_value_t = crate::lens::hero_wavelengths::DEFAULT_WAVELENGTHS,
+        value_name = "N",
+        allow_hyphen_values = true,
+        value_parser = whole::<u32>(1, crate::lens::hero_wavelengths::MAX_WAVELENGTHS)
+    )]
+    pub wavelengths: u32,
     /// Focus on what pixel X,Y sees ((0,0): the top-left pixel): a probe ray through the real
     /// lens finds the point, and the film distance that brings its real-ray image into
     /// sharpest focus is solved; each lens of the run focuses on it.
@@ -195,6 +206,7 @@ impl RenderArgs {
             resume,
             shard,
             dispersion,
+            wavelengths,
             focus_on,
             shift,
             tilt,
@@ -223,6 +235,7 @@ impl RenderArgs {
             device,
             max_depth,
             dispersion: dispersion.0,
+            wavelengths,
             focus_on,
             movements: FilmMovements {
                 shift_mm: shift.unwrap_or_default(),

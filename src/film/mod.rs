@@ -11,6 +11,7 @@ pub mod format;
 pub mod merge;
 pub mod output;
 pub mod samples;
+pub mod splat;
 
 use bevy_ecs::component::Component;
 
@@ -53,6 +54,16 @@ impl FilmTile {
             sum_g: vec![0.0; n],
             sum_b: vec![0.0; n],
             samples: 0,
+        }
+    }
+
+    /// The image pixels this tile covers.
+    pub fn rect(&self) -> splat::PixelRect {
+        splat::PixelRect {
+            x0: self.x0,
+            y0: self.y0,
+            width: self.width,
+            height: self.height,
         }
     }
 

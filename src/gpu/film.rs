@@ -40,7 +40,8 @@ struct PassParams {
     sample: u32,
     step: u32,
     count: u32,
-    _pad: [u32; 3],
+    wavelengths: u32,
+    _pad: [u32; 2],
 }
 
 /// What the passes since the last [`GpuFilm::read`] counted.
@@ -81,11 +82,15 @@ impl PassCounts {
 pub struct GpuFilm {
     pub width: u32,
     pub height: u32,
+    /// Wavelengths per sample: with more than one, each sample leaves that many shares for
+    /// the pixels they land in (`render_wavelengths`, `accumulate_splats`).
+    pub wavelengths: u32,
     params: wgpu::Buffer,
     film: wgpu::Buffer,
     counters: wgpu::Buffer,
-    /// Each sample's weighted radiance, `[k][pixel]`, between the two kernels of a dispatch of
-    /// several samples (one element when a dispatch renders one sample per pixel).
+    /// Each sample's weighted radiance, `[k][pixel]` (with several wavelengths, each sample's
+    /// shares, `[k][pixel][wavelength]`), between the two kernels of a dispatch of several
+    /// samples (one element when a dispatch renders one sample per pixel into the film).
     _scratch: wgpu::Buffer,
     bindings: Bindings,
     kernels: Option<Kernels>,
@@ -102,6 +107,8 @@ struct Kernels {
     render_pass: wgpu::ComputePipeline,
     render_samples: wgpu::ComputePipeline,
     accumulate: wgpu::ComputePipeline,
+    render_wavelengths: wgpu::ComputePipeline,
+    accumulate_splats: wgpu::ComputePipeline,
 }
 
 /// Samples one dispatch renders, pixels × samples per pixel: enough to fill a large GPU many
@@ -122,17 +129,26 @@ impl GpuFilm {
     /// four million samples, at most 64 a pixel (progress, cancellation and
     /// checkpoints come between dispatches).
     pub fn samples_per_pixel_per_dispatch(pixels: u64) -> u32 {
-        (SAMPLES_PER_DISPATCH / pixels.max(1)).clamp(1, 64) as u32
+        Self::samples_per_pixel_with(pixels, 1)
     }
 
-    /// A cleared film of `width` × `height` pixels.
-    pub fn new(context: &GpuContext, width: u32, height: u32) -> GpuFilm {
+    /// As [`Self::samples_per_pixel_per_dispatch`] with `wavelengths` shares a sample: the
+    /// scratch buffer holds about four million shares.
+    fn samples_per_pixel_with(pixels: u64, wavelengths: u32) -> u32 {
+        (SAMPLES_PER_DISPATCH / (pixels.max(1) * u64::from(wavelengths.max(1)))).clamp(1, 64) as u32
+    }
+
+    /// A cleared film of `width` × `height` pixels whose samples carry `wavelengths`
+    /// wavelengths each.
+    pub fn new(context: &GpuContext, width: u32, height: u32, wavelengths: u32) -> GpuFilm {
         let pixels = width as u64 * height as u64;
         let params = storage_buffer(context, "pass parameters", &[PassParams::default()]);
         let film = zeroed_buffer::<[f32; 4]>(context, "film sums", pixels as usize);
         let counters = storage_buffer(context, "pass counters", &[0u32; COUNTER_WORDS]);
-        let per_pixel = Self::samples_per_pixel_per_dispatch(pixels);
-        let scratch_len = if per_pixel > 1 {
+        let per_pixel = Self::samples_per_pixel_with(pixels, wavelengths);
+        let scratch_len = if wavelengths > 1 {
+            pixels * u64::from(per_pixel) * u64::from(wavelengths)
+        } else if per_pixel > 1 {
             pixels * u64::from(per_pixel)
         } else {
             1
@@ -151,6 +167,7 @@ impl GpuFilm {
         GpuFilm {
             width,
             height,
+            wavelengths,
             params,
             film,
             counters,
@@ -197,6 +214,8 @@ impl GpuFilm {
             render_pass: compile("render pass", &source, "render_pass")?,
             render_samples: compile("render samples", &source, "render_samples")?,
             accumulate: compile("accumulate", ACCUMULATE_WGSL, "accumulate")?,
+            render_wavelengths: compile("render wavelengths", &source, "render_wavelengths")?,
+            accumulate_splats: compile("accumulate splats", ACCUMULATE_WGSL, "accumulate_splats")?,
         };
         // A driver may compile a pipeline only when it first runs: one dispatch of each on an
         // empty film (every invocation outside it, nothing written) keeps that in set-up, out
@@ -215,6 +234,8 @@ impl GpuFilm {
             (&kernels.render_pass, [1, 1, 1]),
             (&kernels.render_samples, [1, 1, 1]),
             (&kernels.accumulate, [1, 1, 1]),
+            (&kernels.render_wavelengths, [1, 1, 1]),
+            (&kernels.accumulate_splats, [1, 1, 1]),
         ];
         let submission = super::compute::submit_steps(context, &steps, &groups)?;
         super::compute::wait_for(context, submission)?;
@@ -232,7 +253,7 @@ impl GpuFilm {
         samples: SampleSequence,
     ) -> Result<(), GpuUnavailable> {
         let pixels = self.width as u64 * self.height as u64;
-        let per_dispatch = Self::samples_per_pixel_per_dispatch(pixels);
+        let per_dispatch = Self::samples_per_pixel_with(pixels, self.wavelengths);
         let mut done = 0;
         while done < samples.count {
             let chunk = samples.after(done).first_n(per_dispatch);
@@ -257,7 +278,8 @@ impl GpuFilm {
             sample: samples.first,
             step: samples.step,
             count: samples.count,
-            _pad: [0; 3],
+            wavelengths: self.wavelengths,
+            _pad: [0; 2],
         };
         context
             .queue
@@ -273,7 +295,15 @@ impl GpuFilm {
             self.height.div_ceil(WORKGROUP_SIDE),
         ];
         let pixels = self.width * self.height;
-        let steps: Vec<(&wgpu::ComputePipeline, [u32; 3])> = if samples.count == 1 {
+        let steps: Vec<(&wgpu::ComputePipeline, [u32; 3])> = if self.wavelengths > 1 {
+            vec![
+                (
+                    &kernels.render_wavelengths,
+                    [tiles[0], tiles[1], samples.count],
+                ),
+                (&kernels.accumulate_splats, [pixels.div_ceil(64), 1, 1]),
+            ]
+        } else if samples.count == 1 {
             vec![(&kernels.render_pass, [tiles[0], tiles[1], 1])]
         } else {
             vec![

@@ -19,6 +19,7 @@ use bytemuck::{Pod, Zeroable};
 use super::compute::{Access, Bindings, storage_buffer, uniform_buffer};
 use super::context::{GpuContext, GpuUnavailable};
 use crate::lens::camera::{FilmTilt, LensCamera, camera_seeds};
+use crate::lens::hero_wavelengths::MAX_WAVELENGTHS;
 use crate::lens::pupil::{PupilSampling, SEGMENTS};
 use crate::lens::trace::Travel;
 use crate::lens::trace_batch::{CONIC, POLYNOMIAL, SPHERE, SurfaceConstants};
@@ -83,10 +84,13 @@ struct LensConstants {
     segments_offset: u32,
     dispersion_offset: u32,
     dispersion_lambda_min: f32,
-    pad: u32,
+    wavelengths: u32,
+    film_width: u32,
+    film_height: u32,
+    pad: [u32; 2],
 }
 
-const _: () = assert!(size_of::<LensConstants>() == 256);
+const _: () = assert!(size_of::<LensConstants>() == 272);
 
 /// One surface in the order camera rays meet it (film to scene), as WGSL's `LensSurface`: the
 /// batch kernel's [`SurfaceConstants`].
@@ -129,24 +133,26 @@ impl LensData {
         let (film_seed, pupil_seed) = camera_seeds(seed);
         let f32s = &camera.system.f32s;
 
-        let surfaces: Vec<LensSurface> =
-            SurfaceConstants::in_travel_order(f32s, Travel::FilmToScene)
-                .iter()
-                .map(|s| LensSurface {
-                    coefficients: s.coefficients,
-                    slope_coefficients: s.slope_coefficients,
-                    shape: s.shape as u32,
-                    vertex_z: s.vertex_z,
-                    curvature: s.curvature,
-                    radius: s.radius,
-                    conic_factor: s.conic_factor,
-                    conic: s.conic,
-                    semi_aperture_sq: s.semi_aperture_sq,
-                    eta: s.eta,
-                    forward_sign: s.forward_sign,
-                    pad: [0; 3],
-                })
-                .collect();
+        // Film to scene (camera rays), then scene to film (backward traces).
+        let surfaces: Vec<LensSurface> = [Travel::FilmToScene, Travel::SceneToFilm]
+            .into_iter()
+            .flat_map(|travel| SurfaceConstants::in_travel_order(f32s, travel))
+            .map(|s| LensSurface {
+                coefficients: s.coefficients,
+                slope_coefficients: s.slope_coefficients,
+                shape: s.shape as u32,
+                vertex_z: s.vertex_z,
+                curvature: s.curvature,
+                radius: s.radius,
+                conic_factor: s.conic_factor,
+                conic: s.conic,
+                semi_aperture_sq: s.semi_aperture_sq,
+                eta: s.eta,
+                forward_sign: s.forward_sign,
+                pad: [0; 3],
+            })
+            .collect();
+        let surface_count = f32s.len();
 
         // The tables: the SEGMENTS segments (corner and extent) then their areas, blades,
         // mask, dispersion.
@@ -200,9 +206,9 @@ impl LensData {
             segment_scale: sampler.segment_scale,
             rear_radius: sampler.rear_radius,
             inv_z2: sampler.inv_z2,
-            surface_count: surfaces.len() as u32,
+            surface_count: surface_count as u32,
             film_normal: sampler.film_normal,
-            clip_step: clip.map_or(NO_CLIP, |c| (surfaces.len() - 1 - c.surface) as u32),
+            clip_step: clip.map_or(NO_CLIP, |c| (surface_count - 1 - c.surface) as u32),
             blade_count: clip.map_or(0, |c| c.normals_f32.len() as u32),
             has_mask: mask.is_some() as u32,
             apex: clip.map_or(0.0, |c| c.apex_f32),
@@ -217,13 +223,25 @@ impl LensData {
             segments_offset: 0,
             dispersion_offset,
             dispersion_lambda_min: LAMBDA_MIN as f32,
-            pad: 0,
+            wavelengths: wavelengths_per_sample(camera),
+            film_width: film.width,
+            film_height: film.height,
+            pad: [0; 2],
         };
         LensData {
             constants,
             surfaces,
             tables,
         }
+    }
+}
+
+/// Wavelengths each of `camera`'s samples carries: its setting in a spectral render, else 1.
+pub fn wavelengths_per_sample(camera: &LensCamera) -> u32 {
+    if camera.dispersion.is_some() {
+        camera.wavelengths.clamp(1, MAX_WAVELENGTHS)
+    } else {
+        1
     }
 }
 
@@ -252,9 +270,17 @@ pub struct GpuLens {
     surfaces: wgpu::Buffer,
     tables: wgpu::Buffer,
     spectral: wgpu::Buffer,
+    /// Wavelengths per sample of the uploaded camera (see [`wavelengths_per_sample`]).
+    wavelengths: u32,
 }
 
 impl GpuLens {
+    /// Wavelengths per sample of the uploaded camera: the film records that many shares of
+    /// each sample.
+    pub fn wavelengths(&self) -> u32 {
+        self.wavelengths
+    }
+
     /// Uploads `camera` (its lens, pupil, film and pose) with the camera patterns of the
     /// render's `seed`.
     pub fn upload(
@@ -275,6 +301,7 @@ impl GpuLens {
             surfaces,
             tables,
             spectral,
+            wavelengths: data.constants.wavelengths,
         })
     }
 
@@ -293,6 +320,7 @@ impl GpuLens {
         context
             .queue
             .write_buffer(&self.constants, 0, bytemuck::bytes_of(&data.constants));
+        self.wavelengths = data.constants.wavelengths;
         let mut grew = false;
         for (buffer, bytes, label) in [
             (
@@ -398,6 +426,23 @@ fn test_camera_rays(@builtin(global_invocation_id) id: vec3u) {
     test_out[o + 6u] = ray.weight;
     test_out[o + 7u] = ray.wavelength;
     test_out[o + 8u] = ray.wavelength_weight;
+}
+
+// Per pixel: the weight, then per wavelength (4) λ, factor and the offset of its pixel.
+@compute @workgroup_size(64)
+fn test_camera_wavelengths(@builtin(global_invocation_id) id: vec3u) {
+    let i = id.x;
+    if i >= test_params.width * test_params.height { return; }
+    var wavelengths: CameraWavelengths;
+    let ray = camera_ray_with(i % test_params.width, i / test_params.width, test_params.sample, &wavelengths);
+    let o = i * 17u;
+    test_out[o] = ray.weight;
+    for (var k = 0u; k < 4u; k++) {
+        test_out[o + 1u + 4u * k] = wavelengths.nm[k];
+        test_out[o + 2u + 4u * k] = wavelengths.factor[k];
+        test_out[o + 3u + 4u * k] = f32(wavelengths.offset[k].x);
+        test_out[o + 4u + 4u * k] = f32(wavelengths.offset[k].y);
+    }
 }
 
 // Per index i: hash32(i'), then owen_sobol(i, d, key) for d = 0..3, with i' and key hashed
@@ -560,6 +605,7 @@ fn test_spectral(@builtin(global_invocation_id) id: vec3u) {
                     glam::Vec3::new(1.5, -0.25, 3.0),
                 ),
                 dispersion: self.system.dispersion.as_deref().filter(|_| self.spectral),
+                wavelengths: 1,
             }
         }
     }
@@ -690,6 +736,108 @@ fn test_spectral(@builtin(global_invocation_id) id: vec3u) {
             worst[0], worst[1], worst[2]
         );
         passed
+    }
+
+    /// Four wavelengths per sample: the hero's companions, traced back on the GPU, land in the
+    /// pixels the CPU finds, with the same film factors (the balance heuristic over them);
+    /// returns the samples whose hero passed.
+    fn compare_wavelengths_with_cpu(context: &GpuContext, lens: &TestLens, seed: u64) -> usize {
+        let camera = LensCamera {
+            wavelengths: 4,
+            ..lens.camera()
+        };
+        let gpu_lens = GpuLens::upload(context, &camera, seed).unwrap();
+        assert_eq!(gpu_lens.wavelengths(), 4);
+        let (width, height) = (lens.film.width, lens.film.height);
+        let n = (width * height) as usize;
+        let mut cpu = CameraRays::default();
+        let (mut passed, mut borderline, mut total, mut worst) = (0, 0, 0, 0.0f32);
+        for sample in [0, 3, 40] {
+            let params = TestParams {
+                width,
+                height,
+                sample,
+                count: 0,
+            };
+            let (gpu, _) = run_test_kernel(
+                context,
+                &gpu_lens,
+                "test_camera_wavelengths",
+                params,
+                17 * n,
+                1,
+            );
+            let pixels = (0..height).flat_map(|y| (0..width).map(move |x| (x, y)));
+            camera.generate(pixels, sample, seed, &mut cpu);
+            for i in 0..n {
+                let g = &gpu[17 * i..17 * i + 17];
+                if (g[0] > 0.0) != (cpu.weight[i] > 0.0) {
+                    borderline += 1;
+                    total += 1;
+                    continue;
+                }
+                if cpu.weight[i] == 0.0 {
+                    continue;
+                }
+                passed += 1;
+                for k in 0..4 {
+                    total += 1;
+                    let j = k * n + i;
+                    let (nm, factor) = (cpu.wavelength[j], cpu.wavelength_weight[j]);
+                    let offset = cpu.wavelength_offset[j];
+                    let share = &g[1 + 4 * k..5 + 4 * k];
+                    let context = format!("pixel {i} sample {sample} wavelength {k}");
+                    assert!(
+                        (share[0] - nm).abs() < 0.05,
+                        "{context}: {} vs {nm} nm",
+                        share[0]
+                    );
+                    let same_pixel = [share[2], share[3]] == [offset[0] as f32, offset[1] as f32];
+                    // A companion landing within rounding of a pixel's edge or the pupil
+                    // bounds may count on one device only.
+                    if (share[1] == 0.0) != (factor == 0.0) || !same_pixel {
+                        borderline += 1;
+                        continue;
+                    }
+                    if factor != 0.0 {
+                        let relative = (share[1] - factor).abs() / factor;
+                        worst = worst.max(relative);
+                        assert!(
+                            relative <= WEIGHT_RELATIVE_TOLERANCE,
+                            "{context}: factor {} vs {factor}",
+                            share[1]
+                        );
+                    }
+                }
+            }
+        }
+        assert!(
+            borderline * 1000 <= BORDERLINE_PER_MILLE * total,
+            "{borderline} of {total} shares differ in where they count"
+        );
+        eprintln!("{passed} samples, {borderline} borderline; factors within {worst:e}");
+        passed
+    }
+
+    #[test]
+    fn several_wavelengths_per_sample_match_the_cpu() {
+        let Some(context) = GpuContext::for_tests() else {
+            return;
+        };
+        let spectral = Setup {
+            spectral: true,
+            ..PLAIN
+        };
+        let lens = TestLens::new("dgauss.50mm", spectral.clone());
+        assert!(compare_wavelengths_with_cpu(&context, &lens, 5) > 500);
+        let lens = TestLens::new("dgauss.50mm", moved_bladed_spectral());
+        assert!(compare_wavelengths_with_cpu(&context, &lens, 9) > 300);
+        let rear = Setup {
+            sampling: PupilSampling::RearElement,
+            ..spectral
+        };
+        let lens = TestLens::new("fisheye.10mm", rear);
+        assert!(compare_wavelengths_with_cpu(&context, &lens, 2) > 100);
     }
 
     fn blades_and_mask() -> Diaphragm {

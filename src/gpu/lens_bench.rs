@@ -78,6 +78,7 @@ impl GpuLensBench {
             film: FilmGeometry::new(1, 1, LensWorkload::FILM_DIAGONAL_MM),
             world_from_camera: glam::Mat4::IDENTITY,
             dispersion: None,
+            wavelengths: 1,
         };
         let lens = GpuLens::upload(context, &camera, 0)?;
         let empty = Bindings::new(context, "unused", &[]);

@@ -401,6 +401,9 @@ fn settings_fingerprint(
             .map(|r| r.glass.map(|g| g.label()))
             .collect();
         fingerprint["dispersion"] = json!(spec.dispersion == Dispersion::On);
+        if spec.dispersion == Dispersion::On {
+            fingerprint["wavelengths"] = json!(settings.wavelengths);
+        }
     }
     if let Some(diaphragm) = context.diaphragm {
         fingerprint["diaphragm"] = diaphragm.fingerprint();

@@ -217,6 +217,7 @@ impl<'a> Job<'a> {
             seed: spec.seed,
             max_depth: spec.max_depth,
             tile_size: 32,
+            wavelengths: spec.wavelengths,
         });
         Ok(Job {
             spec,

@@ -47,6 +47,9 @@ pub struct JobSpec {
     pub max_depth: u32,
     /// Whether camera rays carry wavelengths through the lens's glass.
     pub dispersion: Dispersion,
+    /// Wavelengths per camera sample when they do (1 ..= 8; see
+    /// [`crate::lens::hero_wavelengths`]).
+    pub wavelengths: u32,
     /// Focus on what this pixel sees (x, y from the top left).
     pub focus_on: Option<[u32; 2]>,
     /// Shift and tilt of the film.

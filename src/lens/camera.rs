@@ -21,6 +21,9 @@ use bevy_ecs::resource::Resource;
 use glam::Mat4;
 
 use super::dispersion::DispersionTable;
+use super::hero_wavelengths::{
+    BackwardScratch, BackwardTrace, Combined, HeroRays, MAX_WAVELENGTHS, wavelength_of_set,
+};
 use super::movements::FilmMovements;
 use super::pupil::{ExitPupil, FilmRays};
 use super::system::LensSystem;
@@ -29,7 +32,6 @@ use super::trace_batch::{Isa, Wavelengths, trace_batch, trace_batch_spectral};
 use crate::batch::RayBatch;
 use crate::sampling::sobol::owen_sobol;
 use crate::sampling::{Rng, hash32};
-use crate::spectral::sample_wavelength;
 
 /// Where the camera stands: the rigid transform from the camera frame (see above) to the world.
 #[derive(Resource, Clone, Copy, Debug, PartialEq)]
@@ -171,6 +173,16 @@ pub(crate) struct FilmMap {
 }
 
 impl FilmMap {
+    /// The continuous pixel position (pixel + jitter) of film point `film`: [`Self::apply`]
+    /// inverted.
+    #[inline(always)]
+    pub(crate) fn pixel_position(&self, film: [f32; 2]) -> [f32; 2] {
+        [
+            film[0] / self.scale[0] + self.centre[0] - self.origin[0],
+            film[1] / self.scale[1] + self.centre[1] - self.origin[1],
+        ]
+    }
+
     #[inline(always)]
     fn apply(&self, px: f32, py: f32, jitter_x: f32, jitter_y: f32) -> [f32; 2] {
         [
@@ -214,6 +226,10 @@ pub struct LensCamera<'a> {
     /// indices at it (a lens with glass data, dispersion on); `None`: all at the lens's own
     /// indices, as the lens file gives them.
     pub dispersion: Option<&'a DispersionTable>,
+    /// Wavelengths per camera sample in a spectral render (1 ..= [`MAX_WAVELENGTHS`]): the
+    /// hero and its companions, traced backward from the hero's scene ray (see
+    /// [`super::hero_wavelengths`]); 1 is one wavelength per sample.
+    pub wavelengths: u32,
 }
 
 /// Camera rays of one batch: rays in the world frame and the lens weight of each.
@@ -222,11 +238,19 @@ pub struct CameraRays {
     pub rays: RayBatch,
     /// Camera-measurement weight (see [`super::pupil::PupilSample`]); 0 for blocked rays.
     pub weight: Vec<f32>,
-    /// Each ray's wavelength, nm, in a spectral render (see [`LensCamera::dispersion`]);
-    /// empty otherwise.
+    /// In a spectral render (see [`LensCamera::dispersion`]) each ray's wavelengths, nm,
+    /// wavelength-major: [`LensCamera::wavelengths`] blocks of one per ray, the heroes (those
+    /// the rays were traced at) first; empty otherwise.
     pub wavelength: Vec<f32>,
-    /// The inverse of the density each ray's wavelength was drawn with, nm.
+    /// What each of those wavelengths adds per unit of weighted radiance, laid out as
+    /// `wavelength`: T/p(λ) (T: the diaphragm mask's transmission at λ, p: the density λ was
+    /// drawn with, 1/nm), 0 for a companion that does not count in the ray's pixel. The film
+    /// adds Σ_k a(λ_k)·(b(λ_k)·L)·weight·wavelength_weight_k (see [`crate::spectral`]).
     pub wavelength_weight: Vec<f32>,
+    /// With several wavelengths per sample, laid out as `wavelength`: the offset (dx, dy) from
+    /// the ray's pixel to the pixel that wavelength's contribution goes to (see
+    /// [`super::hero_wavelengths`]); empty with one.
+    pub wavelength_offset: Vec<[i8; 2]>,
     scratch: Scratch,
 }
 
@@ -240,6 +264,8 @@ struct Scratch {
     depth: Vec<f32>,
     /// The camera sample: film jitter x, y; pupil u, v; wavelength (and an unused partner).
     u: [Vec<f32>; 6],
+    /// The companion wavelengths' backward traces.
+    backward: BackwardScratch,
 }
 
 /// Seed key of the camera's sample patterns, apart from the shading streams.
@@ -291,9 +317,14 @@ impl LensCamera<'_> {
         out.weight.resize(n, 0.0);
         out.wavelength.clear();
         out.wavelength_weight.clear();
+        out.wavelength_offset.clear();
         if self.dispersion.is_some() {
-            out.wavelength.resize(n, 0.0);
-            out.wavelength_weight.resize(n, 0.0);
+            let count = self.wavelengths.clamp(1, MAX_WAVELENGTHS) as usize;
+            out.wavelength.resize(n * count, 0.0);
+            out.wavelength_weight.resize(n * count, 0.0);
+            if count > 1 {
+                out.wavelength_offset.resize(n * count, [0, 0]);
+            }
         }
         // The per-pixel loops are compiled again for wider vector units and the widest this
         // CPU has is chosen, as for the lens kernel.
@@ -330,18 +361,22 @@ impl LensCamera<'_> {
         match self.dispersion {
             None => trace_batch(&self.system.f32s, &mut out.rays, Travel::FilmToScene),
             Some(table) => {
-                for ((nm, weight), &u) in out
-                    .wavelength
-                    .iter_mut()
-                    .zip(out.wavelength_weight.iter_mut())
-                    .zip(&out.scratch.u[4])
-                {
-                    let sample = sample_wavelength(u);
-                    (*nm, *weight) = (sample.nm, sample.inverse_pdf);
+                let n = out.rays.len();
+                let count = out.wavelength.len() / n.max(1);
+                for k in 0..count {
+                    let block = k * n..(k + 1) * n;
+                    for ((nm, weight), &u) in out.wavelength[block.clone()]
+                        .iter_mut()
+                        .zip(&mut out.wavelength_weight[block])
+                        .zip(&out.scratch.u[4])
+                    {
+                        let sample = wavelength_of_set(u, k as u32, count as u32);
+                        (*nm, *weight) = (sample.nm, sample.inverse_pdf);
+                    }
                 }
                 let wavelengths = Wavelengths {
                     table,
-                    nm: &out.wavelength,
+                    nm: &out.wavelength[..n],
                 };
                 trace_batch_spectral(
                     &self.system.f32s,
@@ -349,6 +384,33 @@ impl LensCamera<'_> {
                     &mut out.rays,
                     Travel::FilmToScene,
                 );
+                if count > 1 {
+                    let sampler = self.pupil.sampler();
+                    let backward = BackwardTrace {
+                        surfaces: &self.system.f32s,
+                        table,
+                        film: self.film.film_map(),
+                        size: [self.film.width, self.film.height],
+                        tilt: FilmTilt::of(&self.film.movements),
+                        sampler: &sampler,
+                        film_z,
+                    };
+                    let hero = HeroRays {
+                        rays: &out.rays,
+                        px: &out.scratch.px,
+                        py: &out.scratch.py,
+                        nm: &out.wavelength,
+                    };
+                    let combined = Combined {
+                        weight: &mut out.weight,
+                        coefficient: &mut out.wavelength_weight,
+                        offset: &mut out.wavelength_offset,
+                    };
+                    backward.combine(hero, combined, &mut out.scratch.backward);
+                    // The mask's transmission is in each wavelength's factor.
+                    self.move_to_world(film_z, out);
+                    return;
+                }
             }
         }
         if let Some(clip) = self.system.f32s.stop_clip.as_deref()

@@ -30,6 +30,7 @@ pub mod field;
 pub mod first_order;
 pub mod focus;
 pub mod focus_probe;
+pub mod hero_wavelengths;
 pub mod info;
 pub mod io;
 pub mod movements;

@@ -442,6 +442,51 @@ impl PupilSampler {
         }
     }
 
+    /// The camera weight [`Self::sample`] gives the ray from film point `film` (lens-frame x
+    /// and y, `depth` mm behind the rear-vertex plane) through rear-plane point `rear`, or 0
+    /// when it never draws `rear` from there (outside that film point's bounds, or off the rear
+    /// element). Its inverse is the density, in the lens's invariant measure of scene rays,
+    /// with which the sampler makes that ray (see [`super::hero_wavelengths`]).
+    #[inline(always)]
+    pub fn drawn_weight(&self, film: [f32; 2], depth: f32, rear: [f32; 2]) -> f32 {
+        let [x, y] = film;
+        let area = match self.sampling {
+            PupilSampling::Bounds => {
+                let r = (x * x + y * y).sqrt();
+                let k = ((r * self.segment_scale) as usize).min(SEGMENTS - 1);
+                let [min_x, min_y, extent_x, extent_y] = self.segments[k];
+                // Into the frame of a film point on +x, where the bounds were found.
+                let (sin, cos) = if r > 0.0 { (y / r, x / r) } else { (0.0, 1.0) };
+                let bx = cos * rear[0] + sin * rear[1];
+                let by = cos * rear[1] - sin * rear[0];
+                // The rotation there and back rounds: a point drawn on an edge may come back
+                // a few ulps outside it.
+                let slack = 1e-5 * (extent_x + extent_y);
+                let inside = bx >= min_x - slack
+                    && bx <= min_x + extent_x + slack
+                    && by >= min_y - slack
+                    && by <= min_y + extent_y + slack;
+                if inside { self.areas[k] } else { 0.0 }
+            }
+            PupilSampling::RearElement => {
+                let radius = self.rear_radius;
+                // A point drawn on the rim may round to just beyond it.
+                let reach = radius * (1.0 + 1e-5);
+                if rear[0] * rear[0] + rear[1] * rear[1] <= reach * reach {
+                    std::f32::consts::PI * radius * radius
+                } else {
+                    0.0
+                }
+            }
+        };
+        let to = [rear[0] - x, rear[1] - y, -depth];
+        if self.film_normal == [0.0, 0.0, 1.0] {
+            camera_weight(to, area, self.inv_z2)
+        } else {
+            tilted_camera_weight(to, self.film_normal, area, depth)
+        }
+    }
+
     /// Uniformly in the bounds of the film point's segment: the point and the area sampled (0
     /// in a segment no ray passes).
     #[inline(always)]
@@ -650,6 +695,41 @@ fn passing_bounds(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// What the sampler draws and what it says it would draw agree: the weight of every
+    /// sampled ray is [`PupilSampler::drawn_weight`] of its rear-plane point, and a point
+    /// beyond the bounds (or the rear element) is one it never draws.
+    #[test]
+    fn drawn_weight_is_the_weight_of_what_the_sampler_draws() {
+        let prescription = crate::lens::io::bundled::load_lens("wide.22mm", None).unwrap();
+        let system = LensSystem::new(&prescription.rows, None);
+        let film_distance = system.rear_semi_aperture().max(20.0);
+        for sampling in [PupilSampling::Bounds, PupilSampling::RearElement] {
+            let pupil = ExitPupil::compute(&system, film_distance, 43.0, sampling);
+            let sampler = pupil.sampler();
+            let mut drawn = 0;
+            for k in 0..400 {
+                let (x, y) = (-20.0 + 0.1 * k as f32, 7.0 - 0.035 * k as f32);
+                let u = [
+                    ((k * 37) % 101) as f32 / 101.0,
+                    ((k * 53) % 103) as f32 / 103.0,
+                ];
+                let Some(sample) = pupil.sample(x, y, u) else {
+                    continue;
+                };
+                drawn += 1;
+                let rear = [sample.point[0], sample.point[1]];
+                let w = sampler.drawn_weight([x, y], film_distance as f32, rear);
+                assert!((w / sample.weight - 1.0).abs() < 1e-4, "{w} vs {sample:?}");
+                let beyond = [rear[0] * 3.0 + 100.0, rear[1] * 3.0 - 100.0];
+                assert_eq!(
+                    sampler.drawn_weight([x, y], film_distance as f32, beyond),
+                    0.0
+                );
+            }
+            assert!(drawn > 100, "{sampling:?}: {drawn}");
+        }
+    }
     use crate::lens::io::bundled::BUNDLED;
     use crate::lens::workload::LensWorkload;
     use crate::sampling::Rng;

@@ -343,6 +343,7 @@ impl Session {
             seed: self.spec.seed,
             max_depth: self.spec.max_depth,
             tile_size: 32,
+            wavelengths: self.spec.wavelengths,
         }
     }
 
@@ -432,6 +433,7 @@ impl Session {
                     crate::lens::elements::Dispersion::Off => "off",
                 }),
             ),
+            ("wavelengths", json!(spec.wavelengths)),
             (
                 "focus_mode",
                 json!(match options.focus_mode {

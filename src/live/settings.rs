@@ -16,7 +16,7 @@ pub type SpecParser = Arc<dyn Fn(&[String]) -> Result<JobSpec, String> + Send + 
 
 /// Options a live session changes without reloading the scene or rebuilding its BVH, by their
 /// names in the API (`realcam render`'s long options without dashes, `-` as `_`).
-pub const LIVE_OPTIONS: [&str; 20] = [
+pub const LIVE_OPTIONS: [&str; 21] = [
     "lens",
     "focus_distance",
     "film_distance",
@@ -31,6 +31,7 @@ pub const LIVE_OPTIONS: [&str; 20] = [
     "tilt",
     "pupil_sampling",
     "dispersion",
+    "wavelengths",
     "width",
     "height",
     "spp",
@@ -40,7 +41,15 @@ pub const LIVE_OPTIONS: [&str; 20] = [
 ];
 
 /// Settings that take whole numbers (the rest of the numeric ones take any number).
-const WHOLE: [&str; 6] = ["width", "height", "spp", "seed", "max_depth", "blades"];
+const WHOLE: [&str; 7] = [
+    "width",
+    "height",
+    "spp",
+    "seed",
+    "max_depth",
+    "blades",
+    "wavelengths",
+];
 /// Settings that take two numbers (`[x, y]` in JSON, `X,Y` on the command line).
 const PAIRS: [&str; 2] = ["shift", "tilt"];
 /// Settings that take words.

@@ -215,12 +215,13 @@ fn render_pass_on_gpu(
     let context = &backend.0;
     let (width, height) = (settings.width, settings.height);
     let data = &mut *film;
+    let wavelengths = lens.wavelengths();
     if data
         .film
         .as_ref()
-        .is_none_or(|f| (f.width, f.height) != (width, height))
+        .is_none_or(|f| (f.width, f.height, f.wavelengths) != (width, height, wavelengths))
     {
-        data.film = Some(GpuFilm::new(context, width, height));
+        data.film = Some(GpuFilm::new(context, width, height, wavelengths));
         data.gpu_newer = false;
     }
     let gpu_film = data.film.as_mut().expect("made above");

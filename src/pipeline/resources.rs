@@ -32,6 +32,9 @@ pub struct RenderSettings {
     pub seed: u64,
     pub max_depth: u32,
     pub tile_size: u32,
+    /// Wavelengths per camera sample in a spectral render (see
+    /// [`crate::lens::hero_wavelengths`]).
+    pub wavelengths: u32,
 }
 
 impl Default for RenderSettings {
@@ -42,6 +45,7 @@ impl Default for RenderSettings {
             seed: 0,
             max_depth: 8,
             tile_size: 32,
+            wavelengths: crate::lens::hero_wavelengths::DEFAULT_WAVELENGTHS,
         }
     }
 }
@@ -154,4 +158,7 @@ pub struct TileBatch {
     pub camera: CameraRays,
     pub hits: HitBatch,
     pub radiance: RadianceBatch,
+    /// Weighted radiance this tile's samples add to other pixels than their own (several
+    /// wavelengths per sample), in ray order.
+    pub splats: Vec<crate::film::splat::Splat>,
 }

@@ -206,6 +206,7 @@ surfaces = [
         seed: 11,
         max_depth: 1,
         tile_size: 32,
+        ..RenderSettings::default()
     });
     let lens = renderer.add_lens(
         &prescription,

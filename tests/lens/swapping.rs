@@ -40,6 +40,7 @@ fn duck_renderer() -> Renderer {
         seed: 3,
         max_depth: 3,
         tile_size: 16,
+        ..RenderSettings::default()
     });
     renderer
 }

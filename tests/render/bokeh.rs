@@ -280,6 +280,7 @@ fn sky_through(
         seed: 3,
         max_depth: 1,
         tile_size: 16,
+        ..RenderSettings::default()
     });
     let aperture = f_number.map_or(ApertureSetting::Diameter(stop), ApertureSetting::FNumber);
     let lens = renderer.add_lens(

@@ -319,6 +319,7 @@ fn duck_renderer() -> Renderer {
         seed: 3,
         max_depth: 3,
         tile_size: 32,
+        ..RenderSettings::default()
     });
     renderer.check_active_lens().unwrap();
     renderer

@@ -9,6 +9,7 @@ mod support;
 
 mod black_images;
 mod bokeh;
+mod colour_grain;
 mod example;
 mod film_movements;
 mod gpu;

@@ -50,6 +50,7 @@ impl Shot<'_> {
             seed: 7,
             max_depth: 4,
             tile_size: 16,
+            ..RenderSettings::default()
         });
         let lens = renderer.add_lens(
             &load_lens(self.lens, None).unwrap(),

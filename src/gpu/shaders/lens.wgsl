@@ -56,7 +56,13 @@ struct LensConstants {
     segments_offset: u32,
     dispersion_offset: u32,
     dispersion_lambda_min: f32,
-    pad: u32,
+    // Wavelengths per camera sample in a spectral render (1: the hero alone), and the frame's
+    // size in pixels (where a companion wavelength's film point must land).
+    wavelengths: u32,
+    film_width: u32,
+    film_height: u32,
+    pad0: u32,
+    pad1: u32,
 }
 
 // One surface in the order a camera ray meets it (film to scene): trace_batch's
@@ -84,6 +90,8 @@ struct LensSurface {
 }
 
 @group(0) @binding(0) var<uniform> lens_constants: LensConstants;
+// surface_count surfaces in the order a camera ray meets them (film to scene), then the same
+// surfaces in the order a backward trace meets them (scene to film).
 @group(0) @binding(1) var<storage, read> lens_surfaces: array<LensSurface>;
 // The exit-pupil segments (min x, min y, extent x, extent y, then the 64 areas), the blade
 // normals (x, y per blade), the mask's grey levels (row-major, row 0 at +y) and the dispersion
@@ -369,6 +377,12 @@ fn lens_index_after(surface: u32, i: u32, t: f32) -> f32 {
 // Travel::FilmToScene; at the ray's own wavelength `nm` in a spectral render), returning the
 // diaphragm mask's transmission along it.
 fn lens_trace(ray: ptr<function, LensRay>, nm: f32) -> f32 {
+    return lens_trace_toward(ray, nm, false);
+}
+
+// lens_trace, or with `backward` a scene-side ray through every surface to the film side
+// (Travel::SceneToFilm, the surfaces' second half of lens_surfaces).
+fn lens_trace_toward(ray: ptr<function, LensRay>, nm: f32, backward: bool) -> f32 {
     let count = lens_constants.surface_count;
     var transmission = 1.0;
     // DispersionTable::position: entry i and the fraction toward i + 1.
@@ -377,23 +391,39 @@ fn lens_trace(ray: ptr<function, LensRay>, nm: f32) -> f32 {
     let cell = min(u32(x), last - 1u);
     let fraction = x - f32(cell);
     var carried = 1.0;
-    if lens_constants.spectral != 0u {
+    if lens_constants.spectral != 0u && !backward {
         carried = lens_index_after(count - 1u, cell, fraction);
     }
+    var clip_step = lens_constants.clip_step;
+    if backward && clip_step != 0xffffffffu {
+        clip_step = count - 1u - clip_step;
+    }
     for (var step = 0u; step < count; step++) {
-        let s = lens_surfaces[step];
-        var eta = s.eta;
-        if lens_constants.spectral != 0u {
-            let surface = count - 1u - step;
-            var before = 1.0;
-            if surface != 0u {
-                before = lens_index_after(surface - 1u, cell, fraction);
+        var s: LensSurface;
+        var eta: f32;
+        if backward {
+            s = lens_surfaces[count + step];
+            eta = s.eta;
+            if lens_constants.spectral != 0u {
+                let after = lens_index_after(step, cell, fraction);
+                eta = carried / after;
+                carried = after;
             }
-            eta = carried / before;
-            carried = before;
+        } else {
+            s = lens_surfaces[step];
+            eta = s.eta;
+            if lens_constants.spectral != 0u {
+                let surface = count - 1u - step;
+                var before = 1.0;
+                if surface != 0u {
+                    before = lens_index_after(surface - 1u, cell, fraction);
+                }
+                eta = carried / before;
+                carried = before;
+            }
         }
         lens_refract(s, ray, eta);
-        if step == lens_constants.clip_step {
+        if step == clip_step {
             transmission = lens_clip(ray);
         }
         if !(*ray).alive {
@@ -459,8 +489,195 @@ fn lens_pupil_point(x: f32, y: f32, u: f32, v: f32) -> LensPupilPoint {
     return LensPupilPoint(vec2f(cos_a * bx - sin_a * by, sin_a * bx + cos_a * by), area);
 }
 
+// A sample's wavelengths beyond the hero (lens/hero_wavelengths.rs): each one's λ (nm), its
+// factor T/(p(λ)·Σ 1/W) for the film (0: it does not count), and the offset from the sample's
+// pixel to the pixel its contribution goes to. Index 0 is the hero.
+const LENS_MAX_WAVELENGTHS: u32 = 8u;
+const LENS_SPLAT_RADIUS: i32 = 2;
+// hero_wavelengths.rs BACKWARD_START_MM.
+const LENS_BACKWARD_START: f32 = 0.01;
+
+struct CameraWavelengths {
+    nm: array<f32, 8>,
+    factor: array<f32, 8>,
+    offset: array<vec2i, 8>,
+}
+
+// PupilSampler::drawn_weight: the camera weight the sampler gives the ray from film point
+// `film` (depth mm behind the rear-vertex plane) through rear-plane point `rear`; 0 where it
+// never draws that point.
+fn lens_drawn_weight(film: vec2f, depth: f32, rear: vec2f) -> f32 {
+    let x = film.x;
+    let y = film.y;
+    var area = 0.0;
+    if lens_constants.pupil_sampling == 1u {
+        let radius = lens_constants.rear_radius;
+        let reach = radius * (1.0 + 1e-5);
+        if rear.x * rear.x + rear.y * rear.y <= reach * reach {
+            area = LENS_PI * radius * radius;
+        }
+    } else {
+        let r = sqrt(x * x + y * y);
+        let k = u32(min(r * lens_constants.segment_scale, f32(LENS_SEGMENTS - 1u)));
+        let o = lens_constants.segments_offset + 4u * k;
+        let min_x = lens_tables[o];
+        let min_y = lens_tables[o + 1u];
+        let extent_x = lens_tables[o + 2u];
+        let extent_y = lens_tables[o + 3u];
+        var sin_a = 0.0;
+        var cos_a = 1.0;
+        if r > 0.0 {
+            sin_a = y / r;
+            cos_a = x / r;
+        }
+        let bx = cos_a * rear.x + sin_a * rear.y;
+        let by = cos_a * rear.y - sin_a * rear.x;
+        let slack = 1e-5 * (extent_x + extent_y);
+        if bx >= min_x - slack && bx <= min_x + extent_x + slack && by >= min_y - slack
+            && by <= min_y + extent_y + slack {
+            area = lens_tables[lens_constants.segments_offset + 4u * LENS_SEGMENTS + k];
+        }
+    }
+    let to = vec3f(rear.x - x, rear.y - y, -depth);
+    if lens_constants.tilted != 0u {
+        let inv_len = 1.0 / sqrt(to.x * to.x + to.y * to.y + to.z * to.z);
+        let cos_rear = abs(to.z * inv_len);
+        let nrm = lens_constants.film_normal;
+        let cos_film = abs((to.x * nrm.x + to.y * nrm.y + to.z * nrm.z) * inv_len);
+        return cos_film * cos_rear * cos_rear * cos_rear * area / (depth * depth);
+    }
+    let cos2 = to.z * to.z / (to.x * to.x + to.y * to.y + to.z * to.z);
+    return cos2 * cos2 * area * lens_constants.inv_z2;
+}
+
+// Where a backward-traced ray (on the rear surface, heading for the film) lands
+// (BackwardTrace::landing): its pixel and the inverse of the camera weight it would have been
+// drawn with there; valid only on the frame and where the pupil sampler draws.
+struct LensLanding {
+    pixel: vec2i,
+    inverse_weight: f32,
+    valid: bool,
+}
+
+fn lens_landing(ray: LensRay) -> LensLanding {
+    let o = ray.origin;
+    let d = ray.direction;
+    var lens_xy: vec2f;
+    var plane: vec2f;
+    var depth: f32;
+    if lens_constants.tilted == 0u {
+        let t = (lens_constants.film_z - o.z) / d.z;
+        lens_xy = vec2f(o.x + t * d.x, o.y + t * d.y);
+        plane = lens_xy;
+        depth = lens_constants.film_distance;
+    } else {
+        let normal = lens_constants.film_normal;
+        let centre = vec3f(lens_constants.tilt_centre, lens_constants.film_z);
+        let to_centre = centre - o;
+        let t = (to_centre.x * normal.x + to_centre.y * normal.y + to_centre.z * normal.z)
+            / (d.x * normal.x + d.y * normal.y + d.z * normal.z);
+        let p = vec3f(o.x + t * d.x, o.y + t * d.y, o.z + t * d.z);
+        let offset = p - centre;
+        let a = offset.x * lens_constants.tilt_x.x + offset.y * lens_constants.tilt_y.x
+            + offset.z * lens_constants.tilt_z.x;
+        let b = offset.x * lens_constants.tilt_x.y + offset.y * lens_constants.tilt_y.y
+            + offset.z * lens_constants.tilt_z.y;
+        plane = vec2f(lens_constants.tilt_centre.x + a, lens_constants.tilt_centre.y + b);
+        lens_xy = p.xy;
+        depth = lens_constants.film_distance + offset.z;
+    }
+    let qx = plane.x / lens_constants.film_scale.x + lens_constants.film_centre.x - lens_constants.film_origin.x;
+    let qy = plane.y / lens_constants.film_scale.y + lens_constants.film_centre.y - lens_constants.film_origin.y;
+    var landing = LensLanding(vec2i(0, 0), 0.0, false);
+    let on_frame = qx >= 0.0 && qy >= 0.0 && qx < f32(lens_constants.film_width)
+        && qy < f32(lens_constants.film_height);
+    if !on_frame {
+        return landing;
+    }
+    let rear_z = lens_constants.film_z - lens_constants.film_distance;
+    let t = (rear_z - o.z) / d.z;
+    let rear = vec2f(o.x + t * d.x, o.y + t * d.y);
+    let w = lens_drawn_weight(lens_xy, depth, rear);
+    landing.pixel = vec2i(i32(qx), i32(qy));
+    landing.inverse_weight = 1.0 / w;
+    landing.valid = w > 0.0 && w <= LENS_F32_MAX;
+    return landing;
+}
+
+fn lens_within_radius(a: vec2i, b: vec2i) -> bool {
+    return abs(a.x - b.x) <= LENS_SPLAT_RADIUS && abs(a.y - b.y) <= LENS_SPLAT_RADIUS;
+}
+
+// The companions of a hero ray that passed (lens frame, on the front surface; camera weight
+// `hero_weight`, mask transmission `hero_transmission`), traced back and combined with the
+// balance heuristic (BackwardTrace::combine) into `out`; returns the sample's weight (1, or 0
+// when the hero does not count).
+fn lens_companions(ray: LensRay, pixel: vec2i, wave_u: f32, hero_weight: f32,
+                   hero_transmission: f32, out: ptr<function, CameraWavelengths>) -> f32 {
+    let count = lens_constants.wavelengths;
+    var inverse: array<f32, 8>;
+    var landed: array<vec2i, 8>;
+    var valid: array<bool, 8>;
+    var transmission: array<f32, 8>;
+    valid[0] = ray.alive && hero_weight > 0.0;
+    inverse[0] = 1.0 / hero_weight;
+    landed[0] = pixel;
+    transmission[0] = hero_transmission;
+    for (var k = 1u; k < count; k++) {
+        var shifted = wave_u + f32(k) / f32(count);
+        if shifted >= 1.0 {
+            shifted = shifted - 1.0;
+        }
+        let wavelength = sample_wavelength(shifted);
+        (*out).nm[k] = wavelength.nm;
+        (*out).factor[k] = wavelength.inverse_pdf;
+        valid[k] = false;
+        transmission[k] = 0.0;
+        if ray.alive {
+            let d = ray.direction;
+            var back = LensRay(
+                vec3f(ray.origin.x + LENS_BACKWARD_START * d.x, ray.origin.y + LENS_BACKWARD_START * d.y,
+                      ray.origin.z + LENS_BACKWARD_START * d.z),
+                vec3f(-d.x, -d.y, -d.z), true);
+            let t = lens_trace_toward(&back, wavelength.nm, true);
+            if back.alive {
+                let landing = lens_landing(back);
+                valid[k] = landing.valid;
+                landed[k] = landing.pixel;
+                inverse[k] = landing.inverse_weight;
+                transmission[k] = t;
+            }
+        }
+    }
+    for (var k = 0u; k < count; k++) {
+        if valid[k] && lens_within_radius(landed[k], pixel) {
+            var inverse_sum = 0.0;
+            for (var j = 0u; j < count; j++) {
+                if valid[j] && lens_within_radius(landed[j], landed[k]) {
+                    inverse_sum += inverse[j];
+                }
+            }
+            (*out).factor[k] = (*out).factor[k] * (transmission[k] / inverse_sum);
+            (*out).offset[k] = landed[k] - pixel;
+        } else {
+            (*out).factor[k] = 0.0;
+            (*out).offset[k] = vec2i(0, 0);
+        }
+    }
+    return select(0.0, 1.0, valid[0]);
+}
+
 // Sample `sample` of pixel (pixel_x, pixel_y) through the lens, in the world frame (metres).
 fn camera_ray(pixel_x: u32, pixel_y: u32, sample: u32) -> CameraRay {
+    var unused: CameraWavelengths;
+    return camera_ray_with(pixel_x, pixel_y, sample, &unused);
+}
+
+// camera_ray, and with several wavelengths per sample (a spectral render with
+// lens_constants.wavelengths > 1) the hero's companions in `wavelengths`; the ray's weight is
+// then 1 (or 0) and the factors carry the rest.
+fn camera_ray_with(pixel_x: u32, pixel_y: u32, sample: u32,
+                   wavelengths: ptr<function, CameraWavelengths>) -> CameraRay {
     // The camera sample: film jitter, pupil point, and in a spectral render the wavelength,
     // from the pixel's Owen-scrambled Sobol patterns (LensCamera::camera_samples).
     let pixel = (pixel_y + lens_constants.key_origin_y) * lens_constants.key_width + (pixel_x + lens_constants.key_origin_x);
@@ -471,11 +688,13 @@ fn camera_ray(pixel_x: u32, pixel_y: u32, sample: u32) -> CameraRay {
     var pupil_v: f32;
     var nm = 0.0;
     var wavelength_weight = 1.0;
+    var wave_u = 0.0;
     if lens_constants.spectral != 0u {
         let key = hash32(hash32(pixel ^ lens_constants.pupil_seed) ^ LENS_WAVELENGTH_KEY);
         pupil_u = owen_sobol(sample, 0u, key);
         pupil_v = owen_sobol(sample, 1u, key);
-        let wavelength = sample_wavelength(owen_sobol(sample, 2u, key));
+        wave_u = owen_sobol(sample, 2u, key);
+        let wavelength = sample_wavelength(wave_u);
         nm = wavelength.nm;
         wavelength_weight = wavelength.inverse_pdf;
     } else {
@@ -521,9 +740,15 @@ fn camera_ray(pixel_x: u32, pixel_y: u32, sample: u32) -> CameraRay {
     }
     var ray = LensRay(vec3f(ox, oy, oz), select(vec3f(0.0, 0.0, -1.0), d, passing), passing);
 
-    // Through the lens; the mask's grey level scales the weight.
+    // Through the lens; the mask's grey level scales the weight (with several wavelengths,
+    // each one's factor).
     let transmission = lens_trace(&ray, nm);
-    if lens_constants.has_mask != 0u {
+    if lens_constants.spectral != 0u && lens_constants.wavelengths > 1u {
+        (*wavelengths).nm[0] = nm;
+        (*wavelengths).factor[0] = wavelength_weight;
+        weight = lens_companions(ray, vec2i(i32(pixel_x), i32(pixel_y)), wave_u, weight,
+                                 transmission, wavelengths);
+    } else if lens_constants.has_mask != 0u {
         weight *= transmission;
     }
 

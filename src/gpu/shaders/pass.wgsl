@@ -10,7 +10,9 @@ struct PassParams {
     sample: u32,
     step: u32,
     count: u32,
-    _pad0: u32,
+    // Wavelengths per sample: the shares each sample leaves in the scratch buffer
+    // (render_wavelengths).
+    wavelengths: u32,
     _pad1: u32,
     _pad2: u32,
 }
@@ -25,7 +27,8 @@ struct PassParams {
 // through and samples rejected as non-finite. Integer sums, so the order of the adds cannot
 // change them.
 @group(3) @binding(2) var<storage, read_write> pass_counters: array<atomic<u32>, 20>;
-// Sample k of pixel p at k·pixels + p, between render_samples and accumulate.wgsl.
+// Sample k of pixel p at k·pixels + p, between render_samples and accumulate.wgsl; with several
+// wavelengths per sample, its shares from (k·pixels + p)·wavelengths on (render_wavelengths).
 @group(3) @binding(3) var<storage, read_write> pass_scratch: array<vec4f>;
 
 const PASS_COUNT_LENS_PASSED: u32 = 8u;
@@ -112,6 +115,61 @@ fn render_samples(
         let sample = pass_params.sample + id.z * pass_params.step;
         let rgb = pass_render_sample(id.x, id.y, sample);
         pass_scratch[id.z * pixels + id.y * pass_params.width + id.x] = vec4f(rgb, 0.0);
+    }
+    pass_add_counts(local, inside);
+}
+
+// Splat codes: (dy + R)·(2R + 1) + (dx + R) for an offset (dx, dy) within the splat radius R;
+// a share that does not count gets PASS_NO_SPLAT.
+const PASS_NO_SPLAT: f32 = -1.0;
+
+// Several wavelengths per sample, all samples of the dispatch in parallel: sample k (the grid's
+// z) of pixel (x, y) leaves one share per wavelength in the scratch buffer, each with the code
+// of the pixel it belongs to; accumulate_splats (accumulate.wgsl) gathers them. The Weight
+// stage's rules: a sample with any non-finite share is rejected whole.
+@compute @workgroup_size(8, 8, 1)
+fn render_wavelengths(
+    @builtin(global_invocation_id) id: vec3u,
+    @builtin(local_invocation_index) local: u32,
+) {
+    let inside = id.x < pass_params.width && id.y < pass_params.height;
+    if inside {
+        let pixels = pass_params.width * pass_params.height;
+        let count = pass_params.wavelengths;
+        let sample = pass_params.sample + id.z * pass_params.step;
+        let first = (id.z * pixels + id.y * pass_params.width + id.x) * count;
+        var wavelengths: CameraWavelengths;
+        let ray = camera_ray_with(id.x, id.y, sample, &wavelengths);
+        var shares: array<vec4f, 8>;
+        for (var k = 0u; k < count; k++) {
+            shares[k] = vec4f(0.0, 0.0, 0.0, PASS_NO_SPLAT);
+        }
+        if ray.weight > 0.0 {
+            atomicAdd(&pass_group_counts[PASS_COUNT_LENS_PASSED], 1u);
+            shade_counts[SHADE_COUNT_RAYS_TRACED] += 1u;
+            let hit = scene_intersect(ray.origin, ray.direction, SHADE_FAR);
+            var rng = shade_rng(ray.pixel_key, sample);
+            let radiance = path_radiance(ray.origin, ray.direction, hit, &rng) * ray.weight;
+            var finite = true;
+            for (var k = 0u; k < count; k++) {
+                if wavelengths.factor[k] != 0.0 {
+                    let rgb = film_rgb(wavelengths.nm[k], wavelengths.factor[k], radiance);
+                    let o = wavelengths.offset[k] + vec2i(LENS_SPLAT_RADIUS, LENS_SPLAT_RADIUS);
+                    let code = o.y * (2 * LENS_SPLAT_RADIUS + 1) + o.x;
+                    shares[k] = vec4f(rgb, f32(code));
+                    finite = finite && pass_is_finite(rgb);
+                }
+            }
+            if !finite {
+                atomicAdd(&pass_group_counts[PASS_COUNT_REJECTED], 1u);
+                for (var k = 0u; k < count; k++) {
+                    shares[k] = vec4f(0.0, 0.0, 0.0, PASS_NO_SPLAT);
+                }
+            }
+        }
+        for (var k = 0u; k < count; k++) {
+            pass_scratch[first + k] = shares[k];
+        }
     }
     pass_add_counts(local, inside);
 }

@@ -5,18 +5,29 @@ use bevy_ecs::world::Mut;
 
 use super::run_on_tiles;
 use crate::film::FilmTile;
+use crate::film::splat::PixelRect;
+use crate::lens::hero_wavelengths::SPLAT_RADIUS;
 use crate::pipeline::Stage;
 use crate::pipeline::resources::{PassState, RenderStats, TileBatch};
 
-/// WriteFilm: adds the pass's weighted samples to each tile's sums.
+/// WriteFilm: adds the pass's weighted samples to each tile's sums: its own samples in pixel
+/// order, then the splats that land in it from every tile's list, the tiles in image order
+/// (see [`crate::film::splat`]).
 pub fn write_film(
     mut tiles: Query<(&mut FilmTile, &TileBatch)>,
     mut pass: ResMut<PassState>,
     mut stats: ResMut<RenderStats>,
 ) {
+    let tiles: Vec<(Mut<FilmTile>, &TileBatch)> = tiles.iter_mut().collect();
+    let mut sources: Vec<(PixelRect, &TileBatch)> = tiles
+        .iter()
+        .filter(|(_, batch)| !batch.splats.is_empty())
+        .map(|(tile, batch)| (tile.rect(), *batch))
+        .collect();
+    sources.sort_by_key(|(rect, _)| (rect.y0, rect.x0));
     run_on_tiles(
         Stage::WriteFilm,
-        tiles.iter_mut(),
+        tiles,
         None,
         &mut stats,
         |(mut tile, batch): (Mut<FilmTile>, &TileBatch)| {
@@ -26,6 +37,18 @@ pub fn write_film(
                 tile.sum_r[i] += batch.radiance.r[i];
                 tile.sum_g[i] += batch.radiance.g[i];
                 tile.sum_b[i] += batch.radiance.b[i];
+            }
+            let rect = tile.rect();
+            for (source, batch) in &sources {
+                if !source.may_reach(&rect, SPLAT_RADIUS as u32) {
+                    continue;
+                }
+                for splat in batch.splats.iter().filter(|s| rect.contains(s.x, s.y)) {
+                    let i = ((splat.y - rect.y0) * rect.width + (splat.x - rect.x0)) as usize;
+                    tile.sum_r[i] += splat.rgb[0];
+                    tile.sum_g[i] += splat.rgb[1];
+                    tile.sum_b[i] += splat.rgb[2];
+                }
             }
             tile.samples += 1;
         },

@@ -58,6 +58,7 @@ pub(crate) fn lens_camera<'a>(
             .dispersion
             .as_deref()
             .filter(|_| Dispersion::is_spectral(dispersion, geometry)),
+        wavelengths: settings.wavelengths,
     }
 }
 

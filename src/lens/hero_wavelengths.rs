@@ -1,0 +1,437 @@
+//! Several wavelengths per camera sample, sharing one scene path: colour from the glass without
+//! colour grain.
+//!
+//! A pixel's value in channel c is (film point x in the pixel, rear-plane point u, wavelength λ,
+//! and r = R_λ(x, u) the scene ray the lens sends from x through u at λ)
+//!
+//! ```text
+//! I_c = ∫ dλ ∫ dA(x) ∫ dA(u)  G(x, u) · s_c(λ) · T_λ(x, u) · L_λ(R_λ(x, u))
+//! ```
+//!
+//! with G the film's geometric factor (cos⁴θ / z², see [`super::pupil::PupilSample`]), s_c the
+//! film's response ([`crate::spectral::upsample`]) and T the diaphragm mask's transmission. A
+//! single-wavelength sample draws λ, x and u and traces one scene path: its three channels see
+//! one wavelength, so a grey wall comes out in speckles of every colour.
+//!
+//! The scene is RGB and does not disperse: only the lens makes the scene ray depend on λ. The
+//! lens conserves étendue (film and scene are both in air), so G·dA(x)·dA(u) is the same
+//! measure dΓ(r) of scene rays at every wavelength, and for each λ the lens maps (x, u) to r
+//! one to one. Rewritten over scene rays the integral is
+//!
+//! ```text
+//! I_c = ∫ dλ ∫ dΓ(r)  [x_λ(r) ∈ pixel] · s_c(λ) · T_λ(r) · L_λ(r)
+//! ```
+//!
+//! where x_λ(r) is where the ray r, **traced backwards through the lens at λ**, lands on the
+//! film (refraction is reversible: that film point sends exactly r at λ). So one scene path
+//! along r serves every wavelength, each counted in the pixel its own backward trace lands in.
+//!
+//! **The estimator** (hero wavelength sampling, Wilkie et al. 2014, carried through the lens):
+//! a sample draws the hero λ₀ from `u` ∈ [0, 1) as before, and its companions
+//! λₖ = sample_wavelength((u + k/N) mod 1), k = 1 … N−1, the same set whichever of them is the
+//! hero. It draws x and u for λ₀, traces r forward, and each companion backward. Technique k
+//! ("λₖ was the hero") would have drawn r with density q_k(r) = 1 / W_k in dΓ, where
+//! W_k = A·G(x_k, u_k) is the camera weight of (x_k, u_k) (A: the area u is drawn from), and
+//! only if x_k lies in this pixel and u_k where the pupil sampler draws from. With the balance
+//! heuristic over the N techniques, the sample adds
+//!
+//! ```text
+//! Σ_k valid  s_c(λ_k) · T_k · L(r) / p(λ_k)   ×   1 / Σ_j valid (1 / W_j)
+//! ```
+//!
+//! to its pixel: unbiased (each (λ, r) in the pixel is reachable by its own technique, and the
+//! weights over the techniques that reach it sum to one), and with N = 1 the single-wavelength
+//! estimator exactly. Where the lens's colour is small every companion lands in the hero's
+//! pixel and the N responses add up to nearly white; where it is large (a fringe, a defocused
+//! edge) companions land elsewhere, drop out of both sums, and the colour there comes from the
+//! neighbouring pixels' own samples: the image's expected value is the same either way.
+
+use super::camera::{FilmMap, FilmTilt};
+use super::dispersion::DispersionTable;
+use super::pupil::PupilSampler;
+use super::system::SurfaceArrays;
+use super::trace::Travel;
+use super::trace_batch::{Wavelengths, trace_batch_spectral};
+use crate::batch::RayBatch;
+use crate::spectral::{WavelengthSample, sample_wavelength};
+
+/// Wavelengths per camera sample a spectral render traces by default (see BENCHMARKS.md,
+/// "Colour grain": the colour noise against the lens-tracing cost).
+pub const DEFAULT_WAVELENGTHS: u32 = 4;
+
+/// The most wavelengths per camera sample (the GPU keeps them in registers).
+pub const MAX_WAVELENGTHS: u32 = 8;
+
+/// How far (mm) outside the front surface a backward trace starts along the scene ray, so its
+/// first intersection is a clean root well above the kernel's minimum distance.
+const BACKWARD_START_MM: f32 = 0.01;
+
+/// Wavelength `k` of `count` for a camera sample's uniform number `u`: the hero (k = 0) is
+/// `sample_wavelength(u)`; the others are the same rotation of `u` by k/count in the sampler's
+/// primary space, so the set is one and the same whichever member is the hero.
+#[inline(always)]
+pub fn wavelength_of_set(u: f32, k: u32, count: u32) -> WavelengthSample {
+    let shifted = u + k as f32 / count as f32;
+    sample_wavelength(if shifted >= 1.0 {
+        shifted - 1.0
+    } else {
+        shifted
+    })
+}
+
+/// How far (pixels, along x or y) from the hero's pixel a companion's contribution may land
+/// and still be added there. Measured on the bundled lenses at 512² (BENCHMARKS.md, "Colour
+/// grain"): dgauss.50mm's companions all land within 1 pixel, wide.22mm's and the fisheye's
+/// 99.9 % within 2; a strongly chromatic telephoto's 88 % within 2. The rest drop out of the
+/// sample (both its sums), which costs noise, never bias.
+pub const SPLAT_RADIUS: i32 = 2;
+
+/// What the backward traces need of the camera: the lens, its film and pupil sampler.
+pub(crate) struct BackwardTrace<'a> {
+    pub surfaces: &'a SurfaceArrays<f32>,
+    pub table: &'a DispersionTable,
+    pub film: FilmMap,
+    /// The frame's size in pixels.
+    pub size: [u32; 2],
+    pub tilt: Option<FilmTilt>,
+    pub sampler: &'a PupilSampler,
+    /// Lens-frame z of the frame centre, mm.
+    pub film_z: f32,
+}
+
+/// A batch's hero samples, as the forward trace left them (lens frame): rays on the front
+/// surface heading into the scene, their pixels, and their wavelengths.
+pub(crate) struct HeroRays<'a> {
+    pub rays: &'a RayBatch,
+    pub px: &'a [f32],
+    pub py: &'a [f32],
+    /// Wavelength-major: `count` blocks of one wavelength per ray, the heroes first.
+    pub nm: &'a [f32],
+}
+
+/// The backward traces' buffers, kept between batches.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct BackwardScratch {
+    rays: RayBatch,
+    /// The heroes that passed the lens, by index in their batch.
+    passed: Vec<u32>,
+    /// The backward rays' wavelengths.
+    nm: Vec<f32>,
+}
+
+/// Per wavelength of one sample: the pixel its film point lies in and 1/W there, or `None`
+/// when that technique could not have drawn the scene ray (blocked, off the film, or outside
+/// what the pupil sampler draws).
+type Landing = Option<([i32; 2], f32)>;
+
+/// Per ray and wavelength, what [`BackwardTrace::combine`] makes: the film's factor
+/// (`coefficient`, see [`super::camera::CameraRays::wavelength_weight`]) and the pixel offset
+/// its contribution goes to.
+pub(crate) struct Combined<'a> {
+    /// In: W₀ per ray. Out: 1 for every ray that passes (the weights are in the factors).
+    pub weight: &'a mut [f32],
+    /// In: 1/p(λ_k), wavelength-major. Out: T_k / (p(λ_k) · Σ_{j ∈ K_k} 1/W_j), 0 where the
+    /// wavelength does not count.
+    pub coefficient: &'a mut [f32],
+    /// Out: (dx, dy) from the ray's pixel to the one wavelength k's contribution goes to.
+    pub offset: &'a mut [[i8; 2]],
+}
+
+impl BackwardTrace<'_> {
+    /// Traces every alive hero ray backward at each companion wavelength (`hero.nm`'s blocks
+    /// after the first) and combines the N techniques with the balance heuristic (see the
+    /// module docs). Wavelength k counts when it lands within [`SPLAT_RADIUS`] of the hero's
+    /// pixel; its techniques K_k are the valid wavelengths that land within the same radius
+    /// of *its* pixel (exactly those whose samples would add this contribution), so the
+    /// weights of each contribution sum to one.
+    pub fn combine(&self, hero: HeroRays, out: Combined, scratch: &mut BackwardScratch) {
+        let n = hero.rays.len();
+        let count = hero.nm.len() / n.max(1);
+        let rays = hero.rays;
+        // Only the heroes that passed are traced back: `passed` lists them, and backward ray
+        // (k − 1)·m + p is hero passed[p] at wavelength k.
+        let BackwardScratch {
+            rays: backward,
+            passed,
+            nm,
+        } = scratch;
+        passed.clear();
+        passed.extend((0..n as u32).filter(|&i| rays.alive[i as usize]));
+        let m = passed.len();
+        backward.clear();
+        backward.resize(m * (count - 1));
+        nm.clear();
+        for k in 1..count {
+            for (p, &i) in passed.iter().enumerate() {
+                let (i, j) = (i as usize, (k - 1) * m + p);
+                let d = rays.direction(i);
+                let o = rays.origin(i);
+                backward.ox[j] = o[0] + BACKWARD_START_MM * d[0];
+                backward.oy[j] = o[1] + BACKWARD_START_MM * d[1];
+                backward.oz[j] = o[2] + BACKWARD_START_MM * d[2];
+                backward.dx[j] = -d[0];
+                backward.dy[j] = -d[1];
+                backward.dz[j] = -d[2];
+                nm.push(hero.nm[k * n + i]);
+            }
+        }
+        let wavelengths = Wavelengths {
+            table: self.table,
+            nm,
+        };
+        trace_batch_spectral(self.surfaces, wavelengths, backward, Travel::SceneToFilm);
+        let mut landings: [Landing; MAX_WAVELENGTHS as usize] = [None; MAX_WAVELENGTHS as usize];
+        let mut transmission = [0.0f32; MAX_WAVELENGTHS as usize];
+        let mut next_passed = 0;
+        for i in 0..n {
+            let hero_pixel = [hero.px[i] as i32, hero.py[i] as i32];
+            let w0 = out.weight[i];
+            landings[0] = (rays.alive[i] && w0 > 0.0).then_some((hero_pixel, 1.0 / w0));
+            transmission[0] = rays.tr[i];
+            let traced = passed.get(next_passed) == Some(&(i as u32));
+            for k in 1..count {
+                let j = (k - 1) * m + next_passed;
+                (landings[k], transmission[k]) = if traced && backward.alive[j] {
+                    (self.landing(backward, j), backward.tr[j])
+                } else {
+                    (None, 0.0)
+                };
+            }
+            next_passed += usize::from(traced);
+            for k in 0..count {
+                let c = &mut out.coefficient[k * n + i];
+                let counted = landings[k]
+                    .filter(|&(pixel, _)| within_radius(pixel, hero_pixel))
+                    .map(|(pixel, _)| {
+                        let inverse_sum: f32 = landings[..count]
+                            .iter()
+                            .flatten()
+                            .filter(|&&(other, _)| within_radius(other, pixel))
+                            .map(|&(_, inverse)| inverse)
+                            .sum();
+                        (pixel, inverse_sum)
+                    });
+                match counted {
+                    Some((pixel, inverse_sum)) => {
+                        *c *= transmission[k] / inverse_sum;
+                        out.offset[k * n + i] = [
+                            (pixel[0] - hero_pixel[0]) as i8,
+                            (pixel[1] - hero_pixel[1]) as i8,
+                        ];
+                    }
+                    None => {
+                        *c = 0.0;
+                        out.offset[k * n + i] = [0, 0];
+                    }
+                }
+            }
+            out.weight[i] = if landings[0].is_some() { 1.0 } else { 0.0 };
+        }
+    }
+
+    /// Where backward ray `j` (on the rear surface, heading for the film) meets the film: the
+    /// pixel there and the inverse of the camera weight the pupil sampler would have drawn it
+    /// with, if the point lies on the frame and the sampler can draw its rear-plane point.
+    #[inline(always)]
+    fn landing(&self, rays: &RayBatch, j: usize) -> Landing {
+        let o = rays.origin(j);
+        let d = rays.direction(j);
+        // The film plane: through the frame centre, normal to the (tilted) film. `lens_xy` is
+        // the film point as the pupil sampler takes it, `plane` where it lies in the film
+        // plane's own coordinates (the film map's), `depth` its distance behind the rear plane.
+        let (lens_xy, plane, depth) = match self.tilt {
+            None => {
+                let t = (self.film_z - o[2]) / d[2];
+                let p = [o[0] + t * d[0], o[1] + t * d[1]];
+                (p, p, self.sampler.film_distance)
+            }
+            Some(tilt) => {
+                let [[xa, xb], [ya, yb], [za, zb]] = tilt.rotation;
+                let normal = self.sampler.film_normal;
+                let centre = [tilt.centre[0], tilt.centre[1], self.film_z];
+                let to_centre = [centre[0] - o[0], centre[1] - o[1], centre[2] - o[2]];
+                let t = dot(to_centre, normal) / dot(d, normal);
+                let p = [o[0] + t * d[0], o[1] + t * d[1], o[2] + t * d[2]];
+                let offset = [p[0] - centre[0], p[1] - centre[1], p[2] - centre[2]];
+                let plane = [
+                    tilt.centre[0] + dot(offset, [xa, ya, za]),
+                    tilt.centre[1] + dot(offset, [xb, yb, zb]),
+                ];
+                ([p[0], p[1]], plane, self.sampler.film_distance + offset[2])
+            }
+        };
+        let [qx, qy] = self.film.pixel_position(plane);
+        let on_frame =
+            qx >= 0.0 && qy >= 0.0 && qx < self.size[0] as f32 && qy < self.size[1] as f32;
+        if !on_frame {
+            return None;
+        }
+        // The rear-vertex plane, where the pupil sampler draws its points.
+        let rear_z = self.film_z - self.sampler.film_distance;
+        let t = (rear_z - o[2]) / d[2];
+        let rear = [o[0] + t * d[0], o[1] + t * d[1]];
+        let w = self.sampler.drawn_weight(lens_xy, depth, rear);
+        (w > 0.0 && w.is_finite()).then_some(([qx as i32, qy as i32], 1.0 / w))
+    }
+}
+
+/// Whether pixels `a` and `b` are within [`SPLAT_RADIUS`] of each other along both axes.
+#[inline(always)]
+fn within_radius(a: [i32; 2], b: [i32; 2]) -> bool {
+    (a[0] - b[0]).abs() <= SPLAT_RADIUS && (a[1] - b[1]).abs() <= SPLAT_RADIUS
+}
+
+#[inline(always)]
+fn dot(a: [f32; 3], b: [f32; 3]) -> f32 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::lens::LensSystem;
+    use crate::lens::camera::{CameraRays, FilmGeometry, LensCamera};
+    use crate::lens::first_order::FirstOrder;
+    use crate::lens::focus::paraxial_film_distance;
+    use crate::lens::io::bundled::load_lens;
+    use crate::lens::movements::FilmMovements;
+    use crate::lens::pupil::{ExitPupil, PupilSampling};
+
+    /// Refraction is reversible: a camera ray's scene ray traced back at the ray's own
+    /// wavelength lands on the film point it left, in its pixel, and the pupil sampler would
+    /// draw it there with the weight it was drawn with. With that wavelength as the only
+    /// companion, the balance heuristic gives each half of the sample. Checked on a plain and a
+    /// shifted and tilted film, with both pupil samplers, on spherical and aspheric designs.
+    #[test]
+    fn a_ray_traced_back_at_its_own_wavelength_lands_where_it_left() {
+        let shifted_and_tilted = FilmMovements {
+            shift_mm: [2.0, -1.5],
+            tilt_deg: [4.0, -3.0],
+        };
+        let cases = [
+            ("dgauss.50mm", FilmMovements::NONE, PupilSampling::Bounds),
+            ("wide.22mm", FilmMovements::NONE, PupilSampling::RearElement),
+            (
+                "fisheye.10mm",
+                FilmMovements::NONE,
+                PupilSampling::RearElement,
+            ),
+            (
+                "canon-rf-16mm-f2.8",
+                shifted_and_tilted,
+                PupilSampling::Bounds,
+            ),
+        ];
+        for (name, movements, sampling) in cases {
+            let prescription = load_lens(name, None).unwrap();
+            let diagonal = prescription.info.film_diagonal_mm.unwrap_or(35.0);
+            let system = LensSystem::new(&prescription.rows, None);
+            let table = system.dispersion.as_deref().expect("glass data");
+            let first_order = FirstOrder::compute(&system).unwrap();
+            let film_distance = paraxial_film_distance(&system, &first_order, 5000.0).unwrap();
+            let pupil = ExitPupil::compute_moved(
+                &system,
+                film_distance,
+                diagonal,
+                sampling,
+                true,
+                &movements,
+            );
+            let film = FilmGeometry::new(48, 32, diagonal).moved(movements);
+            let camera = LensCamera {
+                system: &system,
+                pupil: &pupil,
+                film,
+                world_from_camera: glam::Mat4::IDENTITY,
+                dispersion: Some(table),
+                wavelengths: 1,
+            };
+            let pixels: Vec<(u32, u32)> =
+                (0..32).flat_map(|y| (0..48).map(move |x| (x, y))).collect();
+            let mut out = CameraRays::default();
+            camera.generate(pixels.iter().copied(), 3, 11, &mut out);
+            // Back to the lens frame (the identity pose: camera = lens / 1000, film at z 0).
+            let film_z = camera.film_z();
+            let mut rays = out.rays.clone();
+            for i in 0..rays.len() {
+                rays.ox[i] *= 1e3;
+                rays.oy[i] *= 1e3;
+                rays.oz[i] = rays.oz[i] * 1e3 + film_z;
+            }
+            let n = rays.len();
+            let nm = [out.wavelength.clone(), out.wavelength.clone()].concat();
+            let mut coefficient =
+                [out.wavelength_weight.clone(), out.wavelength_weight.clone()].concat();
+            let mut weight = out.weight.clone();
+            let mut offset = vec![[0i8; 2]; 2 * n];
+            let px: Vec<f32> = pixels.iter().map(|p| p.0 as f32).collect();
+            let py: Vec<f32> = pixels.iter().map(|p| p.1 as f32).collect();
+            let sampler = pupil.sampler();
+            let backward = BackwardTrace {
+                surfaces: &system.f32s,
+                table,
+                film: film.film_map(),
+                size: [48, 32],
+                tilt: FilmTilt::of(&movements),
+                sampler: &sampler,
+                film_z,
+            };
+            let hero = HeroRays {
+                rays: &rays,
+                px: &px,
+                py: &py,
+                nm: &nm,
+            };
+            let combined = Combined {
+                weight: &mut weight,
+                coefficient: &mut coefficient,
+                offset: &mut offset,
+            };
+            backward.combine(hero, combined, &mut BackwardScratch::default());
+            let (mut passed, mut agree) = (0, 0);
+            for i in (0..n).filter(|&i| out.rays.alive[i]) {
+                passed += 1;
+                // Each technique gets half: W₀ / 2 times the wavelength's 1/p.
+                let half = out.weight[i] * out.wavelength_weight[i] / 2.0;
+                let close = |c: f32| (c / half - 1.0).abs() < 1e-3;
+                if offset[n + i] == [0, 0] && close(coefficient[i]) && close(coefficient[n + i]) {
+                    agree += 1;
+                }
+                assert_eq!(weight[i], 1.0, "{name}: ray {i}");
+            }
+            assert!(passed >= 50, "{name}: {passed} of {n} rays passed");
+            // All but rays within rounding of a pixel edge or a pupil-bounds edge.
+            assert!(
+                agree as f64 >= 0.995 * passed as f64,
+                "{name}: {agree} of {passed} rays came back to their film point"
+            );
+        }
+    }
+
+    /// The set of wavelengths is the same whichever member is the hero, and each member is
+    /// drawn with the sampler's density.
+    #[test]
+    fn every_member_of_a_set_could_have_been_its_hero() {
+        for count in [2, 3, 4, 8] {
+            for j in 0..97 {
+                let u = (j as f32 + 0.37) / 97.0;
+                let set: Vec<f32> = (0..count)
+                    .map(|k| wavelength_of_set(u, k, count).nm)
+                    .collect();
+                for k in 1..count {
+                    let other_u = (u + k as f32 / count as f32).fract();
+                    let mut other: Vec<f32> = (0..count)
+                        .map(|m| wavelength_of_set(other_u, m, count).nm)
+                        .collect();
+                    let mut sorted = set.clone();
+                    sorted.sort_by(f32::total_cmp);
+                    other.sort_by(f32::total_cmp);
+                    for (a, b) in sorted.iter().zip(&other) {
+                        // f32 rounding of u + k/N, steepest in the far red's thin tail.
+                        assert!((a - b).abs() < 0.05, "{count}: {sorted:?} vs {other:?}");
+                    }
+                }
+            }
+        }
+    }
+}
