@@ -43,6 +43,8 @@ pub mod settings;
 pub mod shape;
 pub mod spacing;
 pub mod system;
+#[cfg(test)]
+pub(crate) mod test_lens;
 pub mod trace;
 pub mod trace_batch;
 pub mod workload;

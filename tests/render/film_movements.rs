@@ -82,7 +82,6 @@ impl Shot<'_> {
             max_depth: 2,
             tile_size: 16,
             wavelengths: self.wavelengths,
-            ..RenderSettings::default()
         });
         let lens = renderer.add_lens(
             &load_lens("dgauss.50mm", None).unwrap(),

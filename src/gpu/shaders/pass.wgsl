@@ -43,16 +43,22 @@ fn pass_is_finite(v: vec3f) -> bool {
     return shade_is_finite(v.x) && shade_is_finite(v.y) && shade_is_finite(v.z);
 }
 
+// The radiance along a camera ray that passed the lens, times its weight (the Trace and Shade
+// stages, counted as the CPU counts them).
+fn pass_weighted_radiance(ray: CameraRay, sample: u32) -> vec3f {
+    atomicAdd(&pass_group_counts[PASS_COUNT_LENS_PASSED], 1u);
+    shade_counts[SHADE_COUNT_RAYS_TRACED] += 1u;
+    let hit = scene_intersect(ray.origin, ray.direction, SHADE_FAR);
+    var rng = shade_rng(ray.pixel_key, sample);
+    return path_radiance(ray.origin, ray.direction, hit, &rng) * ray.weight;
+}
+
 // One sample of pixel (x, y): its weighted, finite film contribution.
 fn pass_render_sample(x: u32, y: u32, sample: u32) -> vec3f {
     let ray = camera_ray(x, y, sample);
     var rgb = vec3f(0.0);
     if ray.weight > 0.0 {
-        atomicAdd(&pass_group_counts[PASS_COUNT_LENS_PASSED], 1u);
-        shade_counts[SHADE_COUNT_RAYS_TRACED] += 1u;
-        let hit = scene_intersect(ray.origin, ray.direction, SHADE_FAR);
-        var rng = shade_rng(ray.pixel_key, sample);
-        rgb = path_radiance(ray.origin, ray.direction, hit, &rng) * ray.weight;
+        rgb = pass_weighted_radiance(ray, sample);
         if ray.wavelength > 0.0 {
             rgb = film_rgb(ray.wavelength, ray.wavelength_weight, rgb);
         }
@@ -145,11 +151,7 @@ fn render_wavelengths(
             shares[k] = vec4f(0.0, 0.0, 0.0, PASS_NO_SPLAT);
         }
         if ray.weight > 0.0 {
-            atomicAdd(&pass_group_counts[PASS_COUNT_LENS_PASSED], 1u);
-            shade_counts[SHADE_COUNT_RAYS_TRACED] += 1u;
-            let hit = scene_intersect(ray.origin, ray.direction, SHADE_FAR);
-            var rng = shade_rng(ray.pixel_key, sample);
-            let radiance = path_radiance(ray.origin, ray.direction, hit, &rng) * ray.weight;
+            let radiance = pass_weighted_radiance(ray, sample);
             var finite = true;
             for (var k = 0u; k < count; k++) {
                 if wavelengths.factor[k] != 0.0 {
