@@ -117,12 +117,12 @@ pub(crate) struct BackwardScratch {
     passed: Vec<u32>,
     /// The backward rays' wavelengths.
     nm: Vec<f32>,
+    /// Per backward ray, where it lands (see [`BackwardTrace::land`]).
+    landed_x: Vec<i32>,
+    landed_y: Vec<i32>,
+    /// 1/W there; 0 when that technique could not have drawn the scene ray.
+    inverse_weight: Vec<f32>,
 }
-
-/// Per wavelength of one sample: the pixel its film point lies in and 1/W there, or `None`
-/// when that technique could not have drawn the scene ray (blocked, off the film, or outside
-/// what the pupil sampler draws).
-type Landing = Option<([i32; 2], f32)>;
 
 /// Per ray and wavelength, what [`BackwardTrace::combine`] makes: the film's factor
 /// (`coefficient`, see [`super::camera::CameraRays::wavelength_weight`]) and the pixel offset
@@ -144,25 +144,24 @@ impl BackwardTrace<'_> {
     /// pixel; its techniques K_k are the valid wavelengths that land within the same radius
     /// of *its* pixel (exactly those whose samples would add this contribution), so the
     /// weights of each contribution sum to one.
+    #[inline(always)]
     pub fn combine(&self, hero: HeroRays, out: Combined, scratch: &mut BackwardScratch) {
         let n = hero.rays.len();
         let count = hero.nm.len() / n.max(1);
         let rays = hero.rays;
         // Only the heroes that passed are traced back: `passed` lists them, and backward ray
         // (k − 1)·m + p is hero passed[p] at wavelength k.
-        let BackwardScratch {
-            rays: backward,
-            passed,
-            nm,
-        } = scratch;
-        passed.clear();
-        passed.extend((0..n as u32).filter(|&i| rays.alive[i as usize]));
-        let m = passed.len();
+        scratch.passed.clear();
+        scratch
+            .passed
+            .extend((0..n as u32).filter(|&i| rays.alive[i as usize]));
+        let m = scratch.passed.len();
+        let backward = &mut scratch.rays;
         backward.clear();
         backward.resize(m * (count - 1));
-        nm.clear();
+        scratch.nm.clear();
         for k in 1..count {
-            for (p, &i) in passed.iter().enumerate() {
+            for (p, &i) in scratch.passed.iter().enumerate() {
                 let (i, j) = (i as usize, (k - 1) * m + p);
                 let d = rays.direction(i);
                 let o = rays.origin(i);
@@ -172,106 +171,175 @@ impl BackwardTrace<'_> {
                 backward.dx[j] = -d[0];
                 backward.dy[j] = -d[1];
                 backward.dz[j] = -d[2];
-                nm.push(hero.nm[k * n + i]);
+                scratch.nm.push(hero.nm[k * n + i]);
             }
         }
         let wavelengths = Wavelengths {
             table: self.table,
-            nm,
+            nm: &scratch.nm,
         };
         trace_batch_spectral(self.surfaces, wavelengths, backward, Travel::SceneToFilm);
-        let mut landings: [Landing; MAX_WAVELENGTHS as usize] = [None; MAX_WAVELENGTHS as usize];
+        self.land(scratch);
+        let BackwardScratch {
+            rays: backward,
+            passed,
+            landed_x,
+            landed_y,
+            inverse_weight,
+            ..
+        } = scratch;
+        // Per wavelength of one ray: its pixel, 1/W (0: not a technique) and transmission.
+        let mut pixel = [[0i32; 2]; MAX_WAVELENGTHS as usize];
+        let mut inverse = [0.0f32; MAX_WAVELENGTHS as usize];
         let mut transmission = [0.0f32; MAX_WAVELENGTHS as usize];
         let mut next_passed = 0;
         for i in 0..n {
             let hero_pixel = [hero.px[i] as i32, hero.py[i] as i32];
             let w0 = out.weight[i];
-            landings[0] = (rays.alive[i] && w0 > 0.0).then_some((hero_pixel, 1.0 / w0));
+            pixel[0] = hero_pixel;
+            inverse[0] = if rays.alive[i] && w0 > 0.0 {
+                1.0 / w0
+            } else {
+                0.0
+            };
             transmission[0] = rays.tr[i];
             let traced = passed.get(next_passed) == Some(&(i as u32));
             for k in 1..count {
                 let j = (k - 1) * m + next_passed;
-                (landings[k], transmission[k]) = if traced && backward.alive[j] {
-                    (self.landing(backward, j), backward.tr[j])
+                (pixel[k], inverse[k], transmission[k]) = if traced {
+                    (
+                        [landed_x[j], landed_y[j]],
+                        inverse_weight[j],
+                        backward.tr[j],
+                    )
                 } else {
-                    (None, 0.0)
+                    ([0, 0], 0.0, 0.0)
                 };
             }
             next_passed += usize::from(traced);
+            // Most often every wavelength is a technique landing in the hero's pixel: then
+            // every share has the same techniques.
+            let all_home = (0..count).all(|k| inverse[k] > 0.0 && pixel[k] == hero_pixel);
+            if all_home {
+                let inverse_sum: f32 = inverse[..count].iter().sum();
+                for (k, t) in transmission[..count].iter().enumerate() {
+                    out.coefficient[k * n + i] *= t / inverse_sum;
+                    out.offset[k * n + i] = [0, 0];
+                }
+                out.weight[i] = 1.0;
+                continue;
+            }
             for k in 0..count {
                 let c = &mut out.coefficient[k * n + i];
-                let counted = landings[k]
-                    .filter(|&(pixel, _)| within_radius(pixel, hero_pixel))
-                    .map(|(pixel, _)| {
-                        let inverse_sum: f32 = landings[..count]
-                            .iter()
-                            .flatten()
-                            .filter(|&&(other, _)| within_radius(other, pixel))
-                            .map(|&(_, inverse)| inverse)
-                            .sum();
-                        (pixel, inverse_sum)
-                    });
-                match counted {
-                    Some((pixel, inverse_sum)) => {
-                        *c *= transmission[k] / inverse_sum;
-                        out.offset[k * n + i] = [
-                            (pixel[0] - hero_pixel[0]) as i8,
-                            (pixel[1] - hero_pixel[1]) as i8,
-                        ];
+                if inverse[k] > 0.0 && within_radius(pixel[k], hero_pixel) {
+                    let mut inverse_sum = 0.0;
+                    for j in 0..count {
+                        if inverse[j] > 0.0 && within_radius(pixel[j], pixel[k]) {
+                            inverse_sum += inverse[j];
+                        }
                     }
-                    None => {
-                        *c = 0.0;
-                        out.offset[k * n + i] = [0, 0];
-                    }
+                    *c *= transmission[k] / inverse_sum;
+                    out.offset[k * n + i] = [
+                        (pixel[k][0] - hero_pixel[0]) as i8,
+                        (pixel[k][1] - hero_pixel[1]) as i8,
+                    ];
+                } else {
+                    *c = 0.0;
+                    out.offset[k * n + i] = [0, 0];
                 }
             }
-            out.weight[i] = if landings[0].is_some() { 1.0 } else { 0.0 };
+            out.weight[i] = if inverse[0] > 0.0 { 1.0 } else { 0.0 };
         }
     }
 
-    /// Where backward ray `j` (on the rear surface, heading for the film) meets the film: the
-    /// pixel there and the inverse of the camera weight the pupil sampler would have drawn it
-    /// with, if the point lies on the frame and the sampler can draw its rear-plane point.
+    /// Where every backward ray of `scratch` (on the rear surface, heading for the film) meets
+    /// the film: the pixel there, and the inverse of the camera weight the pupil sampler would
+    /// have drawn it with if the point lies on the frame and the sampler can draw its
+    /// rear-plane point (0 otherwise, and for a blocked ray). One loop without branches per
+    /// film kind, so it vectorises.
     #[inline(always)]
-    fn landing(&self, rays: &RayBatch, j: usize) -> Landing {
-        let o = rays.origin(j);
-        let d = rays.direction(j);
+    fn land(&self, scratch: &mut BackwardScratch) {
+        let rays = &scratch.rays;
+        let len = rays.len();
+        for v in [&mut scratch.landed_x, &mut scratch.landed_y] {
+            v.clear();
+            v.resize(len, 0);
+        }
+        scratch.inverse_weight.clear();
+        scratch.inverse_weight.resize(len, 0.0);
+        let (x_out, y_out) = (&mut scratch.landed_x[..len], &mut scratch.landed_y[..len]);
+        let inverse_out = &mut scratch.inverse_weight[..len];
+        let mut land_one = |j: usize, lens_xy: [f32; 2], plane: [f32; 2], depth: f32| {
+            let (x, y, inverse) = self.landing(rays, j, lens_xy, plane, depth);
+            (x_out[j], y_out[j], inverse_out[j]) = (x, y, inverse);
+        };
         // The film plane: through the frame centre, normal to the (tilted) film. `lens_xy` is
         // the film point as the pupil sampler takes it, `plane` where it lies in the film
         // plane's own coordinates (the film map's), `depth` its distance behind the rear plane.
-        let (lens_xy, plane, depth) = match self.tilt {
+        match self.tilt {
             None => {
-                let t = (self.film_z - o[2]) / d[2];
-                let p = [o[0] + t * d[0], o[1] + t * d[1]];
-                (p, p, self.sampler.film_distance)
+                let depth = self.sampler.film_distance;
+                for j in 0..len {
+                    let (o, d) = (rays.origin(j), rays.direction(j));
+                    let t = (self.film_z - o[2]) / d[2];
+                    let p = [o[0] + t * d[0], o[1] + t * d[1]];
+                    land_one(j, p, p, depth);
+                }
             }
             Some(tilt) => {
                 let [[xa, xb], [ya, yb], [za, zb]] = tilt.rotation;
                 let normal = self.sampler.film_normal;
                 let centre = [tilt.centre[0], tilt.centre[1], self.film_z];
-                let to_centre = [centre[0] - o[0], centre[1] - o[1], centre[2] - o[2]];
-                let t = dot(to_centre, normal) / dot(d, normal);
-                let p = [o[0] + t * d[0], o[1] + t * d[1], o[2] + t * d[2]];
-                let offset = [p[0] - centre[0], p[1] - centre[1], p[2] - centre[2]];
-                let plane = [
-                    tilt.centre[0] + dot(offset, [xa, ya, za]),
-                    tilt.centre[1] + dot(offset, [xb, yb, zb]),
-                ];
-                ([p[0], p[1]], plane, self.sampler.film_distance + offset[2])
+                for j in 0..len {
+                    let (o, d) = (rays.origin(j), rays.direction(j));
+                    let to_centre = [centre[0] - o[0], centre[1] - o[1], centre[2] - o[2]];
+                    let t = dot(to_centre, normal) / dot(d, normal);
+                    let p = [o[0] + t * d[0], o[1] + t * d[1], o[2] + t * d[2]];
+                    let offset = [p[0] - centre[0], p[1] - centre[1], p[2] - centre[2]];
+                    let plane = [
+                        tilt.centre[0] + dot(offset, [xa, ya, za]),
+                        tilt.centre[1] + dot(offset, [xb, yb, zb]),
+                    ];
+                    land_one(
+                        j,
+                        [p[0], p[1]],
+                        plane,
+                        self.sampler.film_distance + offset[2],
+                    );
+                }
             }
-        };
+        }
+    }
+}
+
+impl BackwardTrace<'_> {
+    /// Backward ray `j`'s landing at film point `lens_xy` (`plane` in the film plane's
+    /// coordinates, `depth` behind the rear plane): its pixel and 1/W, or 1/W = 0 where the
+    /// technique could not have drawn it (see [`Self::land`]).
+    #[inline(always)]
+    fn landing(
+        &self,
+        rays: &RayBatch,
+        j: usize,
+        lens_xy: [f32; 2],
+        plane: [f32; 2],
+        depth: f32,
+    ) -> (i32, i32, f32) {
+        let (o, d) = (rays.origin(j), rays.direction(j));
         let [qx, qy] = self.film.pixel_position(plane);
         let on_frame =
             qx >= 0.0 && qy >= 0.0 && qx < self.size[0] as f32 && qy < self.size[1] as f32;
-        if !on_frame {
-            return None;
-        }
         // The rear-vertex plane, where the pupil sampler draws its points.
         let rear_z = self.film_z - self.sampler.film_distance;
         let t = (rear_z - o[2]) / d[2];
         let rear = [o[0] + t * d[0], o[1] + t * d[1]];
         let w = self.sampler.drawn_weight(lens_xy, depth, rear);
-        (w > 0.0 && w.is_finite()).then_some(([qx as i32, qy as i32], 1.0 / w))
+        let valid = rays.alive[j] && on_frame && w > 0.0 && w.is_finite();
+        if valid {
+            (qx as i32, qy as i32, 1.0 / w)
+        } else {
+            (0, 0, 0.0)
+        }
     }
 }
 
