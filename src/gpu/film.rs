@@ -139,12 +139,14 @@ impl GpuFilm {
     }
 
     /// A cleared film of `width` × `height` pixels whose samples carry `wavelengths`
-    /// wavelengths each.
-    pub fn new(context: &GpuContext, width: u32, height: u32, wavelengths: u32) -> GpuFilm {
+    /// wavelengths each; refused in words when its buffers exceed what this GPU can bind.
+    pub fn new(
+        context: &GpuContext,
+        width: u32,
+        height: u32,
+        wavelengths: u32,
+    ) -> Result<GpuFilm, GpuUnavailable> {
         let pixels = width as u64 * height as u64;
-        let params = storage_buffer(context, "pass parameters", &[PassParams::default()]);
-        let film = zeroed_buffer::<[f32; 4]>(context, "film sums", pixels as usize);
-        let counters = storage_buffer(context, "pass counters", &[0u32; COUNTER_WORDS]);
         let per_pixel = Self::samples_per_pixel_with(pixels, wavelengths);
         let scratch_len = if wavelengths > 1 {
             pixels * u64::from(per_pixel) * u64::from(wavelengths)
@@ -153,6 +155,33 @@ impl GpuFilm {
         } else {
             1
         };
+        // Both hold a vec4f per element: the film one per pixel, the scratch one per share.
+        let largest = 16 * pixels.max(scratch_len);
+        let limit = context
+            .limits
+            .max_storage_buffer_binding_size
+            .min(context.limits.max_buffer_size);
+        if largest > limit {
+            let shares = if wavelengths > 1 {
+                format!(" with {wavelengths} wavelengths per sample")
+            } else {
+                String::new()
+            };
+            return Err(GpuUnavailable(format!(
+                "a {width}×{height} film{shares} needs a {} MiB buffer, over the {} MiB this GPU \
+                 binds: render fewer pixels{}, or use --device cpu",
+                largest >> 20,
+                limit >> 20,
+                if wavelengths > 1 {
+                    ", fewer --wavelengths"
+                } else {
+                    ""
+                }
+            )));
+        }
+        let params = storage_buffer(context, "pass parameters", &[PassParams::default()]);
+        let film = zeroed_buffer::<[f32; 4]>(context, "film sums", pixels as usize);
+        let counters = storage_buffer(context, "pass counters", &[0u32; COUNTER_WORDS]);
         let scratch = zeroed_buffer::<[f32; 4]>(context, "sample scratch", scratch_len as usize);
         let bindings = Bindings::new(
             context,
@@ -164,7 +193,7 @@ impl GpuFilm {
                 (&scratch, Access::ReadWrite),
             ],
         );
-        GpuFilm {
+        Ok(GpuFilm {
             width,
             height,
             wavelengths,
@@ -175,7 +204,7 @@ impl GpuFilm {
             bindings,
             kernels: None,
             in_flight: VecDeque::new(),
-        }
+        })
     }
 
     /// Replaces the film's sums (row-major RGB per pixel; a cleared film is all zeros).

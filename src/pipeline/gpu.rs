@@ -221,7 +221,13 @@ fn render_pass_on_gpu(
         .as_ref()
         .is_none_or(|f| (f.width, f.height, f.wavelengths) != (width, height, wavelengths))
     {
-        data.film = Some(GpuFilm::new(context, width, height, wavelengths));
+        match GpuFilm::new(context, width, height, wavelengths) {
+            Ok(made) => data.film = Some(made),
+            Err(why) => {
+                commands.insert_resource(PipelineFault(format!("GPU: {why}")));
+                return;
+            }
+        }
         data.gpu_newer = false;
     }
     let gpu_film = data.film.as_mut().expect("made above");

@@ -352,3 +352,43 @@ fn without_a_gpu_the_device_is_refused_in_words_and_devices_says_none() {
     assert!(devices.status.success());
     assert!(stdout.contains("gpu: none found"), "{stdout}");
 }
+
+/// A film whose buffers no GPU can bind (8192² with eight wavelengths per sample: 8 GiB of
+/// shares per pass, over wgpu's 4 GiB ceiling) is refused in words before anything renders,
+/// with what to change; no output is written.
+#[test]
+fn a_film_too_large_for_the_gpu_is_refused_in_words() {
+    if !gpu() {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("big.png");
+    let output = realcam(
+        dir.path(),
+        &[
+            "render",
+            "--device",
+            "gpu",
+            "--width",
+            "8192",
+            "--height",
+            "8192",
+            "--spp",
+            "1",
+            "--wavelengths",
+            "8",
+            "--out",
+            out.to_str().unwrap(),
+        ],
+    );
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert_eq!(output.status.code(), Some(1), "{stderr}");
+    assert!(
+        stderr.contains("8192×8192 film with 8 wavelengths per sample needs a 8192 MiB buffer")
+            && stderr.contains("fewer --wavelengths")
+            && stderr.contains("--device cpu"),
+        "{stderr}"
+    );
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    assert!(!out.exists(), "an image was written");
+}
