@@ -286,11 +286,19 @@ fn the_page_changes_lens_and_focus_and_shows_the_new_image() {
           await until(() => state.shift && state.shift[0] === 1, "the shift change");
           await settled("the shifted render");
           const afterShift = pixels();
+          const wavelengths = document.getElementById("wavelengths");
+          const wavelengthsShown = wavelengths.value;
+          wavelengths.value = "1";
+          wavelengths.dispatchEvent(new Event("change"));
+          await until(() => state.wavelengths === 1, "the wavelengths change");
+          await settled("the render with one wavelength per sample");
+          const afterWavelengths = pixels();
           const diagram = document.querySelector("#diagram svg") !== null;
           const numbers = document.getElementById("first-order").textContent;
           return { options: options.length, lensChanged: first !== afterLens,
             focusChanged: afterLens !== afterFocus, clickChanged: afterFocus !== afterClick,
             bladesChanged: afterClick !== afterBlades, shiftChanged: afterBlades !== afterShift,
+            wavelengthsShown, wavelengthsChanged: afterShift !== afterWavelengths,
             diaphragmShown: document.getElementById("first-order").textContent.includes("5 blades"),
             focus: state.focus_distance, diagram, numbers,
             message: document.getElementById("message").textContent };
@@ -302,6 +310,8 @@ fn the_page_changes_lens_and_focus_and_shows_the_new_image() {
     assert_eq!(outcome["clickChanged"], true, "{outcome}");
     assert_eq!(outcome["bladesChanged"], true, "{outcome}");
     assert_eq!(outcome["shiftChanged"], true, "{outcome}");
+    assert_eq!(outcome["wavelengthsShown"], "4", "{outcome}");
+    assert_eq!(outcome["wavelengthsChanged"], true, "{outcome}");
     assert_eq!(outcome["diaphragmShown"], true, "{outcome}");
     assert_eq!(outcome["diagram"], true, "{outcome}");
     assert!(

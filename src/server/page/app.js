@@ -48,6 +48,7 @@ function show(newState, reset = false) {
   for (const name of ["focus_mode", "dispersion"]) {
     if (state[name]) $(name).value = state[name];
   }
+  if (state.wavelengths) $("wavelengths").value = String(state.wavelengths);
   if (reset || document.activeElement !== $("spp_target_input")) $("spp_target_input").value = state.spp;
   if ($("lens").value !== state.lens) $("lens").value = state.lens;
   $("spp").textContent = state.spp_done;
@@ -165,6 +166,7 @@ async function start() {
   for (const name of ["focus_mode", "dispersion"]) {
     $(name).addEventListener("change", (e) => change("/api/settings", { [name]: e.target.value }));
   }
+  $("wavelengths").addEventListener("change", (e) => change("/api/settings", { wavelengths: Number(e.target.value) }));
   $("spp_target_input").addEventListener("change", (e) => change("/api/settings", { spp: Number(e.target.value) }));
   $("image").addEventListener("click", (e) => {
     const box = e.target.getBoundingClientRect();
