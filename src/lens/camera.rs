@@ -243,9 +243,12 @@ pub struct CameraRays {
     /// the rays were traced at) first; empty otherwise.
     pub wavelength: Vec<f32>,
     /// What each of those wavelengths adds per unit of weighted radiance, laid out as
-    /// `wavelength`: T/p(λ) (T: the diaphragm mask's transmission at λ, p: the density λ was
-    /// drawn with, 1/nm), 0 for a companion that does not count in the ray's pixel. The film
-    /// adds Σ_k a(λ_k)·(b(λ_k)·L)·weight·wavelength_weight_k (see [`crate::spectral`]).
+    /// `wavelength`: with one wavelength 1/p(λ) (p: the density λ was drawn with, 1/nm; the
+    /// mask's transmission is in `weight`); with several T/(p(λ)·Σ 1/W) (T: the diaphragm
+    /// mask's transmission at λ, the sum over the techniques that make this share, see
+    /// [`super::hero_wavelengths`]; `weight` is then 1), or 0 for a share that does not count.
+    /// The film adds a(λ_k)·(b(λ_k)·L)·weight·wavelength_weight_k (see [`crate::spectral`]) to
+    /// the pixel at `wavelength_offset`.
     pub wavelength_weight: Vec<f32>,
     /// With several wavelengths per sample, laid out as `wavelength`: the offset (dx, dy) from
     /// the ray's pixel to the pixel that wavelength's contribution goes to (see

@@ -29,22 +29,25 @@
 //! **The estimator** (hero wavelength sampling, Wilkie et al. 2014, carried through the lens):
 //! a sample draws the hero λ₀ from `u` ∈ [0, 1) as before, and its companions
 //! λₖ = sample_wavelength((u + k/N) mod 1), k = 1 … N−1, the same set whichever of them is the
-//! hero. It draws x and u for λ₀, traces r forward, and each companion backward. Technique k
-//! ("λₖ was the hero") would have drawn r with density q_k(r) = 1 / W_k in dΓ, where
-//! W_k = A·G(x_k, u_k) is the camera weight of (x_k, u_k) (A: the area u is drawn from), and
-//! only if x_k lies in this pixel and u_k where the pupil sampler draws from. With the balance
-//! heuristic over the N techniques, the sample adds
+//! hero. It draws x and u for λ₀, traces r forward, and each companion backward to its film
+//! point x_k. Technique k ("λₖ was the hero") would have drawn r with density q_k(r) = 1 / W_k
+//! in dΓ, where W_k = A·G(x_k, u_k) is the camera weight of (x_k, u_k) (A: the area u is drawn
+//! from), provided x_k lies on the frame and u_k where the pupil sampler draws. Wavelength i's
+//! share goes to the pixel x_i lies in, if that is within [`SPLAT_RADIUS`] of the hero's pixel;
+//! the techniques that would have produced that same share are the valid k whose x_k lies
+//! within the radius of x_i's pixel (K_i), and with the balance heuristic over them the share
+//! is
 //!
 //! ```text
-//! Σ_k valid  s_c(λ_k) · T_k · L(r) / p(λ_k)   ×   1 / Σ_j valid (1 / W_j)
+//! s_c(λ_i) · T_i · L(r) / p(λ_i)   ×   1 / Σ_{j ∈ K_i} (1 / W_j)
 //! ```
 //!
-//! to its pixel: unbiased (each (λ, r) in the pixel is reachable by its own technique, and the
-//! weights over the techniques that reach it sum to one), and with N = 1 the single-wavelength
+//! Unbiased: each (λ, r) reaches its pixel through its own technique at least, and the
+//! weights of the techniques that reach it sum to one; with N = 1 it is the single-wavelength
 //! estimator exactly. Where the lens's colour is small every companion lands in the hero's
-//! pixel and the N responses add up to nearly white; where it is large (a fringe, a defocused
-//! edge) companions land elsewhere, drop out of both sums, and the colour there comes from the
-//! neighbouring pixels' own samples: the image's expected value is the same either way.
+//! pixel and the N responses add up to nearly white; where it is larger (a fringe, a defocused
+//! edge) a sample's spectrum is shared among the pixels it lands in, and beyond the radius a
+//! share drops out (its colour then comes from the neighbours' own samples): noise, not bias.
 
 use super::camera::{FilmMap, FilmTilt};
 use super::dispersion::DispersionTable;
