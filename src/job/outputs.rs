@@ -47,6 +47,13 @@ pub fn check_values(spec: &JobSpec) -> anyhow::Result<()> {
     if spec.max_depth == 0 {
         bail!("--max-depth must be at least 1 (1 = direct lighting only)");
     }
+    let most = crate::lens::hero_wavelengths::MAX_WAVELENGTHS;
+    if !(1..=most).contains(&spec.wavelengths) {
+        bail!(
+            "--wavelengths must be between 1 and {most}, got {}: the wavelengths each camera sample carries through the glass",
+            spec.wavelengths
+        );
+    }
     if let Some(threads) = spec.threads
         && !(1..=MAX_THREADS).contains(&threads)
     {

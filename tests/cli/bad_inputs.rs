@@ -538,6 +538,17 @@ fn impossible_flags_are_refused_before_rendering() {
         ),
         (&["--height", "4294967296"], 2, "--height"),
         (&["--max-depth", "0"], 1, "--max-depth"),
+        (
+            &["--wavelengths", "0"],
+            1,
+            "--wavelengths must be between 1 and 8, got 0",
+        ),
+        (
+            &["--wavelengths", "9"],
+            1,
+            "--wavelengths must be between 1 and 8, got 9",
+        ),
+        (&["--wavelengths", "four"], 2, "--wavelengths"),
         (&["--threads", "0"], 1, "--threads"),
         (&["--exposure", "inf"], 1, "--exposure"),
         (&["--focus-distance", "-3"], 1, "focus-distance"),
