@@ -21,6 +21,7 @@ pub mod aperture;
 pub mod camera;
 pub mod chromatic;
 pub mod clear_aperture;
+pub mod coating;
 pub mod coverage;
 pub mod diagram;
 pub mod diaphragm;

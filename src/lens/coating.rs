@@ -1,0 +1,346 @@
+//! What a surface reflects: Fresnel at a bare interface, and thin-film interference in an
+//! anti-reflection coating on it.
+//!
+//! # Conventions (used throughout this module)
+//!
+//! * Light arrives from medium `n_in` (index, real: the glasses and coatings are lossless in
+//!   the visible) onto medium `n_out`, at an angle whose cosine in the incident medium is
+//!   `cos_in` ∈ [0, 1]. A coating's layers are listed **from the incident side**, so the same
+//!   coating seen from the other side is its layers reversed (a caller tracing toward the
+//!   film and one tracing toward the scene see the same physical stack).
+//! * Wavelengths are in air, nm; a layer's thickness is physical, nm.
+//! * Unpolarised light reflects the mean of the s (TE) and p (TM) reflectances. No absorption:
+//!   what is not reflected is transmitted, T = 1 − R.
+//!
+//! # The characteristic matrix (Macleod, *Thin-Film Optical Filters*, ch. 2)
+//!
+//! Each layer j of index n_j and thickness d_j carries the ray at an angle θ_j fixed by Snell's
+//! law, n_j sin θ_j = n_in sin θ_in, with phase thickness δ_j = 2π n_j d_j cos θ_j / λ and
+//! tilted admittance η_j = n_j cos θ_j (s) or n_j / cos θ_j (p). Its matrix is
+//!
+//! ```text
+//! M_j = | cos δ_j            i sin δ_j / η_j |
+//!       | i η_j sin δ_j      cos δ_j         |
+//! ```
+//!
+//! and the stack on the exit medium (admittance η_out) gives (B, C) = M_1 ⋯ M_m (1, η_out) and
+//! the amplitude reflectance r = (η_in B − C) / (η_in B + C), R = |r|². With no layers this is
+//! Fresnel's r at the bare interface. Beyond the critical angle cos θ becomes imaginary (an
+//! evanescent wave): the same formulas in complex numbers give R = 1 for total internal
+//! reflection, and the tunnelling through a thin layer above its critical angle.
+
+use num_complex::Complex64;
+
+/// One layer of a coating: its index and physical thickness (nm).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Layer {
+    pub index: f64,
+    pub thickness_nm: f64,
+}
+
+impl Layer {
+    /// A layer of `index` a quarter wave thick at `design_nm` (optical thickness n·d = λ/4 at
+    /// normal incidence).
+    pub fn quarter_wave(index: f64, design_nm: f64) -> Layer {
+        Layer {
+            index,
+            thickness_nm: design_nm / (4.0 * index),
+        }
+    }
+}
+
+/// The coating on one surface.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Coating {
+    /// Bare: Fresnel reflection at the interface.
+    None,
+    /// Thin films, from the incident side (see the module docs).
+    Layers(Vec<Layer>),
+    /// A measured reflectance curve, (nm, R) by increasing wavelength, linear in between and
+    /// held beyond its ends; for both polarisations and every angle (what a datasheet gives).
+    Measured(Vec<(f64, f64)>),
+}
+
+/// The reflectances of the two polarisations.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Reflectance {
+    pub s: f64,
+    pub p: f64,
+}
+
+impl Reflectance {
+    /// Of unpolarised light.
+    pub fn unpolarised(&self) -> f64 {
+        0.5 * (self.s + self.p)
+    }
+}
+
+impl Coating {
+    /// A single quarter-wave layer of `index` at `design_nm` (magnesium fluoride, n = 1.38 at
+    /// 550 nm, is the classic one).
+    pub fn single_layer(index: f64, design_nm: f64) -> Coating {
+        Coating::Layers(vec![Layer::quarter_wave(index, design_nm)])
+    }
+
+    /// The coating seen from its other side: its layers in reverse order.
+    pub fn reversed(&self) -> Coating {
+        match self {
+            Coating::Layers(layers) => Coating::Layers(layers.iter().rev().copied().collect()),
+            other => other.clone(),
+        }
+    }
+
+    /// What light from `n_in` at cosine `cos_in` reflects off this coating on `n_out`, at
+    /// wavelength `lambda_nm`.
+    pub fn reflectance(&self, n_in: f64, n_out: f64, cos_in: f64, lambda_nm: f64) -> Reflectance {
+        match self {
+            Coating::None => stack_reflectance(&[], n_in, n_out, cos_in, lambda_nm),
+            Coating::Layers(layers) => stack_reflectance(layers, n_in, n_out, cos_in, lambda_nm),
+            Coating::Measured(curve) => {
+                let r = measured_at(curve, lambda_nm);
+                Reflectance { s: r, p: r }
+            }
+        }
+    }
+}
+
+/// Fresnel's reflectances at a bare interface from `n_in` onto `n_out` at cosine `cos_in`.
+pub fn fresnel(n_in: f64, n_out: f64, cos_in: f64) -> Reflectance {
+    Coating::None.reflectance(n_in, n_out, cos_in, 550.0)
+}
+
+/// cos θ in a medium of index `n`, from the invariant n_in sin θ_in = n sin θ (complex beyond
+/// the critical angle: the root with positive imaginary part, the wave that decays).
+fn cosine_in(n: f64, n_in: f64, cos_in: f64) -> Complex64 {
+    let sin_in_sq = (1.0 - cos_in * cos_in).max(0.0);
+    let cos_sq = 1.0 - (n_in / n).powi(2) * sin_in_sq;
+    if cos_sq >= 0.0 {
+        Complex64::new(cos_sq.sqrt(), 0.0)
+    } else {
+        Complex64::new(0.0, (-cos_sq).sqrt())
+    }
+}
+
+/// Tilted admittances (s, p) of a medium of index `n` where the ray's cosine is `cos`.
+fn admittances(n: f64, cos: Complex64) -> (Complex64, Complex64) {
+    (n * cos, n / cos)
+}
+
+fn stack_reflectance(
+    layers: &[Layer],
+    n_in: f64,
+    n_out: f64,
+    cos_in: f64,
+    lambda_nm: f64,
+) -> Reflectance {
+    let cos_in = cos_in.clamp(0.0, 1.0);
+    let (eta_in_s, eta_in_p) = admittances(n_in, Complex64::new(cos_in, 0.0));
+    let (eta_out_s, eta_out_p) = admittances(n_out, cosine_in(n_out, n_in, cos_in));
+    let i = Complex64::i();
+    // (B, C) for each polarisation, built from the exit medium outward.
+    let mut s = (Complex64::new(1.0, 0.0), eta_out_s);
+    let mut p = (Complex64::new(1.0, 0.0), eta_out_p);
+    for layer in layers.iter().rev() {
+        let cos = cosine_in(layer.index, n_in, cos_in);
+        let delta = 2.0 * std::f64::consts::PI * layer.index * layer.thickness_nm * cos / lambda_nm;
+        let (cos_d, sin_d) = (delta.cos(), delta.sin());
+        let (eta_s, eta_p) = admittances(layer.index, cos);
+        let apply = |(b, c): (Complex64, Complex64), eta: Complex64| {
+            (
+                cos_d * b + i * sin_d / eta * c,
+                i * eta * sin_d * b + cos_d * c,
+            )
+        };
+        s = apply(s, eta_s);
+        p = apply(p, eta_p);
+    }
+    let reflect = |(b, c): (Complex64, Complex64), eta_in: Complex64| {
+        let r = (eta_in * b - c) / (eta_in * b + c);
+        // Lossless media: R ≤ 1 up to rounding.
+        r.norm_sqr().min(1.0)
+    };
+    Reflectance {
+        s: reflect(s, eta_in_s),
+        p: reflect(p, eta_in_p),
+    }
+}
+
+/// A measured curve's reflectance at `lambda_nm` (see [`Coating::Measured`]).
+fn measured_at(curve: &[(f64, f64)], lambda_nm: f64) -> f64 {
+    match curve {
+        [] => 0.0,
+        [(_, r)] => *r,
+        _ => {
+            let k = curve
+                .partition_point(|&(l, _)| l < lambda_nm)
+                .clamp(1, curve.len() - 1);
+            let ((l0, r0), (l1, r1)) = (curve[k - 1], curve[k]);
+            let t = ((lambda_nm - l0) / (l1 - l0)).clamp(0.0, 1.0);
+            r0 + t * (r1 - r0)
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn cos_deg(degrees: f64) -> f64 {
+        degrees.to_radians().cos()
+    }
+
+    /// At normal incidence a bare surface reflects ((n − 1)/(n + 1))² from either side: 4.26 %
+    /// for n = 1.52 and 6.30 % for 1.67.
+    #[test]
+    fn a_bare_surface_reflects_fresnels_normal_figure() {
+        for (n, expected) in [(1.52, 0.042_580), (1.67, 0.062_969)] {
+            let into = fresnel(1.0, n, 1.0);
+            let out_of = fresnel(n, 1.0, 1.0);
+            for r in [into.s, into.p, out_of.s, out_of.p] {
+                assert!((r - expected).abs() < 1e-6, "n = {n}: {r} vs {expected}");
+            }
+        }
+    }
+
+    /// Hecht's worked figures for air to n = 1.5 at 45°: Rs = 0.0920, Rp = 0.0085; p vanishes
+    /// at Brewster's angle tan θ = n₂/n₁ (from either side); beyond the critical angle, and at
+    /// grazing incidence, everything is reflected.
+    #[test]
+    fn oblique_reflectance_matches_the_closed_forms_and_their_landmarks() {
+        let r = fresnel(1.0, 1.5, cos_deg(45.0));
+        assert!((r.s - 0.092_02).abs() < 5e-5, "{r:?}");
+        assert!((r.p - 0.008_47).abs() < 5e-5, "{r:?}");
+        for (n1, n2) in [(1.0f64, 1.5f64), (1.5, 1.0), (1.2, 1.9)] {
+            let brewster: f64 = (n2 / n1).atan();
+            let r = fresnel(n1, n2, brewster.cos());
+            assert!(r.p < 1e-20, "{n1} → {n2}: {r:?}");
+            assert!(r.s > 0.01, "{n1} → {n2}: {r:?}");
+        }
+        let critical = (1.0f64 / 1.5).asin();
+        for beyond in [critical + 1e-3, critical + 0.2, 1.5] {
+            let r = fresnel(1.5, 1.0, beyond.cos());
+            assert!(
+                (r.s - 1.0).abs() < 1e-12 && (r.p - 1.0).abs() < 1e-12,
+                "{r:?}"
+            );
+        }
+        let grazing = fresnel(1.0, 1.5, 0.0);
+        assert!((grazing.s - 1.0).abs() < 1e-12 && (grazing.p - 1.0).abs() < 1e-12);
+        // The closed forms at several angles, written out independently.
+        for degrees in [0.0f64, 10.0, 30.0, 50.0, 70.0, 85.0] {
+            let (n1, n2) = (1.0, 1.67);
+            let ci = cos_deg(degrees);
+            let ct = (1.0 - (n1 / n2) * (n1 / n2) * (1.0 - ci * ci)).sqrt();
+            let rs = ((n1 * ci - n2 * ct) / (n1 * ci + n2 * ct)).powi(2);
+            let rp = ((n1 * ct - n2 * ci) / (n1 * ct + n2 * ci)).powi(2);
+            let r = fresnel(n1, n2, ci);
+            assert!(
+                (r.s - rs).abs() < 1e-12 && (r.p - rp).abs() < 1e-12,
+                "{degrees}°"
+            );
+        }
+    }
+
+    /// A quarter-wave layer of index n_c on glass n_s, at its design wavelength and normal
+    /// incidence, reflects ((n_s − n_c²)/(n_s + n_c²))²: magnesium fluoride (1.38) on n = 1.67
+    /// about 0.43 %, its minimum, at the design wavelength; a layer of n_c = √n_s none at all.
+    #[test]
+    fn a_quarter_wave_layer_has_its_minimum_at_its_design_wavelength() {
+        let (n_s, n_c, design) = (1.67, 1.38, 550.0);
+        let coating = Coating::single_layer(n_c, design);
+        let expected = ((n_s - n_c * n_c) / (n_s + n_c * n_c)).powi(2);
+        let at_design = coating.reflectance(1.0, n_s, 1.0, design).unpolarised();
+        assert!(
+            (at_design - expected).abs() < 1e-9,
+            "{at_design} vs {expected}"
+        );
+        assert!((0.0042..0.0044).contains(&at_design), "{at_design}");
+        let scan: Vec<(f64, f64)> = (380..=780)
+            .map(|l| {
+                let l = l as f64;
+                (l, coating.reflectance(1.0, n_s, 1.0, l).unpolarised())
+            })
+            .collect();
+        let (lowest, _) = scan
+            .iter()
+            .copied()
+            .min_by(|a, b| a.1.total_cmp(&b.1))
+            .unwrap();
+        assert!((lowest - design).abs() <= 1.0, "minimum at {lowest} nm");
+        // The bare surface reflects more everywhere in the visible.
+        let bare = fresnel(1.0, n_s, 1.0).unpolarised();
+        assert!(scan.iter().all(|&(_, r)| r < bare));
+        let perfect = Coating::single_layer(n_s.sqrt(), design);
+        assert!(perfect.reflectance(1.0, n_s, 1.0, design).unpolarised() < 1e-20);
+    }
+
+    /// Two quarter-wave layers (a "V" coat), n₁ next to air and n₂ next to the glass, reflect
+    /// ((n₂² − n_s n₁²)/(n₂² + n_s n₁²))² at the design wavelength; and the stack seen from
+    /// the glass side reflects the same (a lossless stack's reflectance does not depend on the
+    /// side).
+    #[test]
+    fn a_two_layer_stack_matches_its_closed_form_from_either_side() {
+        let (n_s, n1, n2, design) = (1.52, 1.38, 1.70, 520.0);
+        let coating = Coating::Layers(vec![
+            Layer::quarter_wave(n1, design),
+            Layer::quarter_wave(n2, design),
+        ]);
+        let expected = ((n2 * n2 - n_s * n1 * n1) / (n2 * n2 + n_s * n1 * n1)).powi(2);
+        let from_air = coating.reflectance(1.0, n_s, 1.0, design).unpolarised();
+        assert!(
+            (from_air - expected).abs() < 1e-9,
+            "{from_air} vs {expected}"
+        );
+        for l in [400.0, 520.0, 650.0] {
+            for degrees in [0.0, 20.0, 35.0] {
+                let a = coating.reflectance(1.0, n_s, cos_deg(degrees), l);
+                // The same ray from the glass side: its angle there by Snell's law.
+                let sin_glass = cos_deg(90.0 - degrees) / n_s;
+                let cos_glass = (1.0 - sin_glass * sin_glass).sqrt();
+                let b = coating.reversed().reflectance(n_s, 1.0, cos_glass, l);
+                assert!(
+                    (a.s - b.s).abs() < 1e-12 && (a.p - b.p).abs() < 1e-12,
+                    "{l} nm {degrees}°"
+                );
+            }
+        }
+    }
+
+    /// Energy bookkeeping: every reflectance lies in [0, 1] (so T = 1 − R does too) over
+    /// random indices, angles, wavelengths and stacks, including rays beyond a critical angle.
+    #[test]
+    fn reflectance_stays_between_zero_and_one() {
+        let mut state = 0x2545_f491_4f6c_dd1du64;
+        let mut next = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        for _ in 0..20_000 {
+            let n_in = 1.0 + next();
+            let n_out = 1.0 + next();
+            let layers: Vec<Layer> = (0..(next() * 5.0) as usize)
+                .map(|_| Layer {
+                    index: 1.2 + next(),
+                    thickness_nm: next() * 400.0,
+                })
+                .collect();
+            let r =
+                Coating::Layers(layers).reflectance(n_in, n_out, next(), 360.0 + 420.0 * next());
+            for v in [r.s, r.p] {
+                assert!((0.0..=1.0).contains(&v) && v.is_finite(), "{r:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn a_measured_curve_is_read_linearly_and_held_at_its_ends() {
+        let curve = Coating::Measured(vec![(400.0, 0.02), (500.0, 0.004), (700.0, 0.01)]);
+        let at = |l: f64| curve.reflectance(1.0, 1.5, 1.0, l).unpolarised();
+        assert!((at(450.0) - 0.012).abs() < 1e-12);
+        assert!((at(600.0) - 0.007).abs() < 1e-12);
+        assert_eq!(at(300.0), 0.02);
+        assert_eq!(at(800.0), 0.01);
+    }
+}
