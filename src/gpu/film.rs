@@ -12,6 +12,9 @@ pub const PASS_WGSL: &str = include_str!("shaders/pass.wgsl");
 /// scratch buffer to its sums, in index order. It reads only the pass's own bindings.
 const ACCUMULATE_WGSL: &str = include_str!("shaders/accumulate.wgsl");
 
+/// The film's bindings and the pass parameters, which both kernels' sources declare.
+const PASS_FILM_WGSL: &str = include_str!("shaders/pass_film.wgsl");
+
 /// The pass kernel's whole WGSL source: every stage's functions, then the entry point.
 pub fn pass_source() -> String {
     [
@@ -19,7 +22,18 @@ pub fn pass_source() -> String {
         super::shading::RNG_WGSL,
         super::scene::SCENE_WGSL,
         super::shading::SHADE_WGSL,
+        PASS_FILM_WGSL,
         PASS_WGSL,
+    ]
+    .concat()
+}
+
+/// The accumulating kernels' source: the shared constants, the film's bindings, the kernels.
+fn accumulate_source() -> String {
+    [
+        super::lens::shared_constants().as_str(),
+        PASS_FILM_WGSL,
+        ACCUMULATE_WGSL,
     ]
     .concat()
 }
@@ -236,15 +250,16 @@ impl GpuFilm {
             &self.bindings.layout,
         ];
         let source = source();
+        let accumulate = accumulate_source();
         let compile = |label: &str, source: &str, entry: &str| {
             kernel_with(context, label, source, entry, &layouts)
         };
         let kernels = Kernels {
             render_pass: compile("render pass", &source, "render_pass")?,
             render_samples: compile("render samples", &source, "render_samples")?,
-            accumulate: compile("accumulate", ACCUMULATE_WGSL, "accumulate")?,
+            accumulate: compile("accumulate", &accumulate, "accumulate")?,
             render_wavelengths: compile("render wavelengths", &source, "render_wavelengths")?,
-            accumulate_splats: compile("accumulate splats", ACCUMULATE_WGSL, "accumulate_splats")?,
+            accumulate_splats: compile("accumulate splats", &accumulate, "accumulate_splats")?,
         };
         // A driver may compile a pipeline only when it first runs: one dispatch of each on an
         // empty film (every invocation outside it, nothing written) keeps that in set-up, out

@@ -19,7 +19,7 @@ use bytemuck::{Pod, Zeroable};
 use super::compute::{Access, Bindings, storage_buffer, uniform_buffer};
 use super::context::{GpuContext, GpuUnavailable};
 use crate::lens::camera::{FilmTilt, LensCamera, camera_seeds};
-use crate::lens::hero_wavelengths::MAX_WAVELENGTHS;
+use crate::lens::hero_wavelengths::{BACKWARD_START_MM, MAX_WAVELENGTHS, SPLAT_RADIUS};
 use crate::lens::pupil::{PupilSampling, SEGMENTS};
 use crate::lens::trace::Travel;
 use crate::lens::trace_batch::{CONIC, POLYNOMIAL, SPHERE, SurfaceConstants};
@@ -32,9 +32,27 @@ pub const SPECTRAL_WGSL: &str = include_str!("shaders/spectral.wgsl");
 /// `CameraRay` and `camera_ray` (bindings 0–2 of group 0).
 pub const LENS_WGSL: &str = include_str!("shaders/lens.wgsl");
 
-/// The WGSL a kernel that makes camera rays starts with: sampling, spectral, lens, in order.
+/// The WGSL a kernel that makes camera rays starts with: the shared constants, sampling,
+/// spectral, lens, in order.
 pub fn lens_source() -> String {
-    [SAMPLING_WGSL, SPECTRAL_WGSL, LENS_WGSL].join("\n")
+    [
+        shared_constants().as_str(),
+        SAMPLING_WGSL,
+        SPECTRAL_WGSL,
+        LENS_WGSL,
+    ]
+    .join("\n")
+}
+
+/// WGSL constants the kernels share with the CPU code, written from its own: how far a
+/// companion wavelength's share may land, how many wavelengths a sample may carry, and where
+/// a backward trace starts (see [`crate::lens::hero_wavelengths`]).
+pub fn shared_constants() -> String {
+    format!(
+        "const SPLAT_RADIUS: i32 = {SPLAT_RADIUS};\n\
+         const MAX_WAVELENGTHS: u32 = {MAX_WAVELENGTHS}u;\n\
+         const BACKWARD_START_MM: f32 = {BACKWARD_START_MM:?};\n"
+    )
 }
 
 // The WGSL's shape numbers are the batch kernel's.

@@ -67,7 +67,7 @@ pub const MAX_WAVELENGTHS: u32 = 8;
 
 /// How far (mm) outside the front surface a backward trace starts along the scene ray, so its
 /// first intersection is a clean root well above the kernel's minimum distance.
-const BACKWARD_START_MM: f32 = 0.01;
+pub(crate) const BACKWARD_START_MM: f32 = 0.01;
 
 /// Wavelength `k` of `count` for a camera sample's uniform number `u`: the hero (k = 0) is
 /// `sample_wavelength(u)`; the others are the same rotation of `u` by k/count in the sampler's

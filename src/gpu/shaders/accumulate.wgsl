@@ -2,21 +2,6 @@
 // (render_samples wrote them, sample k of pixel p at k·pixels + p) to its sums one at a time in
 // index order: the same f32 additions, in the same order, as one pass per sample.
 
-struct PassParams {
-    width: u32,
-    height: u32,
-    sample: u32,
-    step: u32,
-    count: u32,
-    wavelengths: u32,
-    _pad1: u32,
-    _pad2: u32,
-}
-
-@group(3) @binding(0) var<storage, read> pass_params: PassParams;
-@group(3) @binding(1) var<storage, read_write> pass_film: array<vec4f>;
-@group(3) @binding(3) var<storage, read_write> pass_scratch: array<vec4f>;
-
 @compute @workgroup_size(64, 1, 1)
 fn accumulate(@builtin(global_invocation_id) id: vec3u) {
     let pixels = pass_params.width * pass_params.height;
@@ -30,9 +15,6 @@ fn accumulate(@builtin(global_invocation_id) id: vec3u) {
     }
     pass_film[pixel] = sums;
 }
-
-// hero_wavelengths.rs SPLAT_RADIUS.
-const ACCUMULATE_SPLAT_RADIUS: i32 = 2;
 
 // The second kernel of a dispatch with several wavelengths per sample: each pixel gathers, for
 // every sample index in order, the shares of the pixels within the splat radius whose code
@@ -49,7 +31,7 @@ fn accumulate_splats(@builtin(global_invocation_id) id: vec3u) {
     let height = i32(pass_params.height);
     let x = i32(pixel % pass_params.width);
     let y = i32(pixel / pass_params.width);
-    let r = ACCUMULATE_SPLAT_RADIUS;
+    let r = SPLAT_RADIUS;
     let count = pass_params.wavelengths;
     var sums = pass_film[pixel];
     for (var k = 0u; k < pass_params.count; k += 1u) {

@@ -492,15 +492,10 @@ fn lens_pupil_point(x: f32, y: f32, u: f32, v: f32) -> LensPupilPoint {
 // A sample's wavelengths beyond the hero (lens/hero_wavelengths.rs): each one's λ (nm), its
 // factor T/(p(λ)·Σ 1/W) for the film (0: it does not count), and the offset from the sample's
 // pixel to the pixel its contribution goes to. Index 0 is the hero.
-const LENS_MAX_WAVELENGTHS: u32 = 8u;
-const LENS_SPLAT_RADIUS: i32 = 2;
-// hero_wavelengths.rs BACKWARD_START_MM.
-const LENS_BACKWARD_START: f32 = 0.01;
-
 struct CameraWavelengths {
-    nm: array<f32, 8>,
-    factor: array<f32, 8>,
-    offset: array<vec2i, 8>,
+    nm: array<f32, MAX_WAVELENGTHS>,
+    factor: array<f32, MAX_WAVELENGTHS>,
+    offset: array<vec2i, MAX_WAVELENGTHS>,
 }
 
 // PupilSampler::drawn_weight: the camera weight the sampler gives the ray from film point
@@ -605,7 +600,7 @@ fn lens_landing(ray: LensRay) -> LensLanding {
 }
 
 fn lens_within_radius(a: vec2i, b: vec2i) -> bool {
-    return abs(a.x - b.x) <= LENS_SPLAT_RADIUS && abs(a.y - b.y) <= LENS_SPLAT_RADIUS;
+    return abs(a.x - b.x) <= SPLAT_RADIUS && abs(a.y - b.y) <= SPLAT_RADIUS;
 }
 
 // The companions of a hero ray that passed (lens frame, on the front surface; camera weight
@@ -615,10 +610,10 @@ fn lens_within_radius(a: vec2i, b: vec2i) -> bool {
 fn lens_companions(ray: LensRay, pixel: vec2i, wave_u: f32, hero_weight: f32,
                    hero_transmission: f32, out: ptr<function, CameraWavelengths>) -> f32 {
     let count = lens_constants.wavelengths;
-    var inverse: array<f32, 8>;
-    var landed: array<vec2i, 8>;
-    var valid: array<bool, 8>;
-    var transmission: array<f32, 8>;
+    var inverse: array<f32, MAX_WAVELENGTHS>;
+    var landed: array<vec2i, MAX_WAVELENGTHS>;
+    var valid: array<bool, MAX_WAVELENGTHS>;
+    var transmission: array<f32, MAX_WAVELENGTHS>;
     valid[0] = ray.alive && hero_weight > 0.0;
     inverse[0] = 1.0 / hero_weight;
     landed[0] = pixel;
@@ -636,8 +631,8 @@ fn lens_companions(ray: LensRay, pixel: vec2i, wave_u: f32, hero_weight: f32,
         if ray.alive {
             let d = ray.direction;
             var back = LensRay(
-                vec3f(ray.origin.x + LENS_BACKWARD_START * d.x, ray.origin.y + LENS_BACKWARD_START * d.y,
-                      ray.origin.z + LENS_BACKWARD_START * d.z),
+                vec3f(ray.origin.x + BACKWARD_START_MM * d.x, ray.origin.y + BACKWARD_START_MM * d.y,
+                      ray.origin.z + BACKWARD_START_MM * d.z),
                 vec3f(-d.x, -d.y, -d.z), true);
             let t = lens_trace_toward(&back, wavelength.nm, true);
             if back.alive {

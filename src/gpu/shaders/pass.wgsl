@@ -3,33 +3,11 @@
 // ray in registers between them. Each pixel's sums belong to one invocation, so the film needs no
 // atomics and a seed gives the same image on every run.
 
-struct PassParams {
-    width: u32,
-    height: u32,
-    // This dispatch's sample indices: sample + k·step for k < count.
-    sample: u32,
-    step: u32,
-    count: u32,
-    // Wavelengths per sample: the shares each sample leaves in the scratch buffer
-    // (render_wavelengths).
-    wavelengths: u32,
-    _pad1: u32,
-    _pad2: u32,
-}
-
-// A storage buffer, not a uniform: lavapipe compiles a kernel variant per distinct uniform
-// value it inlines, which the sample index changing every pass would make a compile per pass.
-@group(3) @binding(0) var<storage, read> pass_params: PassParams;
-// Per pixel, row-major: the RGB sums of weighted radiance (w unused).
-@group(3) @binding(1) var<storage, read_write> pass_film: array<vec4f>;
 // What the passes counted, as 64-bit numbers in (low, high) word pairs, PASS_COUNT_ order: the
 // eight ShadeStats counts (shade.wgsl's SHADE_COUNT_ indices), then camera rays the lens let
 // through and samples rejected as non-finite. Integer sums, so the order of the adds cannot
 // change them.
 @group(3) @binding(2) var<storage, read_write> pass_counters: array<atomic<u32>, 20>;
-// Sample k of pixel p at k·pixels + p, between render_samples and accumulate.wgsl; with several
-// wavelengths per sample, its shares from (k·pixels + p)·wavelengths on (render_wavelengths).
-@group(3) @binding(3) var<storage, read_write> pass_scratch: array<vec4f>;
 
 const PASS_COUNT_LENS_PASSED: u32 = 8u;
 const PASS_COUNT_REJECTED: u32 = 9u;
@@ -146,7 +124,7 @@ fn render_wavelengths(
         let first = (id.z * pixels + id.y * pass_params.width + id.x) * count;
         var wavelengths: CameraWavelengths;
         let ray = camera_ray_with(id.x, id.y, sample, &wavelengths);
-        var shares: array<vec4f, 8>;
+        var shares: array<vec4f, MAX_WAVELENGTHS>;
         for (var k = 0u; k < count; k++) {
             shares[k] = vec4f(0.0, 0.0, 0.0, PASS_NO_SPLAT);
         }
@@ -156,8 +134,8 @@ fn render_wavelengths(
             for (var k = 0u; k < count; k++) {
                 if wavelengths.factor[k] != 0.0 {
                     let rgb = film_rgb(wavelengths.nm[k], wavelengths.factor[k], radiance);
-                    let o = wavelengths.offset[k] + vec2i(LENS_SPLAT_RADIUS, LENS_SPLAT_RADIUS);
-                    let code = o.y * (2 * LENS_SPLAT_RADIUS + 1) + o.x;
+                    let o = wavelengths.offset[k] + vec2i(SPLAT_RADIUS, SPLAT_RADIUS);
+                    let code = o.y * (2 * SPLAT_RADIUS + 1) + o.x;
                     shares[k] = vec4f(rgb, f32(code));
                     finite = finite && pass_is_finite(rgb);
                 }
