@@ -144,6 +144,7 @@ mod tests {
             TypeId::of::<crate::lens::LensFormat>(),
             TypeId::of::<crate::cli::render::DispersionArg>(),
             TypeId::of::<crate::pipeline::RenderDevice>(),
+            TypeId::of::<crate::lens::coating::CoatingModel>(),
             TypeId::of::<std::net::IpAddr>(),
         ];
         arg.get_action().takes_values()

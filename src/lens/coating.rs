@@ -104,6 +104,102 @@ impl Coating {
     }
 }
 
+/// Which coatings a lens's surfaces get when its file says nothing of them (and what
+/// `--coating` chooses): the same model on every air–glass surface; cemented surfaces (glass on
+/// both sides) stay bare, as they are in real lenses (the cement matches the glasses closely).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum CoatingModel {
+    /// Every surface bare: Fresnel's losses alone.
+    None,
+    /// A quarter wave of magnesium fluoride (n = 1.38) at 550 nm: the classic single coating.
+    #[default]
+    Single,
+    /// A broadband quarter–half–quarter stack at 550 nm (from the air side: n = 1.38, 2.15
+    /// and 1.38·√n_glass), the classic three-layer multi-coating.
+    Multi,
+}
+
+/// The single coating's layer: magnesium fluoride, a quarter wave at 550 nm.
+const MGF2: f64 = 1.38;
+/// Design wavelength of the models' coatings, nm.
+const DESIGN_NM: f64 = 550.0;
+
+impl std::str::FromStr for CoatingModel {
+    type Err = String;
+
+    fn from_str(text: &str) -> Result<Self, Self::Err> {
+        match text {
+            "none" => Ok(CoatingModel::None),
+            "single" => Ok(CoatingModel::Single),
+            "multi" => Ok(CoatingModel::Multi),
+            other => Err(format!(
+                "unknown coating '{other}': use none, single or multi"
+            )),
+        }
+    }
+}
+
+impl CoatingModel {
+    pub fn name(self) -> &'static str {
+        match self {
+            CoatingModel::None => "none",
+            CoatingModel::Single => "single",
+            CoatingModel::Multi => "multi",
+        }
+    }
+
+    /// The coating this model puts on a surface between indices `n_in` (the side light comes
+    /// from) and `n_out`, its layers listed from the `n_in` side.
+    pub fn coating_for(self, n_in: f64, n_out: f64) -> Coating {
+        let is_air = |n: f64| (n - 1.0).abs() < 1e-3;
+        let air_glass = is_air(n_in) != is_air(n_out);
+        if !air_glass {
+            return Coating::None;
+        }
+        let from_air = match self {
+            CoatingModel::None => return Coating::None,
+            CoatingModel::Single => Coating::single_layer(MGF2, DESIGN_NM),
+            CoatingModel::Multi => {
+                let glass = if is_air(n_in) { n_out } else { n_in };
+                let half = |index: f64| Layer {
+                    index,
+                    thickness_nm: DESIGN_NM / (2.0 * index),
+                };
+                // The inner quarter wave's index makes the pair reflect nothing at the design
+                // wavelength, n₂ = n₁·√n_glass (the V-coat condition); the half wave between
+                // them, absent at 550 nm, flattens the response across the visible.
+                Coating::Layers(vec![
+                    Layer::quarter_wave(MGF2, DESIGN_NM),
+                    half(2.15),
+                    Layer::quarter_wave(MGF2 * glass.sqrt(), DESIGN_NM),
+                ])
+            }
+        };
+        if is_air(n_in) {
+            from_air
+        } else {
+            from_air.reversed()
+        }
+    }
+}
+
+/// What a lens transmits on its axis (every surface met at normal incidence) at `lambda_nm`:
+/// the product of 1 − R over its surfaces, `indices` giving the index after each surface from
+/// the front (air before the first), every surface coated as `model` says.
+pub fn axial_transmission(indices: &[f64], model: CoatingModel, lambda_nm: f64) -> f64 {
+    let mut before = 1.0;
+    let mut transmitted = 1.0;
+    for &after in indices {
+        let r = model
+            .coating_for(before, after)
+            .reflectance(before, after, 1.0, lambda_nm)
+            .unpolarised();
+        transmitted *= 1.0 - r;
+        before = after;
+    }
+    transmitted
+}
+
 /// Fresnel's reflectances at a bare interface from `n_in` onto `n_out` at cosine `cos_in`.
 pub fn fresnel(n_in: f64, n_out: f64, cos_in: f64) -> Reflectance {
     Coating::None.reflectance(n_in, n_out, cos_in, 550.0)
@@ -332,6 +428,46 @@ mod tests {
                 assert!((0.0..=1.0).contains(&v) && v.is_finite(), "{r:?}");
             }
         }
+    }
+
+    /// The models coat air–glass surfaces only, the same physical stack from either side.
+    #[test]
+    fn the_models_coat_air_glass_surfaces_and_leave_cemented_ones_bare() {
+        for model in [CoatingModel::Single, CoatingModel::Multi] {
+            assert_eq!(model.coating_for(1.6, 1.52), Coating::None, "cemented");
+            assert_eq!(
+                model.coating_for(1.0, 1.0),
+                Coating::None,
+                "the stop in air"
+            );
+            let into = model.coating_for(1.0, 1.6);
+            assert_eq!(model.coating_for(1.6, 1.0), into.reversed());
+            assert_ne!(into, Coating::None);
+        }
+        assert_eq!(CoatingModel::None.coating_for(1.0, 1.6), Coating::None);
+        assert_eq!("multi".parse::<CoatingModel>(), Ok(CoatingModel::Multi));
+        assert!(
+            "mgf2"
+                .parse::<CoatingModel>()
+                .unwrap_err()
+                .contains("none, single or multi")
+        );
+        // A plate of n = 1.52 in air, uncoated: (1 − R)² with R = ((n − 1)/(n + 1))².
+        let r = (0.52f64 / 2.52).powi(2);
+        let plate = axial_transmission(&[1.52, 1.0], CoatingModel::None, 587.56);
+        assert!((plate - (1.0 - r).powi(2)).abs() < 1e-12);
+        // Coated, it loses less at every visible wavelength, multi less than single near 550.
+        for l in [450.0, 550.0, 650.0] {
+            let single = axial_transmission(&[1.52, 1.0], CoatingModel::Single, l);
+            let multi = axial_transmission(&[1.52, 1.0], CoatingModel::Multi, l);
+            assert!(
+                single > plate && multi > plate,
+                "{l} nm: {single} {multi} {plate}"
+            );
+        }
+        let single = axial_transmission(&[1.52, 1.0], CoatingModel::Single, 550.0);
+        let multi = axial_transmission(&[1.52, 1.0], CoatingModel::Multi, 550.0);
+        assert!(multi > single, "{multi} vs {single}");
     }
 
     #[test]

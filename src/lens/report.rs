@@ -12,6 +12,7 @@ use crate::glass::FRAUNHOFER_D_NM;
 use crate::lens::aperture::ApertureSetting;
 use crate::lens::camera::FilmResolution;
 use crate::lens::chromatic::{LATERAL_FIELD, axial_colour, lateral_colour};
+use crate::lens::coating::{CoatingModel, axial_transmission};
 use crate::lens::elements::{
     FilmFormat, FilmPlacement, FocusSetting, Lens, LensDerivationStats, LensFault, LensGeometry,
     activate_lens, add_lens_systems, build_geometry, film_distance_for, set_diaphragm,
@@ -39,6 +40,8 @@ pub struct LensReport {
     pub pupil_seconds: f64,
     /// A zoom lens's first-order data at each of its positions (empty for a fixed lens).
     pub zoom_positions: Vec<ZoomPositionReport>,
+    /// The coatings the transmission and T-number are given for.
+    pub coating: CoatingModel,
 }
 
 /// What `realcam lens --json` says of one zoom position: the lens at that position, focused
@@ -161,6 +164,7 @@ impl LensReport {
             pupil,
             pupil_seconds,
             zoom_positions,
+            coating: CoatingModel::default(),
         })
     }
 
@@ -251,6 +255,25 @@ impl LensReport {
         )
     }
 
+    /// What the lens transmits on its axis at the d line (every surface met at normal
+    /// incidence), coated as [`Self::coating`] says.
+    pub fn transmission(&self) -> f64 {
+        let indices: Vec<f64> = self
+            .geometry
+            .system
+            .rows
+            .iter()
+            .map(|row| row.index_at(FRAUNHOFER_D_NM))
+            .collect();
+        axial_transmission(&indices, self.coating, FRAUNHOFER_D_NM)
+    }
+
+    /// The T-number: the f-number of a lossless lens that would give the film as much light,
+    /// N / √transmission.
+    pub fn t_number(&self) -> f64 {
+        self.geometry.first_order.f_number / self.transmission().sqrt()
+    }
+
     pub fn to_json(&self) -> Value {
         let fo = &self.geometry.first_order;
         let system = &self.geometry.system;
@@ -289,6 +312,9 @@ impl LensReport {
             "entrance_pupil": fo.entrance_pupil,
             "exit_pupil": fo.exit_pupil,
             "f_number": fo.f_number,
+            "coating": self.coating.name(),
+            "transmission": self.transmission(),
+            "t_number": self.t_number(),
             "stop_diameter_mm": system.stop_diameter(),
             "diaphragm": system.diaphragm.as_ref().map(|d| json!({
                 "shape": d.describe(),
@@ -398,6 +424,12 @@ impl LensReport {
             self.pupil.segments.len(),
             self.pupil.rays_traced,
             self.pupil_seconds,
+        );
+        out += &format!(
+            "transmission        {:.1} % on the axis at d ({} coating), T/{:.2}\n",
+            100.0 * self.transmission(),
+            self.coating.name(),
+            self.t_number()
         );
         if let Some(diaphragm) = &system.diaphragm {
             out += &format!(

@@ -327,3 +327,82 @@ fn zoom_positions_are_reported_exported_and_rendered() {
         &["zoom position 2", "fixed spacings"],
     );
 }
+
+/// `--coating`: the transmission on the axis at the d line against figures computed here from
+/// the lens's own indices — Fresnel's ((a − b)/(a + b))² for a bare or cemented surface, and
+/// for a single quarter wave of MgF₂ (1.38 at 550 nm) the Airy sum of its two reflections,
+/// r = (r₁ + r₂e^{−2iδ}) / (1 + r₁r₂e^{−2iδ}), δ = (π/2)(550/λ) — and T-number = N/√T.
+#[test]
+fn transmission_and_t_number_follow_fresnel_and_the_airy_formula() {
+    let report = |coating: &str| {
+        let (code, stdout, stderr) = realcam(
+            &["lens", "dgauss.50mm", "--json", "--coating", coating],
+            None,
+        );
+        assert_eq!(code, 0, "{stderr}");
+        serde_json::from_str::<serde_json::Value>(&stdout).unwrap()
+    };
+    let d_line = 587.5618;
+    let airy = |n_glass: f64| {
+        let n_c = 1.38;
+        let r1 = (1.0 - n_c) / (1.0 + n_c);
+        let r2 = (n_c - n_glass) / (n_c + n_glass);
+        let phase = -2.0 * (std::f64::consts::FRAC_PI_2 * 550.0 / d_line);
+        let (c, s) = (phase.cos(), phase.sin());
+        // (r1 + r2 e^{iφ}) / (1 + r1 r2 e^{iφ}), φ = −2δ.
+        let (num_re, num_im) = (r1 + r2 * c, r2 * s);
+        let (den_re, den_im) = (1.0 + r1 * r2 * c, r1 * r2 * s);
+        (num_re * num_re + num_im * num_im) / (den_re * den_re + den_im * den_im)
+    };
+    let mut transmissions = Vec::new();
+    for coating in ["none", "single"] {
+        let v = report(coating);
+        let indices: Vec<f64> = v["surfaces"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|s| s["index"].as_f64().unwrap())
+            .collect();
+        let (mut expected, mut before, mut air_glass, mut cemented) = (1.0, 1.0, 0, 0);
+        for &after in &indices {
+            if before != after {
+                let air = |n: f64| n == 1.0;
+                let r = if coating == "single" && air(before) != air(after) {
+                    airy(if air(before) { after } else { before })
+                } else {
+                    ((before - after) / (before + after)).powi(2)
+                };
+                expected *= 1.0 - r;
+                if air(before) != air(after) {
+                    air_glass += 1;
+                } else {
+                    cemented += 1;
+                }
+            }
+            before = after;
+        }
+        // The count: 10 surfaces where the index changes, 2 of them cemented.
+        assert_eq!((air_glass, cemented), (8, 2));
+        let t = v["transmission"].as_f64().unwrap();
+        assert!((t - expected).abs() < 1e-9, "{coating}: {t} vs {expected}");
+        let n = v["f_number"].as_f64().unwrap();
+        let t_number = v["t_number"].as_f64().unwrap();
+        assert!((t_number - n / expected.sqrt()).abs() < 1e-9, "{coating}");
+        assert_eq!(v["coating"], coating);
+        transmissions.push(t);
+    }
+    // Bare, the eight air–glass surfaces of n ≈ 1.6–1.7 lose 41 %; one coat gets back most.
+    assert!(
+        (0.58..0.60).contains(&transmissions[0]),
+        "{transmissions:?}"
+    );
+    assert!(transmissions[1] > 0.95, "{transmissions:?}");
+    let multi = report("multi")["transmission"].as_f64().unwrap();
+    assert!(multi > transmissions[1], "{multi}");
+    let (code, _, stderr) = realcam(&["lens", "dgauss.50mm", "--coating", "mgf2"], None);
+    assert_eq!(code, 2);
+    assert!(
+        stderr.contains("unknown coating 'mgf2': use none, single or multi"),
+        "{stderr}"
+    );
+}
