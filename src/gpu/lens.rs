@@ -241,7 +241,7 @@ impl LensData {
             segments_offset: 0,
             dispersion_offset,
             dispersion_lambda_min: LAMBDA_MIN as f32,
-            wavelengths: wavelengths_per_sample(camera),
+            wavelengths: camera.wavelengths_per_sample(),
             film_width: film.width,
             film_height: film.height,
             pad: [0; 2],
@@ -251,15 +251,6 @@ impl LensData {
             surfaces,
             tables,
         }
-    }
-}
-
-/// Wavelengths each of `camera`'s samples carries: its setting in a spectral render, else 1.
-pub fn wavelengths_per_sample(camera: &LensCamera) -> u32 {
-    if camera.dispersion.is_some() {
-        camera.wavelengths.clamp(1, MAX_WAVELENGTHS)
-    } else {
-        1
     }
 }
 
@@ -288,7 +279,8 @@ pub struct GpuLens {
     surfaces: wgpu::Buffer,
     tables: wgpu::Buffer,
     spectral: wgpu::Buffer,
-    /// Wavelengths per sample of the uploaded camera (see [`wavelengths_per_sample`]).
+    /// Wavelengths per sample of the uploaded camera (see
+    /// [`LensCamera::wavelengths_per_sample`]).
     wavelengths: u32,
 }
 

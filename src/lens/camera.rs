@@ -25,7 +25,7 @@ use super::hero_wavelengths::{
     BackwardScratch, BackwardTrace, Combined, HeroRays, MAX_WAVELENGTHS, wavelength_of_set,
 };
 use super::movements::FilmMovements;
-use super::pupil::{ExitPupil, FilmRays};
+use super::pupil::{ExitPupil, FilmRays, PupilSampler};
 use super::system::LensSystem;
 use super::trace::Travel;
 use super::trace_batch::{Isa, Wavelengths, trace_batch, trace_batch_spectral};
@@ -285,6 +285,16 @@ pub(crate) fn camera_seeds(seed: u64) -> (u32, u32) {
 }
 
 impl LensCamera<'_> {
+    /// Wavelengths each camera sample carries: [`Self::wavelengths`] (within 1 ..=
+    /// [`MAX_WAVELENGTHS`]) in a spectral render, else 1.
+    pub fn wavelengths_per_sample(&self) -> u32 {
+        if self.dispersion.is_some() {
+            self.wavelengths.clamp(1, MAX_WAVELENGTHS)
+        } else {
+            1
+        }
+    }
+
     /// Lens-frame z of the frame centre, mm.
     pub(crate) fn film_z(&self) -> f32 {
         (self.system.rear_z() + self.pupil.film_distance) as f32
@@ -322,7 +332,7 @@ impl LensCamera<'_> {
         out.wavelength_weight.clear();
         out.wavelength_offset.clear();
         if self.dispersion.is_some() {
-            let count = self.wavelengths.clamp(1, MAX_WAVELENGTHS) as usize;
+            let count = self.wavelengths_per_sample() as usize;
             out.wavelength.resize(n * count, 0.0);
             out.wavelength_weight.resize(n * count, 0.0);
             if count > 1 {
@@ -359,8 +369,9 @@ impl LensCamera<'_> {
     #[inline(always)]
     fn generate_prepared(&self, sample: u32, seed: u64, out: &mut CameraRays) {
         let film_z = self.film_z();
+        let sampler = self.pupil.sampler();
         self.camera_samples(sample, seed, &mut out.scratch);
-        self.film_to_pupil(sample, film_z, out);
+        self.film_to_pupil(&sampler, sample, film_z, out);
         match self.dispersion {
             None => trace_batch(&self.system.f32s, &mut out.rays, Travel::FilmToScene),
             Some(table) => {
@@ -388,7 +399,6 @@ impl LensCamera<'_> {
                     Travel::FilmToScene,
                 );
                 if count > 1 {
-                    let sampler = self.pupil.sampler();
                     let backward = BackwardTrace {
                         surfaces: &self.system.f32s,
                         table,
@@ -464,7 +474,13 @@ impl LensCamera<'_> {
     /// Film point and pupil point of every ray, as the lens-frame ray between them, with its
     /// camera weight; rays from film points no ray leaves are blocked at once.
     #[inline(always)]
-    fn film_to_pupil(&self, sample: u32, film_z: f32, out: &mut CameraRays) {
+    fn film_to_pupil(
+        &self,
+        sampler: &PupilSampler,
+        sample: u32,
+        film_z: f32,
+        out: &mut CameraRays,
+    ) {
         let film = self.film.film_map();
         let tilt = FilmTilt::of(&self.film.movements);
         let s = &mut out.scratch;
@@ -496,7 +512,7 @@ impl LensCamera<'_> {
         let [_, _, pupil_u, pupil_v, ..] = &s.u;
         rays.pixel.copy_from_slice(&s.pixel);
         rays.sample.fill(sample);
-        self.pupil.sampler().sample(FilmRays {
+        sampler.sample(FilmRays {
             x: &rays.ox,
             y: &rays.oy,
             depth: tilt.map(|_| &s.depth[..n]),
