@@ -59,6 +59,9 @@ pub enum Coating {
     /// A measured reflectance curve, (nm, R) by increasing wavelength, linear in between and
     /// held beyond its ends; for both polarisations and every angle (what a datasheet gives).
     Measured(Vec<(f64, f64)>),
+    /// A perfect anti-reflection coating: reflects nothing at any wavelength or angle (the
+    /// lossless lens of renderers without coatings, and of realcam before it had them).
+    Ideal,
 }
 
 /// The reflectances of the two polarisations.
@@ -82,6 +85,58 @@ impl Coating {
         Coating::Layers(vec![Layer::quarter_wave(index, design_nm)])
     }
 
+    /// Whether the coating is physically possible: layer indices of at least 1 and finite,
+    /// non-negative thicknesses; a measured curve of reflectances in [0, 1] at increasing
+    /// wavelengths.
+    pub fn check(&self) -> Result<(), String> {
+        match self {
+            Coating::None | Coating::Ideal => Ok(()),
+            Coating::Layers(layers) => {
+                for (k, layer) in layers.iter().enumerate() {
+                    if !(layer.index.is_finite() && layer.index >= 1.0) {
+                        return Err(format!(
+                            "layer {}: index {} (must be a number of at least 1)",
+                            k + 1,
+                            layer.index
+                        ));
+                    }
+                    if !(layer.thickness_nm.is_finite() && layer.thickness_nm >= 0.0) {
+                        return Err(format!(
+                            "layer {}: thickness {} nm (must be a number of at least 0)",
+                            k + 1,
+                            layer.thickness_nm
+                        ));
+                    }
+                }
+                Ok(())
+            }
+            Coating::Measured(curve) => {
+                if curve.is_empty() {
+                    return Err("a measured curve with no points".into());
+                }
+                for (k, &(nm, r)) in curve.iter().enumerate() {
+                    if !(nm.is_finite() && nm > 0.0) {
+                        return Err(format!("point {}: wavelength {nm} nm", k + 1));
+                    }
+                    if !(0.0..=1.0).contains(&r) {
+                        return Err(format!(
+                            "point {}: reflectance {r} at {nm} nm (must be between 0 and 1)",
+                            k + 1
+                        ));
+                    }
+                    if k > 0 && nm <= curve[k - 1].0 {
+                        return Err(format!(
+                            "point {}: {nm} nm after {} nm (wavelengths must increase)",
+                            k + 1,
+                            curve[k - 1].0
+                        ));
+                    }
+                }
+                Ok(())
+            }
+        }
+    }
+
     /// The coating seen from its other side: its layers in reverse order.
     pub fn reversed(&self) -> Coating {
         match self {
@@ -100,6 +155,7 @@ impl Coating {
                 let r = measured_at(curve, lambda_nm);
                 Reflectance { s: r, p: r }
             }
+            Coating::Ideal => Reflectance { s: 0.0, p: 0.0 },
         }
     }
 }
@@ -117,6 +173,9 @@ pub enum CoatingModel {
     /// A broadband quarter–half–quarter stack at 550 nm (from the air side: n = 1.38, 2.15
     /// and 1.38·√n_glass), the classic three-layer multi-coating.
     Multi,
+    /// A perfect anti-reflection coating on every surface, cemented ones included: no losses
+    /// (and no ghosts), the lossless lens.
+    Ideal,
 }
 
 /// The single coating's layer: magnesium fluoride, a quarter wave at 550 nm.
@@ -132,8 +191,9 @@ impl std::str::FromStr for CoatingModel {
             "none" => Ok(CoatingModel::None),
             "single" => Ok(CoatingModel::Single),
             "multi" => Ok(CoatingModel::Multi),
+            "ideal" => Ok(CoatingModel::Ideal),
             other => Err(format!(
-                "unknown coating '{other}': use none, single or multi"
+                "unknown coating '{other}': use none, single, multi or ideal"
             )),
         }
     }
@@ -145,6 +205,7 @@ impl CoatingModel {
             CoatingModel::None => "none",
             CoatingModel::Single => "single",
             CoatingModel::Multi => "multi",
+            CoatingModel::Ideal => "ideal",
         }
     }
 
@@ -154,7 +215,10 @@ impl CoatingModel {
         let is_air = |n: f64| (n - 1.0).abs() < 1e-3;
         let air_glass = is_air(n_in) != is_air(n_out);
         if !air_glass {
-            return Coating::None;
+            return match self {
+                CoatingModel::Ideal => Coating::Ideal,
+                _ => Coating::None,
+            };
         }
         let from_air = match self {
             CoatingModel::None => return Coating::None,
@@ -174,6 +238,7 @@ impl CoatingModel {
                     Layer::quarter_wave(MGF2 * glass.sqrt(), DESIGN_NM),
                 ])
             }
+            CoatingModel::Ideal => return Coating::Ideal,
         };
         if is_air(n_in) {
             from_air
@@ -450,7 +515,7 @@ mod tests {
             "mgf2"
                 .parse::<CoatingModel>()
                 .unwrap_err()
-                .contains("none, single or multi")
+                .contains("none, single, multi or ideal")
         );
         // A plate of n = 1.52 in air, uncoated: (1 − R)² with R = ((n − 1)/(n + 1))².
         let r = (0.52f64 / 2.52).powi(2);

@@ -9,6 +9,7 @@
 use std::fmt;
 use std::path::{Path, PathBuf};
 
+use super::coating::Coating;
 use super::info::LensInfo;
 use super::shape::{Asphere, Profile};
 use super::spacing::{VariableSpacings, rows_at};
@@ -200,6 +201,10 @@ pub struct Prescription {
     pub warnings: Vec<String>,
     /// The gaps that change with zoom and focus (empty for a lens with fixed spacings).
     pub spacings: VariableSpacings,
+    /// The coating the file gives each surface (layers listed from the scene side), one entry
+    /// per row, or empty when the file gives none; `None`: the lens-wide default
+    /// ([`CoatingModel`](super::coating::CoatingModel)) applies to that surface.
+    pub coatings: Vec<Option<Coating>>,
 }
 
 /// A problem with a prescription file, located by line where it has one.
@@ -243,6 +248,7 @@ impl Prescription {
             info: LensInfo::default(),
             warnings: Vec::new(),
             spacings: VariableSpacings::default(),
+            coatings: Vec::new(),
         };
         prescription.check_rows()?;
         prescription.trim_touching_rims();
@@ -294,6 +300,44 @@ impl Prescription {
         }
         self.spacings = spacings;
         Ok(self)
+    }
+
+    /// The prescription with the coatings its file gives, one per row (`None`: the lens-wide
+    /// default on that surface), each checked ([`Coating::check`]).
+    pub fn with_coatings(
+        mut self,
+        coatings: Vec<Option<Coating>>,
+    ) -> Result<Prescription, PrescriptionError> {
+        let error = |message: String| PrescriptionError {
+            file: self.source.clone(),
+            line: None,
+            message,
+        };
+        if coatings.len() != self.rows.len() {
+            return Err(error(format!(
+                "{} coatings for {} surfaces",
+                coatings.len(),
+                self.rows.len()
+            )));
+        }
+        for (i, coating) in coatings.iter().enumerate() {
+            if let Some(coating) = coating {
+                coating
+                    .check()
+                    .map_err(|e| error(format!("surface {i}: coating: {e}")))?;
+            }
+        }
+        self.coatings = if coatings.iter().all(Option::is_none) {
+            Vec::new()
+        } else {
+            coatings
+        };
+        Ok(self)
+    }
+
+    /// The coating the file gives surface `i` (`None`: the lens-wide default applies).
+    pub fn coating(&self, i: usize) -> Option<&Coating> {
+        self.coatings.get(i).and_then(Option::as_ref)
     }
 
     /// Index of the aperture stop row.
