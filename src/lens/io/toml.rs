@@ -25,6 +25,12 @@
 //! or absent for air. `diameter` is the clear aperture's full diameter. `aspheric` lists
 //! [A₂, A₄, …] (the coefficients of r², r⁴, …, in mm units).
 //!
+//! `coating` (optional) is the surface's coating: `"none"` (bare), `"ideal"` (reflects nothing),
+//! `"single"` or `"multi"` (the [`CoatingModel`]'s coating for an air–glass surface),
+//! `{ layers = [ { index, thickness_nm | quarter_wave_nm | half_wave_nm }, … ] }` (thin films
+//! from the scene side) or `{ measured = [[nm, reflectance], …] }`; without it the lens-wide
+//! default applies.
+//!
 //! Optional `[zoom]` (`surfaces`, 1-based, and `positions`, each with `gaps` after those
 //! surfaces, optionally `focal_length_mm` and `stop_diameter`) and `[focus]` (`close_focus_m`,
 //! `surfaces`, and their gaps at `infinity` and at `close` focus) tables give a zoom lens's
@@ -36,6 +42,7 @@ use std::path::Path;
 use serde::Deserialize;
 
 use crate::glass::{FRAUNHOFER_D_NM, Glass, catalogue};
+use crate::lens::coating::{Coating, CoatingModel, Layer};
 use crate::lens::info::LensInfo;
 use crate::lens::prescription::{
     LensFormat, Prescription, PrescriptionError, SurfaceBase, SurfaceRow,
@@ -102,6 +109,8 @@ struct SurfaceEntry {
     conic: f64,
     #[serde(default)]
     aspheric: Vec<f64>,
+    /// Read by [`read_coating`], which knows the surface's indices and names its problems.
+    coating: Option<::toml::Spanned<::toml::Value>>,
 }
 
 #[derive(Deserialize)]
@@ -153,6 +162,7 @@ pub fn read_lens_file(text: &str, source: &Path) -> Result<Prescription, Prescri
     let mut rows = Vec::with_capacity(file.surfaces.len());
     let last = file.surfaces.len() - 1;
     let mut film_distance = None;
+    let mut coatings = Vec::with_capacity(file.surfaces.len());
     for (i, spanned) in file.surfaces.iter().enumerate() {
         let line = line_of(spanned.span().start);
         let entry = spanned.get_ref();
@@ -217,6 +227,18 @@ pub fn read_lens_file(text: &str, source: &Path) -> Result<Prescription, Prescri
         if i == last {
             film_distance = entry.thickness.filter(|t| *t > 0.0);
         }
+        if let Some(coating) = &entry.coating {
+            let before = rows.last().map_or(1.0, |r: &SurfaceRow| r.base.index);
+            let coating = read_coating(coating.get_ref(), before, index).map_err(|m| {
+                error(
+                    Some(line_of(coating.span().start)),
+                    format!("surface {}: coating: {m}", i + 1),
+                )
+            })?;
+            coatings.push(Some(coating));
+        } else {
+            coatings.push(None);
+        }
         rows.push(SurfaceRow {
             base: SurfaceBase {
                 radius,
@@ -254,10 +276,239 @@ pub fn read_lens_file(text: &str, source: &Path) -> Result<Prescription, Prescri
         notes: i.notes.clone(),
     };
     let spacings = spacings(&file).map_err(|m| error(None, m))?;
-    if spacings.is_empty() {
-        Ok(prescription)
-    } else {
-        prescription.with_spacings(spacings)
+    if !spacings.is_empty() {
+        prescription = prescription.with_spacings(spacings)?;
+    }
+    // Each coating was checked as it was read, naming its surface by line.
+    prescription.with_coatings(coatings)
+}
+
+/// What a coating may be, for messages.
+const COATING_FORMS: &str = "\"none\", \"single\", \"multi\", \"ideal\", { layers = [ { index = …, thickness_nm = … }, … ] } or { measured = [[nm, reflectance], …] }";
+
+/// A surface's `coating` value, the surface lying between the index `n_front` before it and
+/// `n_back` after it (at the lens's own indices): the coating it names, checked
+/// ([`Coating::check`]), or what is wrong with it.
+fn read_coating(value: &::toml::Value, n_front: f64, n_back: f64) -> Result<Coating, String> {
+    use ::toml::Value;
+    let coating = match value {
+        Value::String(name) => match name.to_ascii_lowercase().as_str() {
+            "none" => Coating::None,
+            "ideal" => Coating::Ideal,
+            word @ ("single" | "multi") => {
+                if !is_air(n_front) && !is_air(n_back) {
+                    return Err(format!(
+                        "\"{word}\" is a coating for a surface between air and glass, and this one has glass on both sides (n = {n_front} before it, {n_back} after it): give its layers instead, {{ layers = [ {{ index = …, thickness_nm = … }}, … ] }}, or \"none\""
+                    ));
+                }
+                let model = if word == "single" {
+                    CoatingModel::Single
+                } else {
+                    CoatingModel::Multi
+                };
+                model.coating_for(n_front, n_back)
+            }
+            _ => {
+                return Err(format!(
+                    "\"{}\" is not a coating: use {COATING_FORMS}",
+                    super::shorten(name)
+                ));
+            }
+        },
+        Value::Table(table) => {
+            if let Some(key) = table
+                .keys()
+                .find(|k| !matches!(k.as_str(), "layers" | "measured"))
+            {
+                return Err(format!(
+                    "unknown key '{}': a coating table is {{ layers = […] }} or {{ measured = […] }}",
+                    super::shorten(key)
+                ));
+            }
+            match (table.get("layers"), table.get("measured")) {
+                (Some(layers), None) => Coating::Layers(read_layers(layers)?),
+                (None, Some(measured)) => Coating::Measured(read_measured(measured)?),
+                (Some(_), Some(_)) => {
+                    return Err(
+                        "gives both layers and measured: a coating is one or the other".into(),
+                    );
+                }
+                (None, None) => {
+                    return Err(format!("an empty table: use {COATING_FORMS}"));
+                }
+            }
+        }
+        other => {
+            return Err(format!(
+                "{} is not a coating: use {COATING_FORMS}",
+                described(other)
+            ));
+        }
+    };
+    coating.check()?;
+    Ok(coating)
+}
+
+/// Whether an index is air's, as [`CoatingModel::coating_for`] tells them apart.
+fn is_air(n: f64) -> bool {
+    (n - 1.0).abs() < 1e-3
+}
+
+/// A TOML value as a message names it: `a string "x"`, `an integer 3`, `an array`.
+fn described(value: &::toml::Value) -> String {
+    use ::toml::Value;
+    match value {
+        Value::String(s) => format!("a string \"{}\"", super::shorten(s)),
+        Value::Integer(i) => format!("an integer {i}"),
+        Value::Float(f) => format!("a number {f}"),
+        Value::Boolean(b) => format!("a boolean {b}"),
+        Value::Datetime(d) => format!("a date {d}"),
+        Value::Array(_) => "an array".into(),
+        Value::Table(_) => "a table".into(),
+    }
+}
+
+/// A TOML number (integer or float) as f64.
+fn number(value: &::toml::Value) -> Option<f64> {
+    match value {
+        ::toml::Value::Integer(i) => Some(*i as f64),
+        ::toml::Value::Float(f) => Some(*f),
+        _ => None,
+    }
+}
+
+/// `layers = [ { index, thickness_nm | quarter_wave_nm | half_wave_nm }, … ]`, from the scene
+/// side.
+fn read_layers(value: &::toml::Value) -> Result<Vec<Layer>, String> {
+    let Some(entries) = value.as_array() else {
+        return Err(format!(
+            "layers must be an array of {{ index = …, thickness_nm = … }} tables, found {}",
+            described(value)
+        ));
+    };
+    const THICKNESSES: [&str; 3] = ["thickness_nm", "quarter_wave_nm", "half_wave_nm"];
+    const ONE_OF: &str = "one of thickness_nm, quarter_wave_nm or half_wave_nm";
+    let mut layers = Vec::with_capacity(entries.len());
+    for (k, entry) in entries.iter().enumerate() {
+        let at = |message: String| format!("layer {}: {message}", k + 1);
+        let Some(table) = entry.as_table() else {
+            return Err(at(format!(
+                "expected a table {{ index = …, thickness_nm = … }}, found {}",
+                described(entry)
+            )));
+        };
+        if let Some(key) = table
+            .keys()
+            .find(|k| k.as_str() != "index" && !THICKNESSES.contains(&k.as_str()))
+        {
+            return Err(at(format!(
+                "unknown key '{}': a layer has an index and {ONE_OF}",
+                super::shorten(key),
+            )));
+        }
+        let field = |key: &str| -> Result<Option<f64>, String> {
+            table
+                .get(key)
+                .map(|v| {
+                    number(v).ok_or_else(|| {
+                        at(format!("{key} must be a number, found {}", described(v)))
+                    })
+                })
+                .transpose()
+        };
+        let index = field("index")?.ok_or_else(|| at("no index".into()))?;
+        let given: Vec<&str> = THICKNESSES
+            .into_iter()
+            .filter(|k| table.contains_key(*k))
+            .collect();
+        let [key] = given[..] else {
+            return Err(at(if given.is_empty() {
+                format!("no thickness: give {ONE_OF}")
+            } else {
+                format!("gives {}: give only one", given.join(" and "))
+            }));
+        };
+        let value = field(key)?.unwrap_or(f64::NAN);
+        let layer = match key {
+            "thickness_nm" => Layer {
+                index,
+                thickness_nm: value,
+            },
+            _ => {
+                if !(value.is_finite() && value > 0.0) {
+                    return Err(at(format!(
+                        "{key} = {value}: a design wavelength must be a positive number of nm"
+                    )));
+                }
+                if !(index.is_finite() && index >= 1.0) {
+                    return Err(at(format!(
+                        "index {index} (must be a number of at least 1)"
+                    )));
+                }
+                let waves = if key == "quarter_wave_nm" { 4.0 } else { 2.0 };
+                Layer {
+                    index,
+                    thickness_nm: value / (waves * index),
+                }
+            }
+        };
+        layers.push(layer);
+    }
+    Ok(layers)
+}
+
+/// `measured = [[nm, reflectance], …]`.
+fn read_measured(value: &::toml::Value) -> Result<Vec<(f64, f64)>, String> {
+    let Some(entries) = value.as_array() else {
+        return Err(format!(
+            "measured must be an array of [nm, reflectance] pairs, found {}",
+            described(value)
+        ));
+    };
+    entries
+        .iter()
+        .enumerate()
+        .map(|(k, entry)| {
+            match entry
+                .as_array()
+                .map(|pair| pair.iter().map(number).collect::<Vec<_>>())
+                .as_deref()
+            {
+                Some(&[Some(nm), Some(r)]) => Ok((nm, r)),
+                _ => Err(format!(
+                    "measured point {}: expected [nm, reflectance], two numbers",
+                    k + 1
+                )),
+            }
+        })
+        .collect()
+}
+
+/// A coating as the `coating` key writes it (layers by their physical thickness).
+pub(super) fn write_coating(coating: &Coating) -> String {
+    match coating {
+        Coating::None => "\"none\"".into(),
+        Coating::Ideal => "\"ideal\"".into(),
+        Coating::Layers(layers) => {
+            let layers: Vec<String> = layers
+                .iter()
+                .map(|l| {
+                    format!(
+                        "{{ index = {}, thickness_nm = {} }}",
+                        num(l.index),
+                        num(l.thickness_nm)
+                    )
+                })
+                .collect();
+            format!("{{ layers = [{}] }}", layers.join(", "))
+        }
+        Coating::Measured(curve) => {
+            let points: Vec<String> = curve
+                .iter()
+                .map(|&(nm, r)| format!("[{}, {}]", num(nm), num(r)))
+                .collect();
+            format!("{{ measured = [{}] }}", points.join(", "))
+        }
     }
 }
 
@@ -514,9 +765,126 @@ pub fn write_lens_file(prescription: &Prescription) -> String {
                 .collect();
             fields.push(format!("aspheric = [{}]", terms.join(", ")));
         }
+        if let Some(coating) = prescription.coating(i) {
+            fields.push(format!("coating = {}", write_coating(coating)));
+        }
         let _ = writeln!(out, "  {{ {} }},", fields.join(", "));
     }
     let _ = writeln!(out, "]");
     write_spacings(&mut out, &prescription.spacings, &prescription.rows);
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn value(text: &str) -> ::toml::Value {
+        let table: ::toml::Table = ::toml::from_str(&format!("coating = {text}")).unwrap();
+        table["coating"].clone()
+    }
+
+    fn read(text: &str, n_front: f64, n_back: f64) -> Result<Coating, String> {
+        read_coating(&value(text), n_front, n_back)
+    }
+
+    #[test]
+    fn coating_words_and_tables_read_to_their_coatings() {
+        assert_eq!(read(r#""none""#, 1.0, 1.5), Ok(Coating::None));
+        assert_eq!(read(r#""Ideal""#, 1.5, 1.7), Ok(Coating::Ideal));
+        // MgF2 a quarter wave at 550 nm: n·d = 550/4.
+        let Ok(Coating::Layers(single)) = read(r#""single""#, 1.0, 1.5) else {
+            panic!("single");
+        };
+        assert_eq!(single.len(), 1);
+        assert_eq!(single[0].index, 1.38);
+        assert!((single[0].index * single[0].thickness_nm - 137.5).abs() < 1e-9);
+        // From glass to air the stack is listed from the glass side: MgF2 last.
+        let Ok(Coating::Layers(multi)) = read(r#""multi""#, 1.6, 1.0) else {
+            panic!("multi");
+        };
+        assert_eq!(multi.len(), 3);
+        assert_eq!(multi[2].index, 1.38);
+        assert!((multi[0].index - 1.38 * 1.6f64.sqrt()).abs() < 1e-12);
+        // Integers are numbers; half and quarter waves are optical thicknesses λ/2 and λ/4.
+        let layers = read(
+            "{ layers = [ { index = 2, thickness_nm = 10 }, { index = 1.5, half_wave_nm = 600 }, { quarter_wave_nm = 500, index = 1.25 } ] }",
+            1.0,
+            1.5,
+        )
+        .unwrap();
+        let expected = [(2.0, 10.0), (1.5, 200.0), (1.25, 100.0)];
+        let Coating::Layers(layers) = layers else {
+            panic!("{layers:?}");
+        };
+        for (layer, (index, thickness)) in layers.iter().zip(expected) {
+            assert_eq!(layer.index, index);
+            assert!((layer.thickness_nm - thickness).abs() < 1e-12, "{layers:?}");
+        }
+        assert_eq!(
+            read("{ measured = [[400, 0.5], [450.5, 0]] }", 1.0, 1.5),
+            Ok(Coating::Measured(vec![(400.0, 0.5), (450.5, 0.0)]))
+        );
+    }
+
+    #[test]
+    fn a_bad_coating_value_says_what_is_wrong() {
+        let cases = [
+            (r#""SINGLE-ish""#, "\"SINGLE-ish\" is not a coating"),
+            ("true", "a boolean true is not a coating"),
+            ("1.5", "a number 1.5 is not a coating"),
+            ("{ layers = 3 }", "layers must be an array"),
+            ("{ layers = [3] }", "layer 1: expected a table"),
+            (
+                "{ layers = [ { index = 1.4, thickness_nm = 1, colour = 2 } ] }",
+                "layer 1: unknown key 'colour'",
+            ),
+            ("{ layers = [ { thickness_nm = 1 } ] }", "layer 1: no index"),
+            (
+                "{ layers = [ { index = 1.4, half_wave_nm = -500 } ] }",
+                "layer 1: half_wave_nm = -500",
+            ),
+            (
+                "{ layers = [ { index = 0, quarter_wave_nm = 500 } ] }",
+                "layer 1: index 0",
+            ),
+            (
+                "{ layers = [ { index = 1.4, thickness_nm = \"thin\" } ] }",
+                "thickness_nm must be a number, found a string \"thin\"",
+            ),
+            ("{ measured = [] }", "no points"),
+            ("{ measured = [[400, -0.1]] }", "point 1: reflectance -0.1"),
+            (
+                "{ measured = [[400]] }",
+                "measured point 1: expected [nm, reflectance]",
+            ),
+        ];
+        for (text, expected) in cases {
+            let error = read(text, 1.0, 1.5).expect_err(text);
+            assert!(
+                error.contains(expected),
+                "{text}: '{expected}' not in: {error}"
+            );
+        }
+        // The named models are for air–glass surfaces; on glass–air–… too, never glass–glass.
+        let error = read(r#""multi""#, 1.5, 1.7).unwrap_err();
+        assert!(error.contains("glass on both sides"), "{error}");
+        assert!(error.contains("layers"), "{error}");
+    }
+
+    #[test]
+    fn written_coatings_read_back_equal() {
+        let coatings = [
+            Coating::None,
+            Coating::Ideal,
+            Coating::single_layer(1.38, 550.0),
+            CoatingModel::Multi.coating_for(1.0, 1.7234),
+            Coating::Layers(Vec::new()),
+            Coating::Measured(vec![(380.0, 0.031), (550.0, 1.0 - 0.99), (780.25, 0.0)]),
+        ];
+        for coating in coatings {
+            let text = write_coating(&coating);
+            assert_eq!(read(&text, 1.0, 1.5).as_ref(), Ok(&coating), "{text}");
+        }
+    }
 }
