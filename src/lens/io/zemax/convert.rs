@@ -10,6 +10,7 @@ use super::decode::number;
 use super::parse::{ZemaxSurface, ZemaxSystem};
 use crate::glass::{FRAUNHOFER_D_NM, Glass, catalogue};
 use crate::lens::clear_aperture::{self, FieldPoint};
+use crate::lens::coating::{Coating, CoatingModel};
 use crate::lens::info::LensInfo;
 use crate::lens::io::GlassSubstitute;
 use crate::lens::prescription::{
@@ -90,7 +91,51 @@ pub(super) fn convert(
     prescription
         .warnings
         .extend(conversion.unused_substitutes());
+    let (coatings, warnings) = conversion.coatings(&prescription.rows);
+    prescription = prescription.with_coatings(coatings)?;
+    prescription.warnings.extend(warnings);
     Ok(prescription)
+}
+
+/// A `COAT` name as realcam reads it, on a surface between indices `before` and `after`.
+#[derive(Debug, PartialEq)]
+enum ZemaxCoating {
+    /// A coating realcam represents, or `None` for no coating named (the lens-wide default).
+    Known(Option<Coating>),
+    /// `HEAR1`/`HEAR2` between two glasses: the multi-coating model is for air–glass surfaces.
+    Cemented,
+    /// A name not in the sample `COATING.DAT` realcam knows.
+    Unknown,
+}
+
+/// The coating a `COAT` line names: `AR` (the sample `COATING.DAT`'s quarter wave of MgF2 at
+/// 550 nm), `HEAR1`/`HEAR2` (its high-efficiency multi-layers: realcam's multi-coating model),
+/// `I.<digits>` (Zemax's ideal coating of intensity transmission 0.<digits>, the rest
+/// reflected at every wavelength), and no name or `NONE` for none.
+fn zemax_coating(name: &str, before: f64, after: f64) -> ZemaxCoating {
+    let upper = name.to_ascii_uppercase();
+    let coating = match upper.as_str() {
+        "" | "NONE" => return ZemaxCoating::Known(None),
+        "AR" => Coating::single_layer(1.38, 550.0),
+        "HEAR1" | "HEAR2" => {
+            let is_air = |n: f64| (n - 1.0).abs() < 1e-3;
+            if !is_air(before) && !is_air(after) {
+                return ZemaxCoating::Cemented;
+            }
+            CoatingModel::Multi.coating_for(before, after)
+        }
+        _ => {
+            let Some(digits) = upper
+                .strip_prefix("I.")
+                .filter(|d| !d.is_empty() && d.bytes().all(|b| b.is_ascii_digit()))
+            else {
+                return ZemaxCoating::Unknown;
+            };
+            let transmission: f64 = format!("0.{digits}").parse().unwrap_or(0.0);
+            Coating::Measured(vec![(550.0, 1.0 - transmission)])
+        }
+    };
+    ZemaxCoating::Known(Some(coating))
 }
 
 /// One file's conversion: what every step reads, and the file to name in errors.
@@ -475,6 +520,51 @@ impl<'a> Conversion<'a> {
         })
     }
 
+    /// Each lens surface's coating from its `COAT` line (`None`: the lens-wide default), and
+    /// the warnings for the names realcam does not read: one per unknown name, listing its
+    /// surfaces, and one per multi-layer coating on a cemented surface.
+    fn coatings(&self, rows: &[SurfaceRow]) -> (Vec<Option<Coating>>, Vec<String>) {
+        let mut coatings = Vec::with_capacity(self.lens.len());
+        let mut warnings = Vec::new();
+        // Unknown names: the name as written, its first line, and its SURF numbers.
+        let mut unknown: Vec<(&str, usize, Vec<usize>)> = Vec::new();
+        for (i, s) in self.lens.iter().enumerate() {
+            let Some((name, line)) = &s.coating else {
+                coatings.push(None);
+                continue;
+            };
+            let before = if i == 0 { 1.0 } else { rows[i - 1].base.index };
+            let after = rows[i].base.index;
+            coatings.push(match zemax_coating(name, before, after) {
+                ZemaxCoating::Known(coating) => coating,
+                ZemaxCoating::Cemented => {
+                    warnings.push(format!(
+                        "{}:{line}: SURF {}: COAT {name} is a multi-layer coating for a surface between air and glass, and this surface has glass on both sides (n = {before} before it, {after} after it): the lens-wide default coating is used there",
+                        self.source.display(),
+                        s.number
+                    ));
+                    None
+                }
+                ZemaxCoating::Unknown => {
+                    match unknown.iter_mut().find(|(n, _, _)| n == name) {
+                        Some((_, _, surfaces)) => surfaces.push(s.number),
+                        None => unknown.push((name, *line, vec![s.number])),
+                    }
+                    None
+                }
+            });
+        }
+        for (name, line, surfaces) in unknown {
+            let surfaces: Vec<String> = surfaces.iter().map(usize::to_string).collect();
+            warnings.push(format!(
+                "{}:{line}: COAT {name} on SURF {}: a coating realcam does not know (it reads AR, HEAR1, HEAR2, I.<transmission> and NONE, as the sample COATING.DAT defines them); the lens-wide default coating is used there",
+                self.source.display(),
+                surfaces.join(", ")
+            ));
+        }
+        (coatings, warnings)
+    }
+
     /// What the file says about the design.
     fn info(&self) -> LensInfo {
         let image = &self.surfaces[self.surfaces.len() - 1];
@@ -541,4 +631,54 @@ fn field_points(
         });
     }
     Ok(points)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::lens::coating::Layer;
+
+    #[test]
+    fn coat_names_are_read_as_the_sample_coating_file_defines_them() {
+        // AR: a quarter wave (n·d = λ/4) of MgF2 at 550 nm, whichever side it is on.
+        let ar = ZemaxCoating::Known(Some(Coating::Layers(vec![Layer {
+            index: 1.38,
+            thickness_nm: 550.0 / (4.0 * 1.38),
+        }])));
+        assert_eq!(zemax_coating("AR", 1.0, 1.5), ar);
+        assert_eq!(zemax_coating("ar", 1.6, 1.7), ar);
+        // I.<digits>: transmission 0.<digits>, the rest reflected.
+        for (name, reflected) in [
+            ("I.99", 1.0 - 0.99),
+            ("I.0", 1.0),
+            ("I.5", 0.5),
+            ("I.05", 0.95),
+        ] {
+            assert_eq!(
+                zemax_coating(name, 1.0, 1.5),
+                ZemaxCoating::Known(Some(Coating::Measured(vec![(550.0, reflected)]))),
+                "{name}"
+            );
+        }
+        // HEAR1/HEAR2: the multi-coating model, on air–glass surfaces only.
+        assert_eq!(
+            zemax_coating("HEAR1", 1.5, 1.0),
+            ZemaxCoating::Known(Some(CoatingModel::Multi.coating_for(1.5, 1.0)))
+        );
+        assert_eq!(
+            zemax_coating("HEAR2", 1.0, 1.62),
+            ZemaxCoating::Known(Some(CoatingModel::Multi.coating_for(1.0, 1.62)))
+        );
+        assert_eq!(zemax_coating("HEAR1", 1.5, 1.7), ZemaxCoating::Cemented);
+        for none in ["", "NONE", "none"] {
+            assert_eq!(zemax_coating(none, 1.0, 1.5), ZemaxCoating::Known(None));
+        }
+        for unknown in ["WAR", "I.", "I.9X", "I", "BBAR", "METAL"] {
+            assert_eq!(
+                zemax_coating(unknown, 1.0, 1.5),
+                ZemaxCoating::Unknown,
+                "{unknown}"
+            );
+        }
+    }
 }

@@ -6,7 +6,9 @@
 //! `YFLN`); `SURF n` opens the block of surface n, whose lines give its `TYPE`, `CURV`
 //! (1/radius), `DISZ` (thickness to the next surface), `GLAS` (the medium after it), `DIAM`
 //! (its **semi**-diameter), `CONI` (conic constant), `PARM i` (an even asphere's r^(2i)
-//! coefficient), `STOP`, and apertures such as `CLAP`. Surface 0 is the object, the last one
+//! coefficient), `STOP`, `COAT` (its coating, by its name in `COATING.DAT`: `AR`, `HEAR1`,
+//! `HEAR2` and the ideal `I.<transmission>` are read, other names warned of), and apertures
+//! such as `CLAP`. Surface 0 is the object, the last one
 //! the image; the surfaces between are the lens. The image distance (the last lens surface's
 //! `DISZ`) is the design's film distance.
 //!

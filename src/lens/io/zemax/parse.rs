@@ -6,11 +6,11 @@ use std::collections::BTreeMap;
 
 use super::decode::{number, unit_scale};
 
-/// Surface keywords that carry no optics realcam uses (drawing, coatings, tolerances,
-/// solves, comments, mechanical sizes, pickups): skipped silently.
-const IGNORED_SURFACE_KEYWORDS: [&str; 24] = [
-    "HIDE", "SLAB", "POPS", "FIMP", "MIRR", "MEMA", "COAT", "COMM", "PZUP", "SSID", "MAZH", "FLAP",
-    "VPAR", "PPAR", "CURV", "DISZ", "EDGE", "TCED", "SQAP", "BLNK", "VCON", "XDAT", "IGNR", "THIC",
+/// Surface keywords that carry no optics realcam uses (drawing, tolerances, solves, comments,
+/// mechanical sizes, pickups): skipped silently.
+const IGNORED_SURFACE_KEYWORDS: [&str; 23] = [
+    "HIDE", "SLAB", "POPS", "FIMP", "MIRR", "MEMA", "COMM", "PZUP", "SSID", "MAZH", "FLAP", "VPAR",
+    "PPAR", "CURV", "DISZ", "EDGE", "TCED", "SQAP", "BLNK", "VCON", "XDAT", "IGNR", "THIC",
 ];
 
 /// Surface keywords for apertures realcam cannot represent.
@@ -42,6 +42,9 @@ pub(super) struct ZemaxSurface {
     pub(super) conic: f64,
     pub(super) parameters: BTreeMap<usize, (f64, usize)>,
     pub(super) stop: bool,
+    /// `COAT name`: the coating's name in the coating file (`COATING.DAT`), as written (empty
+    /// for a bare `COAT`), and the line.
+    pub(super) coating: Option<(String, usize)>,
     /// `OBDC x y`: an aperture decentre.
     pub(super) aperture_decentre: Option<(f64, f64, usize)>,
     pub(super) refused: Option<(usize, String)>,
@@ -231,6 +234,10 @@ pub(super) fn parse(text: &str) -> Result<(ZemaxSystem, Vec<ZemaxSurface>), Pars
                 }
                 "STOP" => {
                     surface.stop = true;
+                    continue;
+                }
+                "COAT" => {
+                    surface.coating = Some((args.first().map_or("", |t| t).to_string(), line));
                     continue;
                 }
                 _ => {
