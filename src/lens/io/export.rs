@@ -1,11 +1,12 @@
 //! Writing a lens in another format: realcam's own (`.toml`, everything realcam represents)
-//! or a pbrt `.dat` table (spheres, planes and a plane stop only; glass in the fifth column).
+//! or a pbrt `.dat` table (spheres, planes and a plane stop only; glass in the fifth column;
+//! the surfaces' coatings in comments, which no reader reads back).
 
 use std::fmt::Write;
 use std::path::Path;
 
 use super::extension;
-use super::toml::write_lens_file;
+use super::toml::{write_coating, write_lens_file};
 use crate::glass::Glass;
 use crate::lens::prescription::{Prescription, SurfaceKind};
 
@@ -34,7 +35,9 @@ pub fn export_text(prescription: &Prescription, path: &Path) -> Result<String, S
 
 /// A pbrt-v3/v4 `.dat` table (thickness after each surface; radius 0 for the stop). Refuses
 /// what the format cannot say: aspheres, a stop on a refracting surface, zoom positions and
-/// focus groups.
+/// focus groups. Coatings the lens gives its surfaces, which the format cannot say either but
+/// which change no ray's path, are kept as comments (as `.toml` would write them), so that
+/// they are not lost without a word; read back, the table's surfaces get the lens-wide default.
 pub fn write_dat(prescription: &Prescription) -> Result<String, String> {
     if !prescription.spacings.is_empty() {
         return Err(
@@ -54,6 +57,25 @@ pub fn write_dat(prescription: &Prescription) -> Result<String, String> {
     );
     if let Some(source) = &prescription.info.source {
         let _ = writeln!(out, "# source: {source}");
+    }
+    let coated: Vec<usize> = (0..prescription.rows.len())
+        .filter(|&i| prescription.coating(i).is_some())
+        .collect();
+    if !coated.is_empty() {
+        let _ = writeln!(
+            out,
+            "# coatings (a .dat table cannot hold them: read back, every surface gets the lens-wide default; export to .toml to keep them):"
+        );
+        for i in coated {
+            if let Some(coating) = prescription.coating(i) {
+                let _ = writeln!(
+                    out,
+                    "#   surface {}: coating = {}",
+                    i + 1,
+                    write_coating(coating)
+                );
+            }
+        }
     }
     let _ = writeln!(
         out,
