@@ -1,5 +1,5 @@
 //! Lenses and glass against independent numbers: optics of the bundled and library designs,
-//! aspheres, Zemax import, colour, lens entities and swapping, the glass catalogue and model,
+//! aspheres, Zemax import, coatings in lens files, colour, lens entities and swapping, the glass catalogue and model,
 //! and property tests of the loader and the batched tracer.
 //!
 //! One test binary for the area (one module per topic) so that `cargo test` links the crate
@@ -10,6 +10,7 @@ mod support;
 
 mod aspheres;
 mod chromatic;
+mod coatings_io;
 mod entities;
 mod glass_catalogue;
 mod glass_model;
