@@ -39,6 +39,7 @@ pub mod prescription;
 pub mod pupil;
 pub mod pupil_view;
 pub mod ray;
+pub mod reflectance;
 pub mod report;
 pub mod settings;
 pub mod shape;

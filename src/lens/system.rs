@@ -7,6 +7,7 @@ use num_traits::Float;
 use super::diaphragm::{Diaphragm, StopClip};
 use super::dispersion::DispersionTable;
 use super::prescription::SurfaceRow;
+use super::reflectance::SurfaceReflectance;
 use super::shape::{ASPHERIC_TERMS, Profile};
 use crate::glass::FRAUNHOFER_D_NM;
 
@@ -32,6 +33,9 @@ pub struct SurfaceArrays<T> {
     pub index_back: Vec<T>,
     /// The diaphragm at the stop, when it is more than the stop's circle.
     pub stop_clip: Option<Arc<StopClip>>,
+    /// What each surface reflects (its coating), when the lens loses light at its surfaces;
+    /// `None`: every surface transmits everything.
+    pub reflectance: Option<Arc<SurfaceReflectance>>,
 }
 
 impl<T: Float> SurfaceArrays<T> {
@@ -80,6 +84,8 @@ impl<T: Copy> SurfaceArrays<T> {
                     })
                 })
             }),
+            // A group alone serves first-order and pupil work, which loses no light.
+            reflectance: None,
         }
     }
 
@@ -100,6 +106,7 @@ impl<T: Copy> SurfaceArrays<T> {
             index_front: Vec::with_capacity(rows.len()),
             index_back: Vec::with_capacity(rows.len()),
             stop_clip: None,
+            reflectance: None,
         };
         let mut z = 0.0;
         let mut index_before = 1.0;
@@ -185,6 +192,14 @@ impl LensSystem {
         self
     }
 
+    /// The same lens losing at its surfaces what `reflectance` says they reflect (`None`: a
+    /// lossless lens).
+    pub fn with_reflectance(mut self, reflectance: Option<Arc<SurfaceReflectance>>) -> LensSystem {
+        self.f64s.reflectance = reflectance.clone();
+        self.f32s.reflectance = reflectance;
+        self
+    }
+
     /// The same lens with the stop's plain circle (for bounds that must hold for any
     /// diaphragm inside it).
     pub fn without_diaphragm(&self) -> LensSystem {
@@ -198,10 +213,12 @@ impl LensSystem {
         LensSystem {
             f64s: SurfaceArrays {
                 stop_clip: self.f64s.stop_clip.clone(),
+                reflectance: self.f64s.reflectance.clone(),
                 ..SurfaceArrays::from_rows(&self.rows, |v| v, index)
             },
             f32s: SurfaceArrays {
                 stop_clip: self.f32s.stop_clip.clone(),
+                reflectance: self.f32s.reflectance.clone(),
                 ..SurfaceArrays::from_rows(&self.rows, |v| v as f32, index)
             },
             wavelength_nm,

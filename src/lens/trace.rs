@@ -76,11 +76,38 @@ pub fn trace_path<T: Float>(
 /// ([`BlockReason::Aperture`]).
 pub fn trace_transmitted<T: Float>(
     surfaces: &SurfaceArrays<T>,
+    ray: Ray<T>,
+    travel: Travel,
+    check_apertures: bool,
+    visit: impl FnMut(usize, [T; 3]),
+) -> Result<(Ray<T>, T), Blocked> {
+    trace_through(surfaces, ray, travel, check_apertures, None, visit)
+}
+
+/// As [`trace_transmitted`] with the surfaces' losses at `wavelength_nm` (the wavelength the
+/// arrays' indices are at) in the fraction passed: each surface transmits 1 − R, R its
+/// coating's exact reflectance of unpolarised light at the ray's angle there
+/// ([`SurfaceArrays::reflectance`]; none without it). The reference for the batch kernels'
+/// tables.
+pub fn trace_with_losses<T: Float>(
+    surfaces: &SurfaceArrays<T>,
+    ray: Ray<T>,
+    travel: Travel,
+    wavelength_nm: f64,
+) -> Result<(Ray<T>, T), Blocked> {
+    trace_through(surfaces, ray, travel, true, Some(wavelength_nm), |_, _| {})
+}
+
+fn trace_through<T: Float>(
+    surfaces: &SurfaceArrays<T>,
     mut ray: Ray<T>,
     travel: Travel,
     check_apertures: bool,
+    losses_at_nm: Option<f64>,
     mut visit: impl FnMut(usize, [T; 3]),
 ) -> Result<(Ray<T>, T), Blocked> {
+    let to_f64 = |v: T| v.to_f64().unwrap_or(f64::NAN);
+    let reflectance = losses_at_nm.zip(surfaces.reflectance.as_deref());
     let mut transmission = T::one();
     let n = surfaces.len();
     for step in 0..n {
@@ -107,7 +134,6 @@ pub fn trace_transmitted<T: Float>(
             && let Some(clip) = surfaces.stop_clip.as_deref()
             && clip.surface == i
         {
-            let to_f64 = |v: T| v.to_f64().unwrap_or(f64::NAN);
             let passed = clip.transmission(to_f64(p[0]), to_f64(p[1]));
             if passed.is_nan() || passed <= 0.0 {
                 return Err(blocked(BlockReason::Aperture));
@@ -125,6 +151,19 @@ pub fn trace_transmitted<T: Float>(
         };
         if !forward {
             return Err(blocked(BlockReason::Miss));
+        }
+        if let Some((nm, reflectance)) = reflectance {
+            let cos_in = to_f64(dot(ray.direction, normal)).abs();
+            let from_front = travel == Travel::SceneToFilm;
+            let r = reflectance.exact(
+                i,
+                to_f64(index_in),
+                to_f64(index_out),
+                cos_in,
+                nm,
+                from_front,
+            );
+            transmission = transmission * T::from(1.0 - r).unwrap_or_else(T::zero);
         }
         ray = Ray {
             origin: p,

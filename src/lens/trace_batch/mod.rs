@@ -20,12 +20,14 @@
 
 mod clip;
 mod lanes;
+mod losses;
 mod plain;
 mod refract;
 mod simd;
 #[cfg(test)]
 mod tests;
 
+use self::losses::Losses;
 use self::plain::trace_plain;
 pub(crate) use self::refract::{CONIC, POLYNOMIAL, SPHERE, SurfaceConstants};
 use self::simd::trace_simd;
@@ -53,7 +55,9 @@ pub const BLOCK: usize = 256;
 /// refracted direction; blocked rays get `alive = false` and keep the state they had when
 /// blocked. A diaphragm at the stop ([`SurfaceArrays::stop_clip`]) blocks the rays its blades
 /// stop, and multiplies the throughput (`tr`, `tg`, `tb`) of those crossing a mask by its grey
-/// level there.
+/// level there; a lens with losses ([`SurfaceArrays::reflectance`]) multiplies the survivors'
+/// throughput by what every surface transmits (here at the d line: the rays have the lens's
+/// own indices, n_d).
 pub fn trace_batch(surfaces: &SurfaceArrays<f32>, rays: &mut RayBatch, travel: Travel) {
     trace_batch_with(surfaces, rays, travel, DEFAULT_KERNEL)
 }
@@ -193,6 +197,16 @@ fn run(
             };
             (step, clip)
         }),
+        losses: surfaces.reflectance.as_deref().map(|table| Losses {
+            table,
+            surface_of_step: (0..n)
+                .map(|step| match travel {
+                    Travel::SceneToFilm => step,
+                    Travel::FilmToScene => n - 1 - step,
+                })
+                .collect(),
+            nm: wavelengths.map(|w| w.nm),
+        }),
     };
     match isa.min(Isa::detect()) {
         Isa::Baseline => run_kernel(kernel, &plan, rays),
@@ -207,11 +221,13 @@ fn run(
 }
 
 /// What the kernels run: the surfaces in the order of travel, for a spectral batch the rays'
-/// wavelengths, and the diaphragm with the step (in travel order) of the stop it sits at.
+/// wavelengths, the diaphragm with the step (in travel order) of the stop it sits at, and the
+/// surfaces' losses.
 struct Plan<'a> {
     surfaces: Vec<SurfaceConstants<f32>>,
     spectral: Option<(Wavelengths<'a>, Travel)>,
     clip: Option<(usize, &'a StopClip)>,
+    losses: Option<Losses<'a>>,
 }
 
 impl Plan<'_> {

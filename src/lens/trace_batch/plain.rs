@@ -3,6 +3,7 @@
 //! the compiler's vectoriser (8 or 16 lanes wide in the AVX2 and AVX-512 copies).
 
 use super::clip::clip_plain;
+use super::losses::LossScratch;
 use super::refract::{
     CONIC, LaneRay, NEWTON_STEPS, Newton, POLYNOMIAL, SPHERE, SurfaceConstants,
     normalise_direction, refract_at, refract_from_hit,
@@ -22,11 +23,17 @@ pub(super) fn trace_plain(plan: &Plan, rays: &mut RayBatch) {
             0
         }
     ];
+    let mut cosines = [0.0f32; BLOCK];
+    let mut scratch = LossScratch::new();
     let mut start = 0;
     while start < len {
         let end = (start + BLOCK).min(len);
         let n = end - start;
         let spectral = plan.block_etas(start, n, &mut etas);
+        if let Some(losses) = &plan.losses {
+            losses.block_positions(start, n, &mut scratch.positions);
+            scratch.transmission[..n].fill(1.0);
+        }
         let ox = &mut rays.ox[start..end];
         let oy = &mut rays.oy[start..end];
         let oz = &mut rays.oz[start..end];
@@ -43,6 +50,7 @@ pub(super) fn trace_plain(plan: &Plan, rays: &mut RayBatch) {
                 dy: &mut *dy,
                 dz: &mut *dz,
                 alive: &mut *alive,
+                cosines: &mut cosines,
             };
             // The shape (and whether indices vary per ray) picks the kernel once per surface and
             // block, never per ray.
@@ -70,8 +78,26 @@ pub(super) fn trace_plain(plan: &Plan, rays: &mut RayBatch) {
                 ];
                 clip_plain(clip, ox, oy, alive, throughput);
             }
+            if let Some(losses) = &plan.losses {
+                losses.attenuate(
+                    step,
+                    &cosines[..n],
+                    |lane| alive[lane],
+                    &scratch.positions[..n],
+                    &mut scratch.transmission[..n],
+                );
+            }
             if !any_alive {
                 break;
+            }
+        }
+        if plan.losses.is_some() {
+            for (i, &t) in scratch.transmission[..n].iter().enumerate() {
+                if alive[i] {
+                    rays.tr[start + i] *= t;
+                    rays.tg[start + i] *= t;
+                    rays.tb[start + i] *= t;
+                }
             }
         }
         for i in 0..n {
@@ -95,6 +121,8 @@ struct Lanes<'a> {
     dy: &'a mut [f32],
     dz: &'a mut [f32],
     alive: &'a mut [bool],
+    /// Each lane's cosine in the less dense medium at the surface just crossed.
+    cosines: &'a mut [f32; BLOCK],
 }
 
 /// One surface over a block of rays in the plain kernel (each ray's index ratio from `etas`
@@ -112,6 +140,7 @@ fn plain_surface<const SHAPE: u8, const SPECTRAL: bool>(
     let (ox, oy, oz) = (&mut lanes.ox[..n], &mut lanes.oy[..n], &mut lanes.oz[..n]);
     let (dx, dy, dz) = (&mut lanes.dx[..n], &mut lanes.dy[..n], &mut lanes.dz[..n]);
     let alive = &mut lanes.alive[..n];
+    let cosines = &mut lanes.cosines[..n];
     let etas = if SPECTRAL { &etas[..n] } else { etas };
     let mut any_alive = false;
     for i in 0..n {
@@ -120,11 +149,12 @@ fn plain_surface<const SHAPE: u8, const SPECTRAL: bool>(
             direction: [dx[i], dy[i], dz[i]],
         };
         let eta = if SPECTRAL { etas[i] } else { surface.eta };
-        let survives = refract_at::<f32, SHAPE>(surface, &mut ray, alive[i], eta);
+        let crossing = refract_at::<f32, SHAPE>(surface, &mut ray, alive[i], eta);
         [ox[i], oy[i], oz[i]] = ray.origin;
         [dx[i], dy[i], dz[i]] = ray.direction;
-        alive[i] = survives;
-        any_alive |= survives;
+        alive[i] = crossing.survives;
+        cosines[i] = crossing.cosine;
+        any_alive |= crossing.survives;
     }
     any_alive
 }
@@ -143,6 +173,7 @@ fn plain_polynomial_surface<const SPECTRAL: bool>(
     let (ox, oy, oz) = (&mut lanes.ox[..n], &mut lanes.oy[..n], &mut lanes.oz[..n]);
     let (dx, dy, dz) = (&mut lanes.dx[..n], &mut lanes.dy[..n], &mut lanes.dz[..n]);
     let alive = &mut lanes.alive[..n];
+    let cosines = &mut lanes.cosines[..n];
     let ray_at = |i: usize| LaneRay {
         origin: [ox[i], oy[i], oz[i]],
         direction: [dx[i], dy[i], dz[i]],
@@ -185,12 +216,13 @@ fn plain_polynomial_surface<const SPECTRAL: bool>(
             converged: converged[i],
         }
         .hit();
-        let survives =
+        let crossing =
             refract_from_hit::<f32, POLYNOMIAL>(surface, &mut ray, alive[i], eta, t, hit);
         [ox[i], oy[i], oz[i]] = ray.origin;
         [dx[i], dy[i], dz[i]] = ray.direction;
-        alive[i] = survives;
-        any_alive |= survives;
+        alive[i] = crossing.survives;
+        cosines[i] = crossing.cosine;
+        any_alive |= crossing.survives;
     }
     any_alive
 }

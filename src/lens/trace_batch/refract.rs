@@ -126,17 +126,28 @@ pub struct LaneRay<L> {
     pub direction: [L; 3],
 }
 
+/// What one surface step leaves of a group of lanes.
+#[derive(Clone, Copy, Debug)]
+pub struct Crossing<L: Lanes> {
+    /// The lanes still alive.
+    pub survives: L::Mask,
+    /// Each lane's cosine of its angle to the normal in the less dense of the surface's two
+    /// media: the angle coordinate of the reflectance tables
+    /// ([`crate::lens::reflectance`]).
+    pub cosine: L,
+}
+
 /// Moves the `alive` lanes of `ray` onto surface `s` (whose shape is `SHAPE`, the value of
 /// `s.shape`) and refracts them with index ratio `eta` (n_incident / n_transmitted: `s.eta`, or
-/// each lane's at its wavelength); returns which lanes are still alive. Lanes that are or
-/// become blocked keep their previous state, so a miss never leaves a NaN behind.
+/// each lane's at its wavelength); returns which lanes are still alive, and their angles. Lanes
+/// that are or become blocked keep their previous state, so a miss never leaves a NaN behind.
 #[inline(always)]
 pub fn refract_at<L: Lanes, const SHAPE: u8>(
     s: &SurfaceConstants<L>,
     ray: &mut LaneRay<L>,
     alive: L::Mask,
     eta: L,
-) -> L::Mask {
+) -> Crossing<L> {
     let (t, hit) = match SHAPE {
         SPHERE => hit_sphere(s, ray),
         CONIC => hit_conic(s, ray),
@@ -155,7 +166,7 @@ pub fn refract_from_hit<L: Lanes, const SHAPE: u8>(
     eta: L,
     t: L,
     hit: L::Mask,
-) -> L::Mask {
+) -> Crossing<L> {
     let zero = L::splat(0.0);
     let one = L::splat(1.0);
     let [px, py, pz] = ray.origin;
@@ -210,7 +221,11 @@ pub fn refract_from_hit<L: Lanes, const SHAPE: u8>(
     let keep = |new: L, old: L| L::select(survives, new, old);
     ray.origin = [keep(hx, px), keep(hy, py), keep(hz, pz)];
     ray.direction = [keep(rx, vx), keep(ry, vy), keep(rz, vz)];
-    survives
+    // The less dense medium is the incident one where η = n_i/n_t ≤ 1.
+    Crossing {
+        survives,
+        cosine: L::select(eta.le(one), cos_i, cos_t),
+    }
 }
 
 /// The nearer valid root of a·t² + 2b·t + k = 0 whose far root is `far(q)`: q = −b − sign(b)·√Δ

@@ -4,6 +4,7 @@
 use wide::f32x8;
 
 use super::clip::inside_blades;
+use super::losses::LossScratch;
 use super::refract::{
     CONIC, LaneRay, POLYNOMIAL, SPHERE, SurfaceConstants, normalise_direction, refract_at,
 };
@@ -40,6 +41,8 @@ pub(super) fn trace_simd(full_plan: &Plan, rays: &mut RayBatch) {
         }; CHUNKS],
         alive: [f32x8::ZERO; CHUNKS],
     };
+    let mut cosines = [0.0f32; BLOCK];
+    let mut scratch = LossScratch::new();
     let len = rays.len();
     let mut start = 0;
     while start < len {
@@ -47,18 +50,33 @@ pub(super) fn trace_simd(full_plan: &Plan, rays: &mut RayBatch) {
         let chunks = (end - start).div_ceil(LANES);
         let spectral = full_plan.block_etas(start, end - start, &mut etas);
         load_block(rays, start, end, &mut block);
+        let n = end - start;
+        if let Some(losses) = &full_plan.losses {
+            losses.block_positions(start, n, &mut scratch.positions);
+            scratch.transmission[..n].fill(1.0);
+        }
         let mut transmission = None;
         for (step, surface) in plan.iter().enumerate() {
             let eta = spectral.then(|| &etas[step * BLOCK..(step + 1) * BLOCK]);
             let any_alive = match surface.shape {
-                SPHERE => simd_surface::<SPHERE>(surface, &mut block, chunks, eta),
-                CONIC => simd_surface::<CONIC>(surface, &mut block, chunks, eta),
-                _ => simd_surface::<POLYNOMIAL>(surface, &mut block, chunks, eta),
+                SPHERE => simd_surface::<SPHERE>(surface, &mut block, chunks, eta, &mut cosines),
+                CONIC => simd_surface::<CONIC>(surface, &mut block, chunks, eta, &mut cosines),
+                _ => simd_surface::<POLYNOMIAL>(surface, &mut block, chunks, eta, &mut cosines),
             };
             if let Some((clip_step, clip)) = full_plan.clip
                 && clip_step == step
             {
                 transmission = simd_clip(clip, &mut block, chunks);
+            }
+            if let Some(losses) = &full_plan.losses {
+                let alive = &block.alive;
+                losses.attenuate(
+                    step,
+                    &cosines[..n],
+                    |lane| alive[lane / LANES].to_bitmask() & (1 << (lane % LANES)) != 0,
+                    &scratch.positions[..n],
+                    &mut scratch.transmission[..n],
+                );
             }
             if !any_alive {
                 break;
@@ -75,18 +93,29 @@ pub(super) fn trace_simd(full_plan: &Plan, rays: &mut RayBatch) {
                 rays.tb[i] *= t;
             }
         }
+        if full_plan.losses.is_some() {
+            for (i, &t) in (start..end).zip(&scratch.transmission[..n]) {
+                if rays.alive[i] {
+                    rays.tr[i] *= t;
+                    rays.tg[i] *= t;
+                    rays.tb[i] *= t;
+                }
+            }
+        }
         start = end;
     }
 }
 
 /// One surface over the first `chunks` chunks of a block (each lane's index ratio from `etas`
-/// when given: [`BLOCK`] lanes); returns whether any lane is alive.
+/// when given: [`BLOCK`] lanes), leaving each lane's cosine in the less dense medium in
+/// `cosines`; returns whether any lane is alive.
 #[inline(always)]
 fn simd_surface<const SHAPE: u8>(
     surface: &SurfaceConstants<f32x8>,
     block: &mut SimdBlock,
     chunks: usize,
     etas: Option<&[f32]>,
+    cosines: &mut [f32; BLOCK],
 ) -> bool {
     let mut any_alive = f32x8::ZERO;
     for (c, (ray, alive)) in block.rays[..chunks]
@@ -102,7 +131,9 @@ fn simd_surface<const SHAPE: u8>(
             }
             None => surface.eta,
         };
-        *alive = refract_at::<f32x8, SHAPE>(surface, ray, *alive, eta);
+        let crossing = refract_at::<f32x8, SHAPE>(surface, ray, *alive, eta);
+        *alive = crossing.survives;
+        cosines[c * LANES..(c + 1) * LANES].copy_from_slice(&crossing.cosine.to_array());
         any_alive |= *alive;
     }
     any_alive.any()

@@ -385,3 +385,119 @@ fn spectral_batch_agrees_with_the_reference_at_each_wavelength() {
         assert!(passed > 100, "{file}: only {passed} rays passed");
     }
 }
+
+/// A coated lens: every kernel gives the same bits, throughput included, and each ray keeps
+/// what the f64 reference's exact thin-film reflectances pass, at its own wavelength or, for a
+/// batch at the lens's own indices, at the d line; in both directions of travel.
+#[test]
+fn surface_losses_agree_with_the_exact_reference_in_every_kernel() {
+    use crate::glass::FRAUNHOFER_D_NM;
+    use crate::lens::coating::CoatingModel;
+    use crate::lens::reflectance::SurfaceReflectance;
+    use crate::lens::trace::trace_with_losses;
+    let data = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/zmx");
+    let p = crate::lens::Prescription::load(&data.join("lens1.zmx"), None).unwrap();
+    let lambdas = [380.0f32, 486.1327, 550.0, 656.2725, 780.0];
+    for model in [CoatingModel::None, CoatingModel::Multi] {
+        let reflectance = SurfaceReflectance::with_model(&p.rows, |_| None, model);
+        let system = LensSystem::new(&p.rows, None).with_reflectance(reflectance);
+        let table = system.dispersion.as_deref().expect("catalogue glasses");
+        for travel in [Travel::FilmToScene, Travel::SceneToFilm] {
+            let mut rays = film_rays(&system, system.rear_z() * 0.6, 4001);
+            if travel == Travel::SceneToFilm {
+                // The same lines backward: from beyond the front, toward the film.
+                let mut through = RayBatch::with_capacity(rays.len());
+                for r in &rays {
+                    through.push(
+                        r.origin.map(|v| v as f32),
+                        r.direction.map(|v| v as f32),
+                        0,
+                        0,
+                    );
+                }
+                trace_batch(&system.f32s, &mut through, Travel::FilmToScene);
+                rays = (0..rays.len())
+                    .filter(|&i| through.alive[i])
+                    .map(|i| {
+                        let (o, d) = (through.origin(i), through.direction(i));
+                        Ray {
+                            origin: [0, 1, 2].map(|k| (o[k] + 5.0 * d[k]) as f64),
+                            direction: crate::lens::trace::normalize(d.map(|v| -v as f64)),
+                        }
+                    })
+                    .collect();
+            }
+            for spectral in [false, true] {
+                let nm: Vec<f32> = (0..rays.len())
+                    .map(|i| {
+                        if spectral {
+                            lambdas[i % lambdas.len()]
+                        } else {
+                            FRAUNHOFER_D_NM as f32
+                        }
+                    })
+                    .collect();
+                let mut input = RayBatch::with_capacity(rays.len());
+                for r in &rays {
+                    input.push(
+                        r.origin.map(|v| v as f32),
+                        r.direction.map(|v| v as f32),
+                        0,
+                        0,
+                    );
+                }
+                let wavelengths = Wavelengths { table, nm: &nm };
+                let run = |kernel, isa| {
+                    let mut batch = input.clone();
+                    if spectral {
+                        trace_batch_spectral_on(
+                            &system.f32s,
+                            wavelengths,
+                            &mut batch,
+                            travel,
+                            kernel,
+                            isa,
+                        );
+                    } else {
+                        trace_batch_on(&system.f32s, &mut batch, travel, kernel, isa);
+                    }
+                    batch
+                };
+                let batch = run(Kernel::AutoVectorised, Isa::Baseline);
+                let name = format!("{model:?} {travel:?} spectral {spectral}");
+                for isa in Isa::available() {
+                    for kernel in [Kernel::AutoVectorised, Kernel::Simd] {
+                        let other = run(kernel, isa);
+                        assert_bit_identical(&batch, &other, &format!("{name} {kernel:?} {isa:?}"));
+                        let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+                        assert_eq!(bits(&batch.tr), bits(&other.tr), "{name}: throughput");
+                    }
+                }
+                let (mut passed, mut lossy) = (0, 0);
+                for (i, r) in rays.iter().enumerate() {
+                    if !batch.alive[i] {
+                        continue;
+                    }
+                    let at = system.at_wavelength(nm[i] as f64);
+                    let Ok((_, t)) = trace_with_losses(&at.f64s, *r, travel, nm[i] as f64) else {
+                        continue;
+                    };
+                    passed += 1;
+                    lossy += usize::from(t < 0.99);
+                    // The table's 2e-4 per surface, over the lens's surfaces, and f32.
+                    assert!(
+                        (batch.tr[i] as f64 - t).abs() < 1e-3,
+                        "{name}: ray {i} at {} nm keeps {} vs reference {t}",
+                        nm[i],
+                        batch.tr[i]
+                    );
+                    assert_eq!(batch.tr[i], batch.tb[i]);
+                }
+                assert!(
+                    passed > 500 && lossy > 100,
+                    "{name}: {passed} passed, {lossy} lossy"
+                );
+            }
+        }
+    }
+}
