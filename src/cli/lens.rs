@@ -37,11 +37,6 @@ pub struct LensArgs {
     /// Print one JSON object instead of the summary.
     #[arg(long)]
     pub json: bool,
-    /// Coatings on the air–glass surfaces for the transmission and T-number: `none` (bare
-    /// glass), `single` (a quarter wave of MgF₂ at 550 nm) or `multi` (a broadband three-layer
-    /// stack); cemented surfaces stay bare.
-    #[arg(long, value_name = "none|single|multi", default_value = "single")]
-    pub coating: crate::lens::coating::CoatingModel,
     /// Read a JSON array of rays {"origin":[x,y,z],"direction":[x,y,z]} (lens frame, mm,
     /// heading toward +z) on stdin, trace each scene→film and print the results as JSON.
     #[arg(long)]
@@ -121,8 +116,7 @@ pub fn run(args: &LensArgs) -> anyhow::Result<ExitCode> {
         }
         None => None,
     };
-    let mut report = LensReport::derive(prescription, &settings)?.at_wavelength(args.wavelength)?;
-    report.coating = args.coating;
+    let report = LensReport::derive(prescription, &settings)?.at_wavelength(args.wavelength)?;
     for message in settings.mask_messages(report.geometry.system.diaphragm.as_ref()) {
         eprintln!("{message}");
     }

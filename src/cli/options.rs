@@ -8,6 +8,7 @@ use clap::Args;
 use super::values::{number, whole, whole_within};
 
 use crate::lens::LensFormat;
+use crate::lens::coating::CoatingModel;
 use crate::lens::focus::FocusMode;
 use crate::lens::io::GlassSubstitute;
 use crate::lens::pupil::PupilSampling;
@@ -78,6 +79,13 @@ pub struct LensOptions {
     /// [default: the lens as its surfaces are written].
     #[arg(long, value_name = "N", allow_hyphen_values = true, value_parser = whole_within::<usize>(1, MAX_ZOOM_POSITIONS))]
     pub zoom_position: Option<usize>,
+    /// Coat every surface so, whatever the lens file says: `none` (bare glass: Fresnel's
+    /// losses), `single` (a quarter wave of MgF₂ at 550 nm on the air–glass surfaces, cemented
+    /// ones bare), `multi` (a broadband three-layer stack, likewise) or `ideal` (a perfect
+    /// anti-reflection coating: no losses) [default: as the lens file says; `single` on the
+    /// surfaces it says nothing of].
+    #[arg(long, value_name = "none|single|multi|ideal")]
+    pub coating: Option<CoatingModel>,
 }
 
 /// The most zoom positions `--zoom-position` counts to (Zemax's configurations are far fewer).
@@ -101,6 +109,7 @@ impl LensOptions {
             aperture_image,
             glass,
             zoom_position,
+            coating,
         } = self.clone();
         LensSettings {
             focus_distance,
@@ -117,6 +126,7 @@ impl LensOptions {
             aperture_image,
             glasses: glass,
             zoom_position,
+            coating,
         }
     }
 }

@@ -18,9 +18,11 @@ use bytemuck::{Pod, Zeroable};
 
 use super::compute::{Access, Bindings, storage_buffer, uniform_buffer};
 use super::context::{GpuContext, GpuUnavailable};
+use crate::glass::FRAUNHOFER_D_NM;
 use crate::lens::camera::{FilmTilt, LensCamera, camera_seeds};
 use crate::lens::hero_wavelengths::{BACKWARD_START_MM, MAX_WAVELENGTHS, SPLAT_RADIUS};
 use crate::lens::pupil::{PupilSampling, SEGMENTS};
+use crate::lens::reflectance::{COSINE_STEPS, WAVELENGTH_STEP_NM};
 use crate::lens::trace::Travel;
 use crate::lens::trace_batch::{CONIC, POLYNOMIAL, SPHERE, SurfaceConstants};
 use crate::spectral::{LAMBDA_MIN, spectral_film, wavelength_knots};
@@ -51,7 +53,12 @@ pub fn shared_constants() -> String {
     format!(
         "const SPLAT_RADIUS: i32 = {SPLAT_RADIUS};\n\
          const MAX_WAVELENGTHS: u32 = {MAX_WAVELENGTHS}u;\n\
-         const BACKWARD_START_MM: f32 = {BACKWARD_START_MM:?};\n"
+         const BACKWARD_START_MM: f32 = {BACKWARD_START_MM:?};\n\
+         const REFLECTANCE_COSINE_STEPS: u32 = {COSINE_STEPS}u;\n\
+         const REFLECTANCE_STEP_NM: f32 = {step:?};\n\
+         const FRAUNHOFER_D_NM: f32 = {d:?};\n",
+        step = WAVELENGTH_STEP_NM as f32,
+        d = FRAUNHOFER_D_NM as f32,
     )
 }
 
@@ -105,7 +112,9 @@ struct LensConstants {
     wavelengths: u32,
     film_width: u32,
     film_height: u32,
-    pad: [u32; 2],
+    reflectance_offset: u32,
+    /// Table wavelengths per surface of the reflectance table; 0: a lossless lens.
+    reflectance_wavelengths: u32,
 }
 
 const _: () = assert!(size_of::<LensConstants>() == 272);
@@ -196,6 +205,11 @@ impl LensData {
                 tables.extend_from_slice(entries);
             }
         }
+        let reflectance_offset = tables.len() as u32;
+        let reflectance = f32s.reflectance.as_deref();
+        if let Some(reflectance) = reflectance {
+            tables.extend_from_slice(reflectance.entries());
+        }
 
         let [tilt_x, tilt_y, tilt_z] = tilt.map_or([[0.0; 2]; 3], |t| t.rotation);
         let constants = LensConstants {
@@ -244,7 +258,8 @@ impl LensData {
             wavelengths: camera.wavelengths_per_sample(),
             film_width: film.width,
             film_height: film.height,
-            pad: [0; 2],
+            reflectance_offset,
+            reflectance_wavelengths: reflectance.map_or(0, |r| r.wavelength_entries() as u32),
         };
         LensData {
             constants,

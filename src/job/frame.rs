@@ -405,6 +405,20 @@ fn settings_fingerprint(
             fingerprint["wavelengths"] = json!(settings.wavelengths);
         }
     }
+    // The surfaces' losses scale every pixel: how the lens is coated, and what its file says.
+    fingerprint["coating"] = json!(
+        spec.lens
+            .coating_choice()
+            .describe(!lens.prescription.coatings.is_empty())
+    );
+    if !lens.prescription.coatings.is_empty() {
+        fingerprint["lens_coatings"] = lens
+            .prescription
+            .coatings
+            .iter()
+            .map(|c| format!("{c:?}"))
+            .collect();
+    }
     if let Some(diaphragm) = context.diaphragm {
         fingerprint["diaphragm"] = diaphragm.fingerprint();
     }

@@ -172,6 +172,7 @@ impl<'a> Job<'a> {
                 }
                 renderer.set_diaphragm(entity, diaphragm.clone());
                 renderer.set_zoom_position(entity, spec.lens.zoom_setting());
+                renderer.set_coating_choice(entity, spec.lens.coating_choice());
                 RunLens {
                     film_diagonal: film_diagonal(&prescription),
                     prescription,

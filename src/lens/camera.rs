@@ -420,17 +420,21 @@ impl LensCamera<'_> {
                         offset: &mut out.wavelength_offset,
                     };
                     backward.combine(hero, combined, &mut out.scratch.backward);
-                    // The mask's transmission is in each wavelength's factor.
+                    // What the mask and the surfaces pass is in each wavelength's factor.
                     self.move_to_world(film_z, out);
                     return;
                 }
             }
         }
-        if let Some(clip) = self.system.f32s.stop_clip.as_deref()
-            && clip.has_mask()
-        {
-            // The batch kernel left each ray's share of the mask's transmission in its
-            // throughput.
+        let masked = self
+            .system
+            .f32s
+            .stop_clip
+            .as_deref()
+            .is_some_and(|clip| clip.has_mask());
+        if masked || self.system.f32s.reflectance.is_some() {
+            // The batch kernel left in each ray's throughput the share of its light the mask
+            // and the surfaces pass.
             for (weight, &t) in out.weight.iter_mut().zip(&out.rays.tr) {
                 *weight *= t;
             }

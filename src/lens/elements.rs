@@ -7,7 +7,7 @@
 //!
 //! | step | writes | reruns when |
 //! |---|---|---|
-//! | [`derive_geometry`] | [`LensGeometry`] (packed surfaces, first-order data) | a surface, the aperture, the zoom positions or setting, or the focus groups change (for a lens with focus groups, the focus too: see [`super::spacing`]) |
+//! | [`derive_geometry`] | [`LensGeometry`] (packed surfaces with their losses, first-order data) | a surface (or its [`SurfaceCoating`]), the aperture, the [`CoatingChoice`], the zoom positions or setting, or the focus groups change (for a lens with focus groups, the focus too: see [`super::spacing`]) |
 //! | [`place_film`] | [`FilmPlacement`] (film distance) | the geometry or the focus changes |
 //! | [`focus_on_pixel`](super::focus_probe::focus_on_pixel) | [`FilmPlacement`], [`FocusProbe`] for a lens with [`FocusOnPixel`] | the geometry, focus target, movements, camera, film or scene changes |
 //! | [`bound_exit_pupil`] | [`ExitPupil`] bounds | the placement, the [`FilmMovements`] or the [`FilmFormat`] changes |
@@ -20,6 +20,7 @@
 //! edit of a surface does.
 
 use std::path::PathBuf;
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use bevy_ecs::change_detection::DetectChanges;
@@ -34,6 +35,7 @@ use bevy_ecs::system::{Commands, Query, Res, ResMut};
 use bevy_ecs::world::{Ref, World};
 
 use super::aperture::{ApertureSetting, stop_diameter};
+use super::coating::{Coating, CoatingModel};
 use super::diaphragm::Diaphragm;
 use super::first_order::FirstOrder;
 use super::focus::{FocusMode, best_film_distance, paraxial_film_distance};
@@ -41,6 +43,7 @@ use super::focus_probe::{FocusOnPixel, FocusProbe};
 use super::movements::FilmMovements;
 use super::prescription::{LensFormat, Prescription, SurfaceBase, SurfaceRow};
 use super::pupil::{ExitPupil, PupilSampling};
+use super::reflectance::SurfaceReflectance;
 use super::shape::Asphere;
 use super::spacing::{FocusGroups, ZoomPositions, ZoomSetting, rows_at};
 use super::system::LensSystem;
@@ -83,6 +86,66 @@ pub struct SurfaceAsphere(pub Asphere);
 /// index at every wavelength).
 #[derive(Component, Clone, Copy, Debug, PartialEq)]
 pub struct SurfaceGlass(pub Glass);
+
+/// The coating a lens file gives a surface, layers listed from the scene side: a component of
+/// its [`LensSurface`] entity (absent: the lens's [`CoatingChoice`] decides).
+#[derive(Component, Clone, Debug, PartialEq)]
+pub struct SurfaceCoating(pub Coating);
+
+/// How a lens's surfaces are coated for rendering: a component of the lens entity (absent: as
+/// its file says, and the default model where it says nothing).
+#[derive(Component, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum CoatingChoice {
+    /// Each surface as its file says ([`SurfaceCoating`]), this model on the others.
+    AsFileSays { default: CoatingModel },
+    /// This model on every surface, whatever the file says (`--coating`).
+    Everywhere(CoatingModel),
+}
+
+impl Default for CoatingChoice {
+    fn default() -> Self {
+        CoatingChoice::AsFileSays {
+            default: CoatingModel::default(),
+        }
+    }
+}
+
+impl CoatingChoice {
+    /// The choice in words: the model on every surface (`single`), or where the lens file
+    /// gives coatings (`file_has`) those and the model on the rest (`file, single elsewhere`).
+    pub fn describe(self, file_has: bool) -> String {
+        match self {
+            CoatingChoice::AsFileSays { default } if file_has => {
+                format!("file, {} elsewhere", default.name())
+            }
+            CoatingChoice::AsFileSays { default } => default.name().to_string(),
+            CoatingChoice::Everywhere(model) => model.name().to_string(),
+        }
+    }
+
+    /// The choice `--coating` makes: the model on every surface, or without one the file's
+    /// coatings and the default.
+    pub fn from_option(model: Option<CoatingModel>) -> CoatingChoice {
+        model.map_or_else(CoatingChoice::default, CoatingChoice::Everywhere)
+    }
+
+    /// The reflectances of `rows` coated as this choice says, `file` giving each surface's
+    /// coating from the lens file (`None`: none given); `None` for a lossless lens.
+    pub fn reflectance(
+        self,
+        rows: &[SurfaceRow],
+        file: &[Option<Coating>],
+    ) -> Option<Arc<SurfaceReflectance>> {
+        match self {
+            CoatingChoice::AsFileSays { default } => {
+                SurfaceReflectance::with_model(rows, |i| file.get(i).cloned().flatten(), default)
+            }
+            CoatingChoice::Everywhere(model) => {
+                SurfaceReflectance::with_model(rows, |_| None, model)
+            }
+        }
+    }
+}
 
 impl LensSurface {
     /// The whole prescription row: the base with the surface's asphere and glass.
@@ -260,6 +323,9 @@ pub fn spawn_lens(
             if let Some(glass) = row.glass {
                 surface.insert(SurfaceGlass(glass));
             }
+            if let Some(coating) = prescription.coating(order) {
+                surface.insert(SurfaceCoating(coating.clone()));
+            }
         }
     });
     entity.id()
@@ -316,6 +382,14 @@ pub fn set_zoom_position(world: &mut World, lens: Entity, position: Option<usize
     }
 }
 
+/// Sets how `lens`'s surfaces are coated, touching the component only when it changes.
+pub fn set_coating_choice(world: &mut World, lens: Entity, choice: CoatingChoice) {
+    let mut entity = world.entity_mut(lens);
+    if entity.get::<CoatingChoice>() != Some(&choice) {
+        entity.insert(choice);
+    }
+}
+
 /// Makes `lens` the only [`ActiveLens`].
 pub fn activate_lens(world: &mut World, lens: Entity) {
     let active: Vec<Entity> = world
@@ -334,6 +408,7 @@ type SurfaceParts = (
     Option<Ref<'static, SurfaceAsphere>>,
     Option<Ref<'static, SurfaceGlass>>,
     Option<Ref<'static, Diaphragm>>,
+    Option<Ref<'static, SurfaceCoating>>,
 );
 
 /// A lens root's variable spacings, each with its change ticks: the positions, the chosen
@@ -352,11 +427,13 @@ type GeometryInputs = (
     Ref<'static, Children>,
     Ref<'static, ApertureSetting>,
     SpacingParts,
+    Option<Ref<'static, CoatingChoice>>,
 );
 
-/// Builds the geometry of every lens whose surfaces (a row, an asphere, a glass, the stop's
-/// diaphragm: changed, added or taken away), aperture or variable spacings (zoom positions, the
-/// zoom setting, focus groups, and for a lens with groups the focus) changed.
+/// Builds the geometry of every lens whose surfaces (a row, an asphere, a glass, a coating, the
+/// stop's diaphragm: changed, added or taken away), aperture, coating choice or variable
+/// spacings (zoom positions, the zoom setting, focus groups, and for a lens with groups the
+/// focus) changed.
 // A system's parameters are its explicit queries and resources (bevy style), not a bundle.
 #[allow(clippy::too_many_arguments)]
 pub fn derive_geometry(
@@ -366,6 +443,8 @@ pub fn derive_geometry(
     mut removed_aspheres: RemovedComponents<SurfaceAsphere>,
     mut removed_glasses: RemovedComponents<SurfaceGlass>,
     mut removed_diaphragms: RemovedComponents<Diaphragm>,
+    mut removed_coatings: RemovedComponents<SurfaceCoating>,
+    mut removed_choices: RemovedComponents<CoatingChoice>,
     mut removed_zoom: RemovedComponents<ZoomSetting>,
     mut removed_spacings: RemovedComponents<ZoomPositions>,
     mut removed_groups: RemovedComponents<FocusGroups>,
@@ -375,42 +454,53 @@ pub fn derive_geometry(
         .read()
         .chain(removed_glasses.read())
         .chain(removed_diaphragms.read())
+        .chain(removed_coatings.read())
         .collect();
     let respaced: Vec<Entity> = removed_zoom
         .read()
         .chain(removed_spacings.read())
         .chain(removed_groups.read())
+        .chain(removed_choices.read())
         .collect();
-    for (entity, lens, children, aperture, (positions, zoom, groups, focus)) in &lenses {
+    for (entity, lens, children, aperture, (positions, zoom, groups, focus), choice) in &lenses {
         let spacing_changed = respaced.contains(&entity)
+            || choice.as_ref().is_some_and(|c| c.is_changed())
             || positions.as_ref().is_some_and(|p| p.is_changed())
             || zoom.as_ref().is_some_and(|z| z.is_changed())
             || groups.as_ref().is_some_and(|g| g.is_changed())
             || (groups.is_some() && focus.as_ref().is_some_and(|f| f.is_changed()));
         let surface_changed = children.iter().any(|c| {
             removed.contains(c)
-                || surfaces.get(*c).is_ok_and(|(s, a, g, d)| {
+                || surfaces.get(*c).is_ok_and(|(s, a, g, d, coating)| {
                     s.is_changed()
                         || a.is_some_and(|a| a.is_changed())
                         || g.is_some_and(|g| g.is_changed())
                         || d.is_some_and(|d| d.is_changed())
+                        || coating.is_some_and(|c| c.is_changed())
                 })
         });
         if !(children.is_changed() || aperture.is_changed() || surface_changed || spacing_changed) {
             continue;
         }
         let start = Instant::now();
-        let mut parts: Vec<(usize, SurfaceRow, Option<&Diaphragm>)> = children
+        let mut parts: Vec<SurfacePart> = children
             .iter()
             .filter_map(|c| surfaces.get(*c).ok())
-            .map(|(s, a, g, d)| {
+            .map(|(s, a, g, d, coating)| {
                 let row = s.full_row(a.as_deref(), g.as_deref());
-                (s.order, row, d.map(|d| d.into_inner()))
+                (
+                    s.order,
+                    row,
+                    d.map(|d| d.into_inner()),
+                    coating.map(|c| &c.into_inner().0),
+                )
             })
             .collect();
-        parts.sort_by_key(|(order, _, _)| *order);
-        let diaphragm = parts.iter().find_map(|(_, _, d)| *d);
-        let rows: Vec<SurfaceRow> = parts.into_iter().map(|(_, row, _)| row).collect();
+        parts.sort_by_key(|(order, ..)| *order);
+        let diaphragm = parts.iter().find_map(|(_, _, d, _)| *d);
+        let coatings: Vec<Option<Coating>> = parts.iter().map(|(.., c)| c.cloned()).collect();
+        let rows: Vec<SurfaceRow> = parts.into_iter().map(|(_, row, ..)| row).collect();
+        let choice = choice.as_deref().copied().unwrap_or_default();
         let spaced = spaced_rows(
             &rows,
             positions.as_deref(),
@@ -420,7 +510,12 @@ pub fn derive_geometry(
         );
         let built = spaced
             .map_err(|e| format!("{}: {e}", lens.source.display()))
-            .and_then(|rows| build_geometry_with(lens, &rows, *aperture, diaphragm));
+            .and_then(|rows| build_geometry_with(lens, &rows, *aperture, diaphragm))
+            .map(|mut geometry| {
+                let reflectance = choice.reflectance(&geometry.system.rows, &coatings);
+                geometry.system = geometry.system.with_reflectance(reflectance);
+                geometry
+            });
         match built {
             Ok(geometry) => {
                 commands
@@ -439,6 +534,14 @@ pub fn derive_geometry(
         stats.total_time += start.elapsed();
     }
 }
+
+/// One surface entity's part in its lens: its order, row, diaphragm and coating.
+type SurfacePart<'a> = (
+    usize,
+    SurfaceRow,
+    Option<&'a Diaphragm>,
+    Option<&'a Coating>,
+);
 
 /// `rows` at the chosen zoom position, with the focus groups where `focus` puts them (at
 /// infinity for a film distance set directly): the rows themselves for a lens without

@@ -95,6 +95,19 @@ impl SurfaceReflectance {
         SurfaceReflectance::new(rows, coatings)
     }
 
+    /// What the lens transmits on its axis at `wavelength_nm`, every surface met at normal
+    /// incidence: the product of 1 − R over its surfaces (`rows` give the indices).
+    pub fn axial_transmission(&self, rows: &[SurfaceRow], wavelength_nm: f64) -> f64 {
+        let mut before = 1.0;
+        let mut transmitted = 1.0;
+        for (i, row) in rows.iter().enumerate() {
+            let after = row.index_at(wavelength_nm);
+            transmitted *= 1.0 - self.exact(i, before, after, 1.0, wavelength_nm, true);
+            before = after;
+        }
+        transmitted
+    }
+
     /// Surface `i`'s coating, layers from the scene side.
     pub fn coating(&self, i: usize) -> &Coating {
         &self.coatings[i]

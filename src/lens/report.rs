@@ -12,11 +12,10 @@ use crate::glass::FRAUNHOFER_D_NM;
 use crate::lens::aperture::ApertureSetting;
 use crate::lens::camera::FilmResolution;
 use crate::lens::chromatic::{LATERAL_FIELD, axial_colour, lateral_colour};
-use crate::lens::coating::{CoatingModel, axial_transmission};
 use crate::lens::elements::{
-    FilmFormat, FilmPlacement, FocusSetting, Lens, LensDerivationStats, LensFault, LensGeometry,
-    activate_lens, add_lens_systems, build_geometry, film_distance_for, set_diaphragm,
-    set_zoom_position, spawn_lens,
+    CoatingChoice, FilmFormat, FilmPlacement, FocusSetting, Lens, LensDerivationStats, LensFault,
+    LensGeometry, activate_lens, add_lens_systems, build_geometry, film_distance_for,
+    set_coating_choice, set_diaphragm, set_zoom_position, spawn_lens,
 };
 use crate::lens::field::{field_angle, field_edge};
 use crate::lens::first_order::FirstOrder;
@@ -40,8 +39,8 @@ pub struct LensReport {
     pub pupil_seconds: f64,
     /// A zoom lens's first-order data at each of its positions (empty for a fixed lens).
     pub zoom_positions: Vec<ZoomPositionReport>,
-    /// The coatings the transmission and T-number are given for.
-    pub coating: CoatingModel,
+    /// The coatings the transmission and T-number are given for (those the lens renders with).
+    pub coating: CoatingChoice,
 }
 
 /// What `realcam lens --json` says of one zoom position: the lens at that position, focused
@@ -128,6 +127,7 @@ impl LensReport {
         );
         set_diaphragm(&mut world, entity, options.diaphragm()?);
         set_zoom_position(&mut world, entity, options.zoom_setting());
+        set_coating_choice(&mut world, entity, options.coating_choice());
         activate_lens(&mut world, entity);
         let start = std::time::Instant::now();
         derivation.run(&mut world);
@@ -164,7 +164,7 @@ impl LensReport {
             pupil,
             pupil_seconds,
             zoom_positions,
-            coating: CoatingModel::default(),
+            coating: options.coating_choice(),
         })
     }
 
@@ -258,14 +258,21 @@ impl LensReport {
     /// What the lens transmits on its axis at the d line (every surface met at normal
     /// incidence), coated as [`Self::coating`] says.
     pub fn transmission(&self) -> f64 {
-        let indices: Vec<f64> = self
-            .geometry
-            .system
-            .rows
-            .iter()
-            .map(|row| row.index_at(FRAUNHOFER_D_NM))
-            .collect();
-        axial_transmission(&indices, self.coating, FRAUNHOFER_D_NM)
+        let system = &self.geometry.system;
+        system
+            .f64s
+            .reflectance
+            .as_deref()
+            .map_or(1.0, |reflectance| {
+                reflectance.axial_transmission(&system.rows, FRAUNHOFER_D_NM)
+            })
+    }
+
+    /// The coatings in words: the model on every surface, or the file's coatings and the model
+    /// on the surfaces it says nothing of.
+    pub fn coating_name(&self) -> String {
+        self.coating
+            .describe(!self.prescription.coatings.is_empty())
     }
 
     /// The T-number: the f-number of a lossless lens that would give the film as much light,
@@ -312,7 +319,7 @@ impl LensReport {
             "entrance_pupil": fo.entrance_pupil,
             "exit_pupil": fo.exit_pupil,
             "f_number": fo.f_number,
-            "coating": self.coating.name(),
+            "coating": self.coating_name(),
             "transmission": self.transmission(),
             "t_number": self.t_number(),
             "stop_diameter_mm": system.stop_diameter(),
@@ -428,7 +435,7 @@ impl LensReport {
         out += &format!(
             "transmission        {:.1} % on the axis at d ({} coating), T/{:.2}\n",
             100.0 * self.transmission(),
-            self.coating.name(),
+            self.coating_name(),
             self.t_number()
         );
         if let Some(diaphragm) = &system.diaphragm {

@@ -7,7 +7,9 @@ use std::path::PathBuf;
 use std::sync::Arc;
 
 use crate::lens::aperture::ApertureSetting;
+use crate::lens::coating::CoatingModel;
 use crate::lens::diaphragm::{ApertureMask, Blades, Diaphragm};
+use crate::lens::elements::CoatingChoice;
 use crate::lens::elements::DEFAULT_FILM_DIAGONAL_MM;
 use crate::lens::elements::FocusSetting;
 use crate::lens::focus::FocusMode;
@@ -54,6 +56,9 @@ pub struct LensSettings {
     /// The zoom position of a zoom lens, 1-based as Zemax numbers its configurations
     /// (`--zoom-position`; `None`: the lens as its surfaces are written).
     pub zoom_position: Option<usize>,
+    /// The coating on every surface (`--coating`; `None`: as the lens file says, and the
+    /// default model on the surfaces it says nothing of).
+    pub coating: Option<CoatingModel>,
 }
 
 impl LensSettings {
@@ -67,6 +72,11 @@ impl LensSettings {
             .or(hinted)
             .unwrap_or(DEFAULT_FILM_DIAGONAL_MM)
     }
+    /// How the lens's surfaces are coated.
+    pub fn coating_choice(&self) -> CoatingChoice {
+        CoatingChoice::from_option(self.coating)
+    }
+
     /// How the lens files are read.
     pub fn reading(&self) -> ReadOptions {
         ReadOptions {

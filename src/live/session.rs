@@ -272,6 +272,8 @@ impl Session {
         self.renderer.set_diaphragm(self.lens, diaphragm);
         self.renderer
             .set_zoom_position(self.lens, spec.lens.zoom_setting());
+        self.renderer
+            .set_coating_choice(self.lens, spec.lens.coating_choice());
         self.renderer.set_movements(self.lens, spec.movements());
         let film_diagonal = spec
             .lens

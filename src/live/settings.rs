@@ -16,7 +16,7 @@ pub type SpecParser = Arc<dyn Fn(&[String]) -> Result<JobSpec, String> + Send + 
 
 /// Options a live session changes without reloading the scene or rebuilding its BVH, by their
 /// names in the API (`realcam render`'s long options without dashes, `-` as `_`).
-pub const LIVE_OPTIONS: [&str; 21] = [
+pub const LIVE_OPTIONS: [&str; 22] = [
     "lens",
     "focus_distance",
     "film_distance",
@@ -32,6 +32,7 @@ pub const LIVE_OPTIONS: [&str; 21] = [
     "pupil_sampling",
     "dispersion",
     "wavelengths",
+    "coating",
     "width",
     "height",
     "spp",
@@ -53,7 +54,13 @@ const WHOLE: [&str; 7] = [
 /// Settings that take two numbers (`[x, y]` in JSON, `X,Y` on the command line).
 const PAIRS: [&str; 2] = ["shift", "tilt"];
 /// Settings that take words.
-const WORDS: [&str; 4] = ["lens", "focus_mode", "pupil_sampling", "dispersion"];
+const WORDS: [&str; 5] = [
+    "lens",
+    "focus_mode",
+    "pupil_sampling",
+    "dispersion",
+    "coating",
+];
 /// Pairs of settings of which one replaces the other.
 const EITHER: [(&str, &str); 2] = [
     ("focus_distance", "film_distance"),

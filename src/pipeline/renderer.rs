@@ -23,8 +23,8 @@ use crate::lens::aperture::ApertureSetting;
 use crate::lens::camera::CameraPose;
 use crate::lens::diaphragm::Diaphragm;
 use crate::lens::elements::{
-    ActiveLens, FilmFormat, FocusSetting, LensDerivationStats, LensFault, activate_lens,
-    set_diaphragm, set_zoom_position, spawn_lens,
+    ActiveLens, CoatingChoice, FilmFormat, FocusSetting, LensDerivationStats, LensFault,
+    activate_lens, set_coating_choice, set_diaphragm, set_zoom_position, spawn_lens,
 };
 use crate::lens::movements::FilmMovements;
 use crate::lens::pupil::PupilSampling;
@@ -123,6 +123,11 @@ impl Renderer {
     /// Sets the zoom position `lens` renders at (0-based; `None`: as its surfaces are written).
     pub fn set_zoom_position(&mut self, lens: Entity, position: Option<usize>) {
         set_zoom_position(&mut self.world, lens, position);
+    }
+
+    /// Sets how the surfaces of `lens` are coated.
+    pub fn set_coating_choice(&mut self, lens: Entity, choice: CoatingChoice) {
+        set_coating_choice(&mut self.world, lens, choice);
     }
 
     /// Puts `diaphragm` (blades, a mask) on the stop of `lens`; `None`: the stop's circle.

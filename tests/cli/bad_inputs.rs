@@ -549,6 +549,11 @@ fn impossible_flags_are_refused_before_rendering() {
             "--wavelengths must be between 1 and 8, got 9",
         ),
         (&["--wavelengths", "four"], 2, "--wavelengths"),
+        (
+            &["--coating", "mgf2"],
+            2,
+            "unknown coating 'mgf2': use none, single, multi or ideal",
+        ),
         (&["--threads", "0"], 1, "--threads"),
         (&["--exposure", "inf"], 1, "--exposure"),
         (&["--focus-distance", "-3"], 1, "focus-distance"),

@@ -402,7 +402,7 @@ fn transmission_and_t_number_follow_fresnel_and_the_airy_formula() {
     let (code, _, stderr) = realcam(&["lens", "dgauss.50mm", "--coating", "mgf2"], None);
     assert_eq!(code, 2);
     assert!(
-        stderr.contains("unknown coating 'mgf2': use none, single or multi"),
+        stderr.contains("unknown coating 'mgf2': use none, single, multi or ideal"),
         "{stderr}"
     );
 }

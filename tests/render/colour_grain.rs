@@ -7,7 +7,8 @@ use crate::support;
 use glam::Vec3;
 use realcam::film::Image;
 use realcam::lens::aperture::ApertureSetting;
-use realcam::lens::elements::FocusSetting;
+use realcam::lens::coating::CoatingModel;
+use realcam::lens::elements::{CoatingChoice, FocusSetting};
 use realcam::lens::focus::FocusMode;
 use realcam::lens::io::bundled::load_lens;
 use realcam::lens::movements::FilmMovements;
@@ -79,6 +80,8 @@ fn render(shot: &Shot) -> Image {
         ApertureSetting::Full,
     );
     renderer.world.entity_mut(lens).insert(shot.movements);
+    // Lossless, so a white furnace is white (the coatings' own tint is coatings.rs's).
+    renderer.set_coating_choice(lens, CoatingChoice::Everywhere(CoatingModel::Ideal));
     renderer.set_active_lens(lens);
     renderer.render(shot.spp, |_, _| true).unwrap()
 }

@@ -9,6 +9,7 @@ mod support;
 
 mod black_images;
 mod bokeh;
+mod coatings;
 mod colour_grain;
 mod example;
 mod film_movements;

@@ -9,7 +9,10 @@ use realcam::film::Image;
 use realcam::lens::LensSystem;
 use realcam::lens::aperture::ApertureSetting;
 use realcam::lens::camera::FilmGeometry;
-use realcam::lens::elements::{Dispersion, FilmPlacement, FocusSetting, LensGeometry};
+use realcam::lens::coating::CoatingModel;
+use realcam::lens::elements::{
+    CoatingChoice, Dispersion, FilmPlacement, FocusSetting, LensGeometry,
+};
 use realcam::lens::focus::FocusMode;
 use realcam::lens::io::bundled::load_lens;
 use realcam::lens::pupil::PupilSampling;
@@ -61,6 +64,8 @@ impl Shot<'_> {
             self.aperture,
         );
         renderer.world.entity_mut(lens).insert(self.dispersion);
+        // The lossless lens: these figures are the lens weight's (coatings.rs has the losses).
+        renderer.set_coating_choice(lens, CoatingChoice::Everywhere(CoatingModel::Ideal));
         renderer.set_active_lens(lens);
         let image = renderer.render(self.spp, |_, _| true).unwrap();
         (image, renderer)

@@ -293,12 +293,20 @@ fn the_page_changes_lens_and_focus_and_shows_the_new_image() {
           await until(() => state.wavelengths === 1, "the wavelengths change");
           await settled("the render with one wavelength per sample");
           const afterWavelengths = pixels();
+          const coating = document.getElementById("coating");
+          const coatingShown = coating.value;
+          coating.value = "none";
+          coating.dispatchEvent(new Event("change"));
+          await until(() => state.coating === "none", "the coating change");
+          await settled("the render through bare glass");
+          const afterCoating = pixels();
           const diagram = document.querySelector("#diagram svg") !== null;
           const numbers = document.getElementById("first-order").textContent;
           return { options: options.length, lensChanged: first !== afterLens,
             focusChanged: afterLens !== afterFocus, clickChanged: afterFocus !== afterClick,
             bladesChanged: afterClick !== afterBlades, shiftChanged: afterBlades !== afterShift,
             wavelengthsShown, wavelengthsChanged: afterShift !== afterWavelengths,
+            coatingShown, coatingChanged: afterWavelengths !== afterCoating,
             diaphragmShown: document.getElementById("first-order").textContent.includes("5 blades"),
             focus: state.focus_distance, diagram, numbers,
             message: document.getElementById("message").textContent };
@@ -312,6 +320,9 @@ fn the_page_changes_lens_and_focus_and_shows_the_new_image() {
     assert_eq!(outcome["shiftChanged"], true, "{outcome}");
     assert_eq!(outcome["wavelengthsShown"], "4", "{outcome}");
     assert_eq!(outcome["wavelengthsChanged"], true, "{outcome}");
+    // The page shows the file's coatings until one is chosen; bare glass loses more light.
+    assert_eq!(outcome["coatingShown"], "", "{outcome}");
+    assert_eq!(outcome["coatingChanged"], true, "{outcome}");
     assert_eq!(outcome["diaphragmShown"], true, "{outcome}");
     assert_eq!(outcome["diagram"], true, "{outcome}");
     assert!(

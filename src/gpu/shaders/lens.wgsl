@@ -61,8 +61,11 @@ struct LensConstants {
     wavelengths: u32,
     film_width: u32,
     film_height: u32,
-    pad0: u32,
-    pad1: u32,
+    // Where the surfaces' reflectance table starts in lens_tables (SurfaceReflectance: per
+    // surface front to back, per table wavelength, REFLECTANCE_COSINE_STEPS + 1 cosines), and
+    // its wavelengths per surface; 0: a lossless lens.
+    reflectance_offset: u32,
+    reflectance_wavelengths: u32,
 }
 
 // One surface in the order a camera ray meets it (film to scene): trace_batch's
@@ -265,7 +268,9 @@ fn lens_hit_polynomial(s: LensSurface, ray: LensRay) -> LensHit {
 // Moves a live ray onto surface `s` and refracts it with index ratio `eta` (refract.rs
 // refract_at); a ray that misses, leaves the clear aperture, is totally reflected or turns
 // back is blocked and keeps its state.
-fn lens_refract(s: LensSurface, ray: ptr<function, LensRay>, eta: f32) {
+// Returns the ray's cosine in the less dense of the two media (the reflectance table's angle
+// coordinate: refract.rs's Crossing::cosine).
+fn lens_refract(s: LensSurface, ray: ptr<function, LensRay>, eta: f32) -> f32 {
     var found: LensHit;
     if s.shape == LENS_SPHERE {
         found = lens_hit_sphere(s, *ray);
@@ -312,6 +317,22 @@ fn lens_refract(s: LensSurface, ray: ptr<function, LensRay>, eta: f32) {
         (*ray).direction = r;
     }
     (*ray).alive = survives;
+    return select(cos_t, cos_i, eta <= 1.0);
+}
+
+// R of surface `surface` (front = 0) at `cosine` (in the less dense medium) and table
+// wavelength entry w + t: SurfaceReflectance::lookup, bilinear.
+fn lens_reflectance(surface: u32, cosine: f32, w: u32, t: f32) -> f32 {
+    let steps = REFLECTANCE_COSINE_STEPS;
+    let x = clamp(cosine * f32(steps), 0.0, f32(steps));
+    let c = min(u32(x), steps - 1u);
+    let u = x - f32(c);
+    let row = lens_constants.reflectance_offset
+        + (surface * lens_constants.reflectance_wavelengths + w) * (steps + 1u) + c;
+    let next = row + steps + 1u;
+    let r0 = lens_tables[row] + u * (lens_tables[row + 1u] - lens_tables[row]);
+    let r1 = lens_tables[next] + u * (lens_tables[next + 1u] - lens_tables[next]);
+    return r0 + t * (r1 - r0);
 }
 
 // The mask's grey level at stop-plane point (x, y), bilinear (ApertureMask::sample_f32).
@@ -394,6 +415,19 @@ fn lens_trace_toward(ray: ptr<function, LensRay>, nm: f32, backward: bool) -> f3
     if lens_constants.spectral != 0u && !backward {
         carried = lens_index_after(count - 1u, cell, fraction);
     }
+    // The surfaces' losses at the ray's wavelength (at the d line for rays at the lens's own
+    // indices): SurfaceReflectance::position.
+    let losses = lens_constants.reflectance_wavelengths != 0u;
+    var loss = 1.0;
+    var loss_nm = FRAUNHOFER_D_NM;
+    if lens_constants.spectral != 0u {
+        loss_nm = nm;
+    }
+    let loss_last = max(lens_constants.reflectance_wavelengths, 2u) - 1u;
+    let loss_x = clamp((loss_nm - lens_constants.dispersion_lambda_min) / REFLECTANCE_STEP_NM,
+                       0.0, f32(loss_last));
+    let loss_cell = min(u32(loss_x), loss_last - 1u);
+    let loss_fraction = loss_x - f32(loss_cell);
     var clip_step = lens_constants.clip_step;
     if backward && clip_step != 0xffffffffu {
         clip_step = count - 1u - clip_step;
@@ -422,14 +456,23 @@ fn lens_trace_toward(ray: ptr<function, LensRay>, nm: f32, backward: bool) -> f3
                 carried = before;
             }
         }
-        lens_refract(s, ray, eta);
+        let cosine = lens_refract(s, ray, eta);
         if step == clip_step {
             transmission = lens_clip(ray);
         }
         if !(*ray).alive {
             break;
         }
+        if losses {
+            var surface = step;
+            if !backward {
+                surface = count - 1u - step;
+            }
+            loss = loss * (1.0 - lens_reflectance(surface, cosine, loss_cell, loss_fraction));
+        }
     }
+    // The batch kernels multiply the mask's grey level first, then the surfaces' losses.
+    transmission = transmission * loss;
     if (*ray).alive {
         let d = (*ray).direction;
         let inv_length = 1.0 / sqrt(d.x * d.x + d.y * d.y + d.z * d.z);
@@ -735,15 +778,15 @@ fn camera_ray_with(pixel_x: u32, pixel_y: u32, sample: u32,
     }
     var ray = LensRay(vec3f(ox, oy, oz), select(vec3f(0.0, 0.0, -1.0), d, passing), passing);
 
-    // Through the lens; the mask's grey level scales the weight (with several wavelengths,
-    // each one's factor).
+    // Through the lens; what the mask and the surfaces pass scales the weight (with several
+    // wavelengths, each one's factor).
     let transmission = lens_trace(&ray, nm);
     if lens_constants.spectral != 0u && lens_constants.wavelengths > 1u {
         (*wavelengths).nm[0] = nm;
         (*wavelengths).factor[0] = wavelength_weight;
         weight = lens_companions(ray, vec2i(i32(pixel_x), i32(pixel_y)), wave_u, weight,
                                  transmission, wavelengths);
-    } else if lens_constants.has_mask != 0u {
+    } else if lens_constants.has_mask != 0u || lens_constants.reflectance_wavelengths != 0u {
         weight *= transmission;
     }
 

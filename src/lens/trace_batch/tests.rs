@@ -27,7 +27,20 @@ fn test_lenses() -> Vec<(String, LensSystem)> {
         .collect()
 }
 
-/// Random rays from the film plane toward the rear element: the render path's rays.
+/// The rays in f32, as a batch.
+fn batch_of(rays: &[Ray<f64>]) -> RayBatch {
+    let mut batch = RayBatch::with_capacity(rays.len());
+    for r in rays {
+        batch.push(
+            r.origin.map(|v| v as f32),
+            r.direction.map(|v| v as f32),
+            0,
+            0,
+        );
+    }
+    batch
+}
+
 /// Random rays from the film plane toward the rear element: the render path's rays. Every
 /// other one is aimed within the exit-pupil bounds, as the renderer aims (so lenses with a
 /// small pupil still pass many), the rest anywhere over the rear element (so many are
@@ -115,11 +128,7 @@ fn batch_agrees_with_scalar_reference_on_every_bundled_lens() {
         let film_distance = crate::lens::first_order::FirstOrder::compute(&system)
             .map_or(system.rear_z() * 0.6, |fo| fo.back_focal_length);
         let rays = film_rays(&system, film_distance, 4003);
-        let mut batch = RayBatch::with_capacity(rays.len());
-        for r in &rays {
-            let f = |a: [f64; 3]| [a[0] as f32, a[1] as f32, a[2] as f32];
-            batch.push(f(r.origin), f(r.direction), 0, 0);
-        }
+        let mut batch = batch_of(&rays);
         let input = batch.clone();
         trace_batch(&system.f32s, &mut batch, Travel::FilmToScene);
         assert_every_kernel_agrees(&system, &input, &batch, Travel::FilmToScene, name);
@@ -192,11 +201,7 @@ fn scene_to_film_agrees_and_blocked_rays_stay_finite() {
                 }
             })
             .collect();
-        let mut batch = RayBatch::with_capacity(rays.len());
-        for r in &rays {
-            let f = |a: [f64; 3]| a.map(|x| x as f32);
-            batch.push(f(r.origin), f(r.direction), 0, 0);
-        }
+        let mut batch = batch_of(&rays);
         let input = batch.clone();
         trace_batch(&system.f32s, &mut batch, Travel::SceneToFilm);
         assert_every_kernel_agrees(&system, &input, &batch, Travel::SceneToFilm, name);
@@ -264,15 +269,7 @@ fn diaphragm_clips_alike_in_every_kernel_and_the_reference() {
             let film_distance = crate::lens::first_order::FirstOrder::compute(&system)
                 .map_or(system.rear_z() * 0.6, |fo| fo.back_focal_length);
             let rays = film_rays(&system, film_distance, 4003);
-            let mut batch = RayBatch::with_capacity(rays.len());
-            for r in &rays {
-                batch.push(
-                    r.origin.map(|v| v as f32),
-                    r.direction.map(|v| v as f32),
-                    0,
-                    0,
-                );
-            }
+            let mut batch = batch_of(&rays);
             let input = batch.clone();
             let name = format!("{name} {}", diaphragm.describe());
             for isa in Isa::available() {
@@ -328,15 +325,7 @@ fn spectral_batch_agrees_with_the_reference_at_each_wavelength() {
         let nm: Vec<f32> = (0..rays.len())
             .map(|i| lambdas[i % lambdas.len()])
             .collect();
-        let mut batch = RayBatch::with_capacity(rays.len());
-        for r in &rays {
-            batch.push(
-                r.origin.map(|v| v as f32),
-                r.direction.map(|v| v as f32),
-                0,
-                0,
-            );
-        }
+        let mut batch = batch_of(&rays);
         let input = batch.clone();
         let wavelengths = Wavelengths { table, nm: &nm };
         trace_batch_spectral(&system.f32s, wavelengths, &mut batch, Travel::FilmToScene);
@@ -406,15 +395,7 @@ fn surface_losses_agree_with_the_exact_reference_in_every_kernel() {
             let mut rays = film_rays(&system, system.rear_z() * 0.6, 4001);
             if travel == Travel::SceneToFilm {
                 // The same lines backward: from beyond the front, toward the film.
-                let mut through = RayBatch::with_capacity(rays.len());
-                for r in &rays {
-                    through.push(
-                        r.origin.map(|v| v as f32),
-                        r.direction.map(|v| v as f32),
-                        0,
-                        0,
-                    );
-                }
+                let mut through = batch_of(&rays);
                 trace_batch(&system.f32s, &mut through, Travel::FilmToScene);
                 rays = (0..rays.len())
                     .filter(|&i| through.alive[i])
@@ -437,15 +418,7 @@ fn surface_losses_agree_with_the_exact_reference_in_every_kernel() {
                         }
                     })
                     .collect();
-                let mut input = RayBatch::with_capacity(rays.len());
-                for r in &rays {
-                    input.push(
-                        r.origin.map(|v| v as f32),
-                        r.direction.map(|v| v as f32),
-                        0,
-                        0,
-                    );
-                }
+                let mut input = batch_of(&rays);
                 let wavelengths = Wavelengths { table, nm: &nm };
                 let run = |kernel, isa| {
                     let mut batch = input.clone();

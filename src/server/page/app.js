@@ -49,6 +49,7 @@ function show(newState, reset = false) {
     if (state[name]) $(name).value = state[name];
   }
   if (state.wavelengths) $("wavelengths").value = String(state.wavelengths);
+  $("coating").value = state.coating ?? "";
   if (reset || document.activeElement !== $("spp_target_input")) $("spp_target_input").value = state.spp;
   if ($("lens").value !== state.lens) $("lens").value = state.lens;
   $("spp").textContent = state.spp_done;
@@ -167,6 +168,7 @@ async function start() {
     $(name).addEventListener("change", (e) => change("/api/settings", { [name]: e.target.value }));
   }
   $("wavelengths").addEventListener("change", (e) => change("/api/settings", { wavelengths: Number(e.target.value) }));
+  $("coating").addEventListener("change", (e) => change("/api/settings", { coating: e.target.value || null }));
   $("spp_target_input").addEventListener("change", (e) => change("/api/settings", { spp: Number(e.target.value) }));
   $("image").addEventListener("click", (e) => {
     const box = e.target.getBoundingClientRect();
