@@ -10,8 +10,10 @@ use divan::{Bencher, black_box};
 use glam::Mat4;
 use realcam::batch::RayBatch;
 use realcam::lens::camera::{CameraRays, FilmGeometry, LensCamera};
+use realcam::lens::coating::CoatingModel;
 use realcam::lens::io::bundled::BUNDLED;
 use realcam::lens::pupil::{ExitPupil, PupilSampling};
+use realcam::lens::reflectance::SurfaceReflectance;
 use realcam::lens::trace_batch::{Isa, Kernel};
 use realcam::lens::workload::LensWorkload;
 
@@ -90,20 +92,39 @@ fn exit_pupil_bounds(bencher: Bencher, lens: &str) {
 /// 32 spp plan (stratified patterns) and one pass past it (independent numbers), one thread.
 #[divan::bench(args = ["dgauss.50mm", "fisheye.10mm"], consts = [0, 32], sample_count = 40)]
 fn camera_generate<const PASS: u32>(bencher: Bencher, lens: &str) {
+    camera_rays(bencher, lens, PASS, CoatingModel::Ideal, false);
+}
+
+/// [`camera_generate`] through single-coated surfaces (their losses on every ray), and with
+/// the ghosts traced (one sample in 16): what coatings and flare add to ray generation.
+#[divan::bench(args = ["dgauss.50mm", "fisheye.10mm"], consts = [0], sample_count = 40)]
+fn camera_generate_coated<const PASS: u32>(bencher: Bencher, lens: &str) {
+    camera_rays(bencher, lens, PASS, CoatingModel::Single, false);
+}
+
+#[divan::bench(args = ["dgauss.50mm", "fisheye.10mm"], consts = [0], sample_count = 40)]
+fn camera_generate_coated_with_ghosts<const PASS: u32>(bencher: Bencher, lens: &str) {
+    camera_rays(bencher, lens, PASS, CoatingModel::Single, true);
+}
+
+fn camera_rays(bencher: Bencher, lens: &str, pass: u32, coating: CoatingModel, ghosts: bool) {
     let w = workload(lens);
+    let reflectance = SurfaceReflectance::with_model(&w.system.rows, |_| None, coating);
+    let system = w.system.clone().with_reflectance(reflectance);
     let pupil = ExitPupil::compute(
-        &w.system,
+        &system,
         w.film_distance,
         LensWorkload::FILM_DIAGONAL_MM,
         PupilSampling::Bounds,
     );
     let camera = LensCamera {
-        system: &w.system,
+        system: &system,
         pupil: &pupil,
         film: FilmGeometry::new(512, 512, LensWorkload::FILM_DIAGONAL_MM),
         world_from_camera: Mat4::IDENTITY,
         dispersion: None,
         wavelengths: 1,
+        ghosts: system.ghosts.as_deref().filter(|_| ghosts),
     };
     let pixels: Vec<(u32, u32)> = (0..32)
         .flat_map(|y| (0..32).map(move |x| (240 + x, 240 + y)))
@@ -111,5 +132,5 @@ fn camera_generate<const PASS: u32>(bencher: Bencher, lens: &str) {
     let mut out = CameraRays::default();
     bencher
         .counter(divan::counter::ItemsCount::new(pixels.len()))
-        .bench_local(|| camera.generate(pixels.iter().copied(), PASS, 7, black_box(&mut out)));
+        .bench_local(|| camera.generate(pixels.iter().copied(), pass, 7, black_box(&mut out)));
 }

@@ -142,7 +142,7 @@ mod tests {
             TypeId::of::<crate::lens::focus::FocusMode>(),
             TypeId::of::<crate::lens::pupil::PupilSampling>(),
             TypeId::of::<crate::lens::LensFormat>(),
-            TypeId::of::<crate::cli::render::DispersionArg>(),
+            TypeId::of::<crate::cli::render::Switch>(),
             TypeId::of::<crate::pipeline::RenderDevice>(),
             TypeId::of::<crate::lens::coating::CoatingModel>(),
             TypeId::of::<std::net::IpAddr>(),

@@ -19,7 +19,7 @@ use crate::film::{MAX_IMAGE_SIDE, MAX_SPP};
 use crate::job::plan::{Shard, StopSweep, Sweep};
 use crate::job::spec::{EnvironmentSpec, JobSpec, OutputSpec, ViewSpec};
 use crate::job::{Job, Progress, outputs::validate};
-use crate::lens::elements::Dispersion;
+use crate::lens::elements::{Dispersion, Flare};
 use crate::lens::movements::FilmMovements;
 use crate::memory::MAX_THREADS;
 use crate::pipeline::RenderDevice;
@@ -142,7 +142,12 @@ pub struct RenderArgs {
     /// with each glass's index at it (axial and lateral colour, from the glass data); `off`
     /// renders every ray at the lens file's indices (n_d), as for a lens without glass data.
     #[arg(long, value_name = "on|off", default_value = "on")]
-    pub dispersion: DispersionArg,
+    pub dispersion: Switch,
+    /// Ghosts: `on` traces the light the lens's surfaces reflect twice on to the film (one
+    /// camera sample in 16 follows such a path), `off` leaves it out; a lens whose surfaces
+    /// reflect nothing (`--coating ideal`) has none either way.
+    #[arg(long, value_name = "on|off", default_value = "on")]
+    pub flare: Switch,
     /// Wavelengths each camera sample carries when it disperses, 1–8: one scene path serves
     /// them all (each traced back through the lens to its own film point), so a grey surface
     /// renders grey instead of in colour speckles; 1 is one wavelength per sample.
@@ -206,6 +211,7 @@ impl RenderArgs {
             resume,
             shard,
             dispersion,
+            flare,
             wavelengths,
             focus_on,
             shift,
@@ -234,7 +240,12 @@ impl RenderArgs {
             threads,
             device,
             max_depth,
-            dispersion: dispersion.0,
+            dispersion: if dispersion.0 {
+                Dispersion::On
+            } else {
+                Dispersion::Off
+            },
+            flare: if flare.0 { Flare::On } else { Flare::Off },
             wavelengths,
             focus_on,
             movements: FilmMovements {
@@ -294,20 +305,18 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<ExitCode> {
     Ok(stopped.map_or(ExitCode::SUCCESS, ExitCode::from))
 }
 
-/// `--dispersion on|off`.
+/// An `on|off` option's value (`--dispersion`, `--flare`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct DispersionArg(pub Dispersion);
+pub struct Switch(pub bool);
 
-impl std::str::FromStr for DispersionArg {
+impl std::str::FromStr for Switch {
     type Err = String;
 
     fn from_str(s: &str) -> Result<Self, Self::Err> {
         match s {
-            "on" => Ok(DispersionArg(Dispersion::On)),
-            "off" => Ok(DispersionArg(Dispersion::Off)),
-            other => Err(format!(
-                "unknown dispersion setting '{other}': use on or off"
-            )),
+            "on" => Ok(Switch(true)),
+            "off" => Ok(Switch(false)),
+            other => Err(format!("unknown setting '{other}': use on or off")),
         }
     }
 }

@@ -20,6 +20,7 @@ use super::compute::{Access, Bindings, storage_buffer, uniform_buffer};
 use super::context::{GpuContext, GpuUnavailable};
 use crate::glass::FRAUNHOFER_D_NM;
 use crate::lens::camera::{FilmTilt, LensCamera, camera_seeds};
+use crate::lens::ghost::GHOST_EVERY;
 use crate::lens::hero_wavelengths::{BACKWARD_START_MM, MAX_WAVELENGTHS, SPLAT_RADIUS};
 use crate::lens::pupil::{PupilSampling, SEGMENTS};
 use crate::lens::reflectance::{COSINE_STEPS, WAVELENGTH_STEP_NM};
@@ -56,7 +57,8 @@ pub fn shared_constants() -> String {
          const BACKWARD_START_MM: f32 = {BACKWARD_START_MM:?};\n\
          const REFLECTANCE_COSINE_STEPS: u32 = {COSINE_STEPS}u;\n\
          const REFLECTANCE_STEP_NM: f32 = {step:?};\n\
-         const FRAUNHOFER_D_NM: f32 = {d:?};\n",
+         const FRAUNHOFER_D_NM: f32 = {d:?};\n\
+         const GHOST_EVERY: u32 = {GHOST_EVERY}u;\n",
         step = WAVELENGTH_STEP_NM as f32,
         d = FRAUNHOFER_D_NM as f32,
     )
@@ -115,9 +117,14 @@ struct LensConstants {
     reflectance_offset: u32,
     /// Table wavelengths per surface of the reflectance table; 0: a lossless lens.
     reflectance_wavelengths: u32,
+    indices_offset: u32,
+    ghost_offset: u32,
+    /// Ghost pairs; 0: no ghost samples.
+    ghost_pairs: u32,
+    pad: u32,
 }
 
-const _: () = assert!(size_of::<LensConstants>() == 272);
+const _: () = assert!(size_of::<LensConstants>() == 288);
 
 /// One surface in the order camera rays meet it (film to scene), as WGSL's `LensSurface`: the
 /// batch kernel's [`SurfaceConstants`].
@@ -210,6 +217,14 @@ impl LensData {
         if let Some(reflectance) = reflectance {
             tables.extend_from_slice(reflectance.entries());
         }
+        let indices_offset = tables.len() as u32;
+        tables.extend_from_slice(&f32s.index_back);
+        let ghost_offset = tables.len() as u32;
+        if let Some(ghosts) = camera.ghosts {
+            for (&[a, b], &running) in ghosts.pairs.iter().zip(ghosts.cumulative()) {
+                tables.extend_from_slice(&[running, a as f32, b as f32]);
+            }
+        }
 
         let [tilt_x, tilt_y, tilt_z] = tilt.map_or([[0.0; 2]; 3], |t| t.rotation);
         let constants = LensConstants {
@@ -260,6 +275,10 @@ impl LensData {
             film_height: film.height,
             reflectance_offset,
             reflectance_wavelengths: reflectance.map_or(0, |r| r.wavelength_entries() as u32),
+            indices_offset,
+            ghost_offset,
+            ghost_pairs: camera.ghosts.map_or(0, |g| g.pairs.len() as u32),
+            pad: 0,
         };
         LensData {
             constants,
@@ -693,6 +712,7 @@ fn test_spectral(@builtin(global_invocation_id) id: vec3u) {
     fn compare_wavelengths_with_cpu(context: &GpuContext, lens: &TestLens, seed: u64) -> usize {
         let camera = LensCamera {
             wavelengths: 4,
+            ghosts: None,
             ..lens.camera()
         };
         let gpu_lens = GpuLens::upload(context, &camera, seed).unwrap();

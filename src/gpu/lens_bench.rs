@@ -73,6 +73,7 @@ impl GpuLensBench {
         workload: &LensWorkload,
     ) -> Result<GpuLensBench, GpuUnavailable> {
         let camera = LensCamera {
+            ghosts: None,
             system: &workload.system,
             pupil: &workload.pupil,
             film: FilmGeometry::new(1, 1, LensWorkload::FILM_DIAGONAL_MM),

@@ -411,6 +411,7 @@ fn settings_fingerprint(
             .coating_choice()
             .describe(!lens.prescription.coatings.is_empty())
     );
+    fingerprint["flare"] = json!(spec.flare == crate::lens::elements::Flare::On);
     if !lens.prescription.coatings.is_empty() {
         fingerprint["lens_coatings"] = lens
             .prescription

@@ -163,7 +163,7 @@ impl<'a> Job<'a> {
                 );
                 let entity = renderer.add_lens(&prescription, focus, aperture);
                 let mut lens = renderer.world.entity_mut(entity);
-                lens.insert(spec.dispersion);
+                lens.insert((spec.dispersion, spec.flare));
                 if let Some(movements) = spec.movements() {
                     lens.insert(movements);
                 }

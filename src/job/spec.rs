@@ -14,7 +14,7 @@ use glam::Vec3;
 
 use super::plan::{Shard, StopSweep, Sweep};
 use crate::film::DEFAULT_IMAGE_SIDE;
-use crate::lens::elements::Dispersion;
+use crate::lens::elements::{Dispersion, Flare};
 use crate::lens::movements::FilmMovements;
 use crate::lens::settings::LensSettings;
 
@@ -47,6 +47,8 @@ pub struct JobSpec {
     pub max_depth: u32,
     /// Whether camera rays carry wavelengths through the lens's glass.
     pub dispersion: Dispersion,
+    /// Whether renders trace the lens's ghosts.
+    pub flare: Flare,
     /// Wavelengths per camera sample when they do (1 ..= 8; see
     /// [`crate::lens::hero_wavelengths`]).
     pub wavelengths: u32,

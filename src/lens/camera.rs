@@ -21,15 +21,18 @@ use bevy_ecs::resource::Resource;
 use glam::Mat4;
 
 use super::dispersion::DispersionTable;
+use super::ghost::{GHOST_EVERY, Ghosts, trace_ghost};
 use super::hero_wavelengths::{
     BackwardScratch, BackwardTrace, Combined, HeroRays, MAX_WAVELENGTHS, wavelength_of_set,
 };
 use super::movements::FilmMovements;
-use super::pupil::{ExitPupil, FilmRays, PupilSampler};
+use super::pupil::{ExitPupil, FilmRays, PupilSampler, PupilSampling, concentric_disk};
+use super::ray::Ray;
 use super::system::LensSystem;
 use super::trace::Travel;
 use super::trace_batch::{Isa, Wavelengths, trace_batch, trace_batch_spectral};
 use crate::batch::RayBatch;
+use crate::glass::FRAUNHOFER_D_NM;
 use crate::sampling::sobol::owen_sobol;
 use crate::sampling::{Rng, hash32};
 
@@ -184,7 +187,7 @@ impl FilmMap {
     }
 
     #[inline(always)]
-    fn apply(&self, px: f32, py: f32, jitter_x: f32, jitter_y: f32) -> [f32; 2] {
+    pub(crate) fn apply(&self, px: f32, py: f32, jitter_x: f32, jitter_y: f32) -> [f32; 2] {
         [
             self.scale[0] * (((px + self.origin[0]) + jitter_x) - self.centre[0]),
             self.scale[1] * (((py + self.origin[1]) + jitter_y) - self.centre[1]),
@@ -230,6 +233,8 @@ pub struct LensCamera<'a> {
     /// hero and its companions, traced backward from the hero's scene ray (see
     /// [`super::hero_wavelengths`]); 1 is one wavelength per sample.
     pub wavelengths: u32,
+    /// When set, one sample in [`GHOST_EVERY`] follows a ghost path (see [`super::ghost`]).
+    pub ghosts: Option<&'a Ghosts>,
 }
 
 /// Camera rays of one batch: rays in the world frame and the lens weight of each.
@@ -269,6 +274,11 @@ struct Scratch {
     u: [Vec<f32>; 6],
     /// The companion wavelengths' backward traces.
     backward: BackwardScratch,
+    /// Which rays are ghost samples, the uniform number choosing each one's pair, and the
+    /// inverse density each one's wavelength was drawn with.
+    ghost: Vec<bool>,
+    ghost_u: Vec<f32>,
+    ghost_inverse_pdf: Vec<f32>,
 }
 
 /// Seed key of the camera's sample patterns, apart from the shading streams.
@@ -276,6 +286,26 @@ const CAMERA_KEY: u64 = 0x4341_4d45_5241_5f4b; // "CAMERA_K"
 
 /// Mixed into a pixel's pupil key for its wavelength pattern.
 const WAVELENGTH_KEY: u32 = 0x5741_5645; // "WAVE"
+
+/// Mixed into a pixel's film key for its ghost samples: which ones, and their pairs.
+const GHOST_KEY: u32 = 0x4748_5354; // "GHST"
+
+/// Whether sample `sample` of the pixel with film key `film_key` is a ghost sample: every
+/// [`GHOST_EVERY`]th, from an offset the key picks (so each sample is one with probability
+/// 1/[`GHOST_EVERY`]).
+#[inline(always)]
+pub(crate) fn is_ghost_sample(film_key: u32, sample: u32) -> bool {
+    sample
+        .wrapping_add(hash32(film_key ^ GHOST_KEY))
+        .is_multiple_of(GHOST_EVERY)
+}
+
+/// The uniform number choosing a ghost sample's pair.
+#[inline(always)]
+pub(crate) fn ghost_pair_u(film_key: u32, sample: u32) -> f32 {
+    let bits = hash32(hash32(film_key ^ GHOST_KEY) ^ sample);
+    (bits >> 8) as f32 * (1.0 / (1u32 << 24) as f32)
+}
 
 /// The seeds of the camera's film and pupil patterns for a render's `seed`, mixed with every
 /// pixel's key (see [`LensCamera::generate`]).
@@ -372,6 +402,7 @@ impl LensCamera<'_> {
         let sampler = self.pupil.sampler();
         self.camera_samples(sample, seed, &mut out.scratch);
         self.film_to_pupil(&sampler, sample, film_z, out);
+        self.choose_ghost_samples(sample, seed, out);
         match self.dispersion {
             None => trace_batch(&self.system.f32s, &mut out.rays, Travel::FilmToScene),
             Some(table) => {
@@ -408,6 +439,12 @@ impl LensCamera<'_> {
                         sampler: &sampler,
                         film_z,
                     };
+                    if self.ghosts.is_some() {
+                        let s = &mut out.scratch;
+                        s.ghost_inverse_pdf.clear();
+                        s.ghost_inverse_pdf
+                            .extend_from_slice(&out.wavelength_weight[..n]);
+                    }
                     let hero = HeroRays {
                         rays: &out.rays,
                         px: &out.scratch.px,
@@ -421,6 +458,7 @@ impl LensCamera<'_> {
                     };
                     backward.combine(hero, combined, &mut out.scratch.backward);
                     // What the mask and the surfaces pass is in each wavelength's factor.
+                    self.trace_ghost_samples(&sampler, film_z, out);
                     self.move_to_world(film_z, out);
                     return;
                 }
@@ -439,7 +477,113 @@ impl LensCamera<'_> {
                 *weight *= t;
             }
         }
+        self.trace_ghost_samples(&sampler, film_z, out);
         self.move_to_world(film_z, out);
+    }
+
+    /// Marks this pass's ghost samples (see [`super::ghost`]) and takes them out of the
+    /// ordinary trace.
+    #[inline(always)]
+    fn choose_ghost_samples(&self, sample: u32, seed: u64, out: &mut CameraRays) {
+        let s = &mut out.scratch;
+        s.ghost.clear();
+        if self.ghosts.is_none() {
+            return;
+        }
+        let (film_seed, _) = camera_seeds(seed);
+        let n = s.pixel.len();
+        s.ghost.resize(n, false);
+        s.ghost_u.resize(n, 0.0);
+        for i in 0..n {
+            let key = hash32(s.pixel[i] ^ film_seed);
+            let ghost = is_ghost_sample(key, sample);
+            s.ghost[i] = ghost;
+            s.ghost_u[i] = ghost_pair_u(key, sample);
+            out.rays.alive[i] &= !ghost;
+        }
+    }
+
+    /// Traces every ghost sample along a ghost path, and scales the ordinary samples by the
+    /// share of samples they are (see [`super::ghost`]).
+    #[inline(always)]
+    fn trace_ghost_samples(&self, sampler: &PupilSampler, film_z: f32, out: &mut CameraRays) {
+        let Some(ghosts) = self.ghosts else {
+            return;
+        };
+        let rear = PupilSampler {
+            sampling: PupilSampling::RearElement,
+            ..sampler.clone()
+        };
+        let f32s = &self.system.f32s;
+        let n = out.rays.len();
+        let count = out.wavelength.len() / n.max(1);
+        let ordinary = GHOST_EVERY as f32 / (GHOST_EVERY - 1) as f32;
+        let s = &out.scratch;
+        let film_distance = self.pupil.film_distance as f32;
+        let rear_z = film_z - film_distance;
+        // The scratch keeps a tilted film's depths from earlier batches: only a tilt sets them.
+        let tilted = FilmTilt::of(&self.film.movements).is_some();
+        for i in 0..n {
+            if !s.ghost[i] {
+                out.weight[i] *= ordinary;
+                continue;
+            }
+            let rays = &mut out.rays;
+            let film = [rays.ox[i], rays.oy[i], rays.oz[i]];
+            let depth = if tilted { s.depth[i] } else { film_distance };
+            let [u, v] = concentric_disk([s.u[2][i], s.u[3][i]]);
+            let point = [u * rear.rear_radius, v * rear.rear_radius];
+            let weight = rear.drawn_weight([film[0], film[1]], depth, point);
+            let to = [point[0] - film[0], point[1] - film[1], rear_z - film[2]];
+            let length = (to[0] * to[0] + to[1] * to[1] + to[2] * to[2]).sqrt();
+            let ray = Ray {
+                origin: film,
+                direction: to.map(|c| c / length),
+            };
+            let (pair, probability) = ghosts.choose(s.ghost_u[i]);
+            let nm = if count > 0 {
+                out.wavelength[i]
+            } else {
+                FRAUNHOFER_D_NM as f32
+            };
+            let traced = match (self.dispersion, f32s.reflectance.as_deref()) {
+                (_, None) => None,
+                (table, Some(reflectance)) => {
+                    let at = reflectance.position(nm);
+                    let lambda = table.map(|t| t.position(nm));
+                    let index = |surface: usize| match (table, lambda) {
+                        (Some(t), Some(p)) => {
+                            (t.index_before(surface, p), t.index_after(surface, p))
+                        }
+                        _ => (f32s.index_front[surface], f32s.index_back[surface]),
+                    };
+                    trace_ghost(f32s, ray, ghosts.film_steps(pair), index, |k, c| {
+                        reflectance.lookup(k, c, at)
+                    })
+                }
+            };
+            match traced {
+                Some((leaving, transmission)) if weight > 0.0 => {
+                    [rays.ox[i], rays.oy[i], rays.oz[i]] = leaving.origin;
+                    [rays.dx[i], rays.dy[i], rays.dz[i]] = leaving.direction;
+                    rays.alive[i] = true;
+                    out.weight[i] = weight * transmission * (GHOST_EVERY as f32 / probability);
+                }
+                _ => {
+                    rays.alive[i] = false;
+                    out.weight[i] = 0.0;
+                }
+            }
+            // A ghost sample carries its hero wavelength alone.
+            if count > 1 {
+                out.wavelength_weight[i] = s.ghost_inverse_pdf[i];
+                for k in 1..count {
+                    out.wavelength_weight[k * n + i] = 0.0;
+                    out.wavelength_offset[k * n + i] = [0, 0];
+                }
+                out.wavelength_offset[i] = [0, 0];
+            }
+        }
     }
 
     /// The camera sample (film jitter, pupil point, and in a spectral render the wavelength) of

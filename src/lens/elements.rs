@@ -183,6 +183,15 @@ impl Dispersion {
     }
 }
 
+/// Whether a render traces the lens's ghosts (light reflected twice inside it, see
+/// [`super::ghost`]): a lens without the component does, where its surfaces reflect.
+#[derive(Component, Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum Flare {
+    #[default]
+    On,
+    Off,
+}
+
 /// Where the lens is focused.
 #[derive(Component, Clone, Copy, Debug, PartialEq)]
 pub enum FocusSetting {

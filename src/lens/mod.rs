@@ -31,6 +31,7 @@ pub mod field;
 pub mod first_order;
 pub mod focus;
 pub mod focus_probe;
+pub mod ghost;
 pub mod hero_wavelengths;
 pub mod info;
 pub mod io;

@@ -20,6 +20,7 @@ use crate::lens::elements::{
 use crate::lens::field::{field_angle, field_edge};
 use crate::lens::first_order::FirstOrder;
 use crate::lens::focus::{closest_focus_mm, paraxial_focus_distance};
+use crate::lens::ghost::ghost_focus_z;
 use crate::lens::pupil::ExitPupil;
 use crate::lens::settings::LensSettings;
 use crate::lens::spacing::rows_at;
@@ -268,6 +269,37 @@ impl LensReport {
             })
     }
 
+    /// Each two-reflection ghost path of the lens as its coatings make it (none for a lossless
+    /// lens): the two surfaces (0-based, front first), its strength (the product of their
+    /// reflectances on the axis at d) and where the ghost of a distant point on the axis comes
+    /// to focus, mm from the film (+ behind it; `null` where the path leaves parallel).
+    pub fn ghosts_json(&self) -> Vec<Value> {
+        let system = &self.geometry.system;
+        let Some(ghosts) = system.ghosts.as_deref() else {
+            return Vec::new();
+        };
+        let film_z = system.rear_z() + self.film_distance;
+        let at_d: Vec<f64> = system
+            .rows
+            .iter()
+            .map(|row| row.index_at(FRAUNHOFER_D_NM))
+            .collect();
+        let index = |i: usize| (if i == 0 { 1.0 } else { at_d[i - 1] }, at_d[i]);
+        // A paraxial ray: a thousandth of the entrance pupil's radius high.
+        let height = 5e-4 * self.geometry.first_order.entrance_pupil.diameter_mm;
+        ghosts
+            .pairs
+            .iter()
+            .zip(&ghosts.strength)
+            .map(|(&pair, &strength)| {
+                let focus = ghost_focus_z(&system.f64s, pair, height, index)
+                    .map(|z| z - film_z)
+                    .filter(|z| z.is_finite());
+                json!({ "surfaces": pair, "strength": strength, "focus_from_film_mm": focus })
+            })
+            .collect()
+    }
+
     /// The coatings in words: the model on every surface, or the file's coatings and the model
     /// on the surfaces it says nothing of.
     pub fn coating_name(&self) -> String {
@@ -322,6 +354,7 @@ impl LensReport {
             "coating": self.coating_name(),
             "transmission": self.transmission(),
             "t_number": self.t_number(),
+            "ghosts": self.ghosts_json(),
             "stop_diameter_mm": system.stop_diameter(),
             "diaphragm": system.diaphragm.as_ref().map(|d| json!({
                 "shape": d.describe(),
@@ -438,6 +471,21 @@ impl LensReport {
             self.coating_name(),
             self.t_number()
         );
+        if let Some(ghosts) = self.geometry.system.ghosts.as_deref() {
+            let total: f64 = ghosts.strength.iter().sum();
+            let strongest = (0..ghosts.pairs.len())
+                .max_by(|&a, &b| ghosts.strength[a].total_cmp(&ghosts.strength[b]));
+            if let Some(k) = strongest {
+                out += &format!(
+                    "ghosts              {} two-reflection paths, {:.3} % of the light on the axis in all; strongest: surfaces {} and {}, {:.3} %\n",
+                    ghosts.pairs.len(),
+                    100.0 * total,
+                    ghosts.pairs[k][0],
+                    ghosts.pairs[k][1],
+                    100.0 * ghosts.strength[k],
+                );
+            }
+        }
         if let Some(diaphragm) = &system.diaphragm {
             out += &format!(
                 "diaphragm           {}: {:.1} % of the stop's circle, the light of f/{:.2}\n",

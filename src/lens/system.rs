@@ -6,6 +6,7 @@ use num_traits::Float;
 
 use super::diaphragm::{Diaphragm, StopClip};
 use super::dispersion::DispersionTable;
+use super::ghost::Ghosts;
 use super::prescription::SurfaceRow;
 use super::reflectance::SurfaceReflectance;
 use super::shape::{ASPHERIC_TERMS, Profile};
@@ -150,6 +151,8 @@ pub struct LensSystem {
     pub dispersion: Option<Arc<DispersionTable>>,
     /// The diaphragm at the stop (also in both arrays' `stop_clip`), sized to the stop as set.
     pub diaphragm: Option<Diaphragm>,
+    /// The two-reflection paths of a lens whose surfaces reflect (see [`super::ghost`]).
+    pub ghosts: Option<Arc<Ghosts>>,
 }
 
 impl LensSystem {
@@ -172,6 +175,7 @@ impl LensSystem {
             wavelength_nm: FRAUNHOFER_D_NM,
             dispersion,
             diaphragm: None,
+            ghosts: None,
         }
     }
 
@@ -195,6 +199,18 @@ impl LensSystem {
     /// The same lens losing at its surfaces what `reflectance` says they reflect (`None`: a
     /// lossless lens).
     pub fn with_reflectance(mut self, reflectance: Option<Arc<SurfaceReflectance>>) -> LensSystem {
+        self.ghosts = reflectance.as_deref().and_then(|r| {
+            let after: Vec<f64> = self
+                .rows
+                .iter()
+                .map(|row| row.index_at(FRAUNHOFER_D_NM))
+                .collect();
+            let before: Vec<f64> = std::iter::once(1.0)
+                .chain(after.iter().copied())
+                .take(after.len())
+                .collect();
+            Ghosts::new(r, &before, &after, FRAUNHOFER_D_NM).map(Arc::new)
+        });
         self.f64s.reflectance = reflectance.clone();
         self.f32s.reflectance = reflectance;
         self

@@ -79,6 +79,7 @@ impl TestLens {
             ),
             dispersion: self.system.dispersion.as_deref().filter(|_| self.spectral),
             wavelengths: 1,
+            ghosts: None,
         }
     }
 }

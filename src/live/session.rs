@@ -256,7 +256,7 @@ impl Session {
             self.renderer
                 .world
                 .entity_mut(entity)
-                .insert(spec.dispersion);
+                .insert((spec.dispersion, spec.flare));
             self.renderer.set_active_lens(entity);
             self.renderer.world.despawn(self.lens);
             self.lens = entity;
@@ -267,6 +267,7 @@ impl Session {
             set_if_changed(&mut self.renderer, self.lens, focus);
             set_if_changed(&mut self.renderer, self.lens, aperture);
             set_if_changed(&mut self.renderer, self.lens, spec.dispersion);
+            set_if_changed(&mut self.renderer, self.lens, spec.flare);
         }
         // The diaphragm and the film movements are the session's, whichever lens is on.
         self.renderer.set_diaphragm(self.lens, diaphragm);
@@ -436,6 +437,13 @@ impl Session {
                 }),
             ),
             ("wavelengths", json!(spec.wavelengths)),
+            (
+                "flare",
+                json!(match spec.flare {
+                    crate::lens::elements::Flare::On => "on",
+                    crate::lens::elements::Flare::Off => "off",
+                }),
+            ),
             (
                 "focus_mode",
                 json!(match options.focus_mode {

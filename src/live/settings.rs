@@ -16,7 +16,7 @@ pub type SpecParser = Arc<dyn Fn(&[String]) -> Result<JobSpec, String> + Send + 
 
 /// Options a live session changes without reloading the scene or rebuilding its BVH, by their
 /// names in the API (`realcam render`'s long options without dashes, `-` as `_`).
-pub const LIVE_OPTIONS: [&str; 22] = [
+pub const LIVE_OPTIONS: [&str; 23] = [
     "lens",
     "focus_distance",
     "film_distance",
@@ -33,6 +33,7 @@ pub const LIVE_OPTIONS: [&str; 22] = [
     "dispersion",
     "wavelengths",
     "coating",
+    "flare",
     "width",
     "height",
     "spp",
@@ -54,12 +55,13 @@ const WHOLE: [&str; 7] = [
 /// Settings that take two numbers (`[x, y]` in JSON, `X,Y` on the command line).
 const PAIRS: [&str; 2] = ["shift", "tilt"];
 /// Settings that take words.
-const WORDS: [&str; 5] = [
+const WORDS: [&str; 6] = [
     "lens",
     "focus_mode",
     "pupil_sampling",
     "dispersion",
     "coating",
+    "flare",
 ];
 /// Pairs of settings of which one replaces the other.
 const EITHER: [(&str, &str); 2] = [

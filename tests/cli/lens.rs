@@ -406,3 +406,80 @@ fn transmission_and_t_number_follow_fresnel_and_the_airy_formula() {
         "{stderr}"
     );
 }
+
+/// `ghosts` in `realcam lens --json`: with bare glass, every pair of the surfaces where the
+/// index changes (C(10, 2) = 45 for dgauss.50mm), each as strong as the product of the two
+/// surfaces' Fresnel reflectances computed here, and focused where a paraxial y–nu trace of its
+/// unfolded path (written here: a reflection turns the index's sign, n'u' = nu − yc(n' − n) at
+/// every surface) brings a ray from a distant point on the axis; none with `--coating ideal`.
+#[test]
+fn ghosts_are_the_pairs_of_reflecting_surfaces_with_their_strength_and_paraxial_focus() {
+    let report = |coating: &str| {
+        let (code, stdout, stderr) = realcam(
+            &["lens", "dgauss.50mm", "--coating", coating, "--json"],
+            None,
+        );
+        assert_eq!(code, 0, "{stderr}");
+        serde_json::from_str::<serde_json::Value>(&stdout).unwrap()
+    };
+    let v = report("none");
+    let surfaces = v["surfaces"].as_array().unwrap();
+    let field = |k: usize, name: &str| surfaces[k][name].as_f64().unwrap();
+    let count = surfaces.len();
+    let after: Vec<f64> = (0..count).map(|k| field(k, "index")).collect();
+    let before = |k: usize| if k == 0 { 1.0 } else { after[k - 1] };
+    let fresnel = |k: usize| ((after[k] - before(k)) / (after[k] + before(k))).powi(2);
+    let reflecting: Vec<usize> = (0..count).filter(|&k| fresnel(k) > 0.0).collect();
+    assert_eq!(reflecting.len(), 10);
+    let ghosts = v["ghosts"].as_array().unwrap();
+    assert_eq!(ghosts.len(), 45);
+    let film_z = field(count - 1, "z_mm") + v["film_distance_mm"].as_f64().unwrap();
+    for ghost in ghosts {
+        let pair: Vec<usize> = ghost["surfaces"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|s| s.as_u64().unwrap() as usize)
+            .collect();
+        let (a, b) = (pair[0], pair[1]);
+        assert!(a < b && reflecting.contains(&a) && reflecting.contains(&b));
+        let strength = ghost["strength"].as_f64().unwrap();
+        let expected = fresnel(a) * fresnel(b);
+        assert!(
+            (strength - expected).abs() < 1e-9 * expected.max(1e-6),
+            "{pair:?}"
+        );
+
+        // From the scene: 0 … b, reflect, b−1 … a, reflect, a+1 … the last surface.
+        let mut path: Vec<(usize, bool)> = (0..b).map(|k| (k, false)).collect();
+        path.push((b, true));
+        path.extend((a + 1..b).rev().map(|k| (k, false)));
+        path.push((a, true));
+        path.extend((a + 1..count).map(|k| (k, false)));
+        let (mut y, mut u, mut n) = (1e-3, 0.0f64, 1.0f64);
+        let mut z = field(0, "z_mm");
+        for (k, reflect) in path {
+            let z_k = field(k, "z_mm");
+            y += u * (z_k - z);
+            z = z_k;
+            let next = if reflect {
+                -n
+            } else if n > 0.0 {
+                after[k]
+            } else {
+                -before(k)
+            };
+            let c = field(k, "curvature_per_mm");
+            u = (n * u - y * c * (next - n)) / next;
+            n = next;
+        }
+        let crossing = z - y / u;
+        let focus = ghost["focus_from_film_mm"].as_f64().unwrap();
+        let paraxial = crossing - film_z;
+        assert!(
+            (focus - paraxial).abs() < 1e-3 + 1e-4 * paraxial.abs(),
+            "{pair:?}: {focus} vs paraxial {paraxial}"
+        );
+    }
+    assert!(report("ideal")["ghosts"].as_array().unwrap().is_empty());
+}

@@ -8,7 +8,7 @@ use realcam::film::Image;
 use realcam::lens::Prescription;
 use realcam::lens::aperture::ApertureSetting;
 use realcam::lens::coating::{Coating, CoatingModel};
-use realcam::lens::elements::{CoatingChoice, Dispersion, FocusSetting};
+use realcam::lens::elements::{CoatingChoice, Dispersion, Flare, FocusSetting};
 use realcam::lens::focus::FocusMode;
 use realcam::lens::io::bundled::load_lens;
 use realcam::lens::pupil::PupilSampling;
@@ -68,7 +68,11 @@ fn render(
         mode: FocusMode::Paraxial,
     };
     let lens = renderer.add_lens(prescription, focus, aperture);
-    renderer.world.entity_mut(lens).insert(dispersion);
+    // The ghosts' light aside (the ghost estimator has its own tests): the losses alone.
+    renderer
+        .world
+        .entity_mut(lens)
+        .insert((dispersion, Flare::Off));
     renderer.set_coating_choice(lens, choice);
     renderer.set_active_lens(lens);
     renderer.render(8, |_, _| true).unwrap()

@@ -66,6 +66,13 @@ struct LensConstants {
     // its wavelengths per surface; 0: a lossless lens.
     reflectance_offset: u32,
     reflectance_wavelengths: u32,
+    // Where the surfaces' own indices (n after each, front to back) start in lens_tables.
+    indices_offset: u32,
+    // Where the ghost pairs start in lens_tables (per pair: the running probability, a, b),
+    // and how many (0: no ghost samples).
+    ghost_offset: u32,
+    ghost_pairs: u32,
+    pad0: u32,
 }
 
 // One surface in the order a camera ray meets it (film to scene): trace_batch's
@@ -125,6 +132,8 @@ const LENS_F32_MAX: f32 = 3.40282347e38;
 const LENS_F32_EPSILON: f32 = 1.1920929e-7;
 // Mixed into a pixel's pupil key for its wavelength pattern (camera.rs WAVELENGTH_KEY).
 const LENS_WAVELENGTH_KEY: u32 = 0x57415645u;
+// camera.rs's GHOST_KEY.
+const LENS_GHOST_KEY: u32 = 0x47485354u;
 const LENS_FRAC_PI_4: f32 = 0.7853981633974483;
 const LENS_PI: f32 = 3.141592653589793;
 
@@ -268,6 +277,24 @@ fn lens_hit_polynomial(s: LensSurface, ray: LensRay) -> LensHit {
 // Moves a live ray onto surface `s` and refracts it with index ratio `eta` (refract.rs
 // refract_at); a ray that misses, leaves the clear aperture, is totally reflected or turns
 // back is blocked and keeps its state.
+// The unit normal of surface `s` at (hx, hy, hz), facing the scene at the vertex (a far hit
+// sits slightly off the surface; normalising makes that a tilt, not a scale).
+fn lens_normal(s: LensSurface, hx: f32, hy: f32, hz: f32) -> vec3f {
+    var n: vec3f;
+    if s.shape == LENS_SPHERE {
+        n = vec3f(s.curvature * hx, s.curvature * hy, s.curvature * (hz - s.vertex_z) - 1.0);
+    } else if s.shape == LENS_CONIC {
+        n = vec3f(s.curvature * hx, s.curvature * hy,
+                  s.conic_factor * s.curvature * (hz - s.vertex_z) - 1.0);
+    } else {
+        let sag = lens_sag_and_slope(s, hx * hx + hy * hy);
+        let two_slope = sag.slope + sag.slope;
+        n = vec3f(two_slope * hx, two_slope * hy, -1.0);
+    }
+    let inv_length = 1.0 / sqrt(n.x * n.x + n.y * n.y + n.z * n.z);
+    return vec3f(n.x * inv_length, n.y * inv_length, n.z * inv_length);
+}
+
 // Returns the ray's cosine in the less dense of the two media (the reflectance table's angle
 // coordinate: refract.rs's Crossing::cosine).
 fn lens_refract(s: LensSurface, ray: ptr<function, LensRay>, eta: f32) -> f32 {
@@ -286,21 +313,7 @@ fn lens_refract(s: LensSurface, ray: ptr<function, LensRay>, eta: f32) -> f32 {
     let hy = p.y + t * v.y;
     let hz = p.z + t * v.z;
     let inside = hx * hx + hy * hy <= s.semi_aperture_sq;
-    // The normal facing the scene at the vertex, normalised (a far hit sits slightly off the
-    // surface; normalising makes that a tilt, not a scale).
-    var n: vec3f;
-    if s.shape == LENS_SPHERE {
-        n = vec3f(s.curvature * hx, s.curvature * hy, s.curvature * (hz - s.vertex_z) - 1.0);
-    } else if s.shape == LENS_CONIC {
-        n = vec3f(s.curvature * hx, s.curvature * hy,
-                  s.conic_factor * s.curvature * (hz - s.vertex_z) - 1.0);
-    } else {
-        let sag = lens_sag_and_slope(s, hx * hx + hy * hy);
-        let two_slope = sag.slope + sag.slope;
-        n = vec3f(two_slope * hx, two_slope * hy, -1.0);
-    }
-    let inv_length = 1.0 / sqrt(n.x * n.x + n.y * n.y + n.z * n.z);
-    n = vec3f(n.x * inv_length, n.y * inv_length, n.z * inv_length);
+    let n = lens_normal(s, hx, hy, hz);
     let cos_raw = -(v.x * n.x + v.y * n.y + v.z * n.z);
     let flip = select(1.0, -1.0, cos_raw < 0.0);
     let cos_i = cos_raw * flip;
@@ -545,10 +558,16 @@ struct CameraWavelengths {
 // `film` (depth mm behind the rear-vertex plane) through rear-plane point `rear`; 0 where it
 // never draws that point.
 fn lens_drawn_weight(film: vec2f, depth: f32, rear: vec2f) -> f32 {
+    return lens_drawn_weight_over(film, depth, rear, lens_constants.pupil_sampling == 1u);
+}
+
+// lens_drawn_weight for a sampler drawing over the rear element (`rear_element`) or within
+// the exit pupil's bounds.
+fn lens_drawn_weight_over(film: vec2f, depth: f32, rear: vec2f, rear_element: bool) -> f32 {
     let x = film.x;
     let y = film.y;
     var area = 0.0;
-    if lens_constants.pupil_sampling == 1u {
+    if rear_element {
         let radius = lens_constants.rear_radius;
         let reach = radius * (1.0 + 1e-5);
         if rear.x * rear.x + rear.y * rear.y <= reach * reach {
@@ -705,6 +724,163 @@ fn lens_companions(ray: LensRay, pixel: vec2i, wave_u: f32, hero_weight: f32,
     return select(0.0, 1.0, valid[0]);
 }
 
+// The index before and after front-to-back surface `surface`: at table position (cell,
+// fraction) in a spectral render, else the lens's own.
+fn lens_indices(surface: u32, cell: u32, fraction: f32) -> vec2f {
+    if lens_constants.spectral != 0u {
+        var before = 1.0;
+        if surface != 0u {
+            before = lens_index_after(surface - 1u, cell, fraction);
+        }
+        return vec2f(before, lens_index_after(surface, cell, fraction));
+    }
+    var before = 1.0;
+    if surface != 0u {
+        before = lens_tables[lens_constants.indices_offset + surface - 1u];
+    }
+    return vec2f(before, lens_tables[lens_constants.indices_offset + surface]);
+}
+
+// One step of a ghost path (ghost.rs trace_ghost) at front-to-back surface `surface`:
+// refracting through it, or with `reflect` reflecting off it; returns the fraction of the light
+// it passes (the ray's `alive` turns false where the path ends).
+fn lens_ghost_step(surface: u32, ray: ptr<function, LensRay>, reflect: bool, cell: u32,
+                   fraction: f32, loss_cell: u32, loss_fraction: f32) -> f32 {
+    let count = lens_constants.surface_count;
+    // The scene-to-film copy: its geometry is the surface's whichever way the ray goes.
+    let s = lens_surfaces[count + surface];
+    var found: LensHit;
+    if s.shape == LENS_SPHERE {
+        found = lens_hit_sphere(s, *ray);
+    } else if s.shape == LENS_CONIC {
+        found = lens_hit_conic(s, *ray);
+    } else {
+        found = lens_hit_polynomial(s, *ray);
+    }
+    let p = (*ray).origin;
+    let d = (*ray).direction;
+    let h = vec3f(p.x + found.t * d.x, p.y + found.t * d.y, p.z + found.t * d.z);
+    if !found.hit || h.x * h.x + h.y * h.y > s.semi_aperture_sq {
+        (*ray).alive = false;
+        return 0.0;
+    }
+    var passed = 1.0;
+    let clip_step = lens_constants.clip_step;
+    if clip_step != 0xffffffffu && surface == count - 1u - clip_step {
+        (*ray).origin = h;
+        passed = lens_clip(ray);
+        if !(*ray).alive {
+            return 0.0;
+        }
+    }
+    let n = lens_normal(s, h.x, h.y, h.z);
+    let toward_film = d.z > 0.0;
+    let indices = lens_indices(surface, cell, fraction);
+    var n_in = indices.y;
+    var n_out = indices.x;
+    if toward_film {
+        n_in = indices.x;
+        n_out = indices.y;
+    }
+    let along = d.x * n.x + d.y * n.y + d.z * n.z;
+    let cos_in = abs(along);
+    let eta = n_in / n_out;
+    let sin2_out = eta * eta * (1.0 - cos_in * cos_in);
+    let total = sin2_out > 1.0;
+    var r = 1.0;
+    if !total {
+        var cosine = cos_in;
+        if n_in > n_out {
+            cosine = sqrt(1.0 - sin2_out);
+        }
+        r = lens_reflectance(surface, cosine, loss_cell, loss_fraction);
+    }
+    var direction: vec3f;
+    var keeps: f32;
+    if reflect {
+        direction = d - (along + along) * n;
+        keeps = r;
+    } else {
+        if total {
+            (*ray).alive = false;
+            return 0.0;
+        }
+        // trace::refract: the normal against the ray, Snell's law in vector form.
+        var m = n;
+        var cos_i = -along;
+        if cos_i < 0.0 {
+            m = -n;
+            cos_i = -cos_i;
+        }
+        let cos_t = sqrt(1.0 - sin2_out);
+        direction = normalize(eta * d + (eta * cos_i - cos_t) * m);
+        keeps = 1.0 - r;
+    }
+    if (direction.z > 0.0) != (toward_film != reflect) {
+        (*ray).alive = false;
+        return 0.0;
+    }
+    (*ray).origin = h;
+    (*ray).direction = direction;
+    return passed * keeps;
+}
+
+// A ghost sample (ghost.rs): the film-side ray `ray` along the ghost path of the pair chosen by
+// `u`, at wavelength `nm`; returns the path's transmission over the pair's probability (0 where
+// it ends inside the lens).
+fn lens_ghost(ray: ptr<function, LensRay>, u: f32, nm: f32) -> f32 {
+    // Ghosts::choose: the first pair whose running probability exceeds u.
+    let pairs = lens_constants.ghost_pairs;
+    let o = lens_constants.ghost_offset;
+    var k = 0u;
+    while k + 1u < pairs && lens_tables[o + 3u * k] <= u {
+        k++;
+    }
+    var below = 0.0;
+    if k > 0u {
+        below = lens_tables[o + 3u * (k - 1u)];
+    }
+    let probability = lens_tables[o + 3u * k] - below;
+    let a = u32(lens_tables[o + 3u * k + 1u]);
+    let b = u32(lens_tables[o + 3u * k + 2u]);
+    // The indices' and the reflectances' table positions (as lens_trace_toward finds them).
+    let last = lens_constants.dispersion_len - 1u;
+    let x = clamp(nm - lens_constants.dispersion_lambda_min, 0.0, f32(last));
+    let cell = min(u32(x), last - 1u);
+    let fraction = x - f32(cell);
+    var loss_nm = FRAUNHOFER_D_NM;
+    if lens_constants.spectral != 0u {
+        loss_nm = nm;
+    }
+    let loss_last = max(lens_constants.reflectance_wavelengths, 2u) - 1u;
+    let loss_x = clamp((loss_nm - lens_constants.dispersion_lambda_min) / REFLECTANCE_STEP_NM,
+                       0.0, f32(loss_last));
+    let loss_cell = min(u32(loss_x), loss_last - 1u);
+    let loss_fraction = loss_x - f32(loss_cell);
+    // film → n−1 … a+1 → (a) → a+1 … b−1 → (b) → b−1 … 0 → scene (ghost_steps).
+    let count = lens_constants.surface_count;
+    var passed = 1.0;
+    for (var i = count; i > a + 1u && (*ray).alive; i--) {
+        passed *= lens_ghost_step(i - 1u, ray, false, cell, fraction, loss_cell, loss_fraction);
+    }
+    if (*ray).alive {
+        passed *= lens_ghost_step(a, ray, true, cell, fraction, loss_cell, loss_fraction);
+    }
+    for (var i = a + 1u; i < b && (*ray).alive; i++) {
+        passed *= lens_ghost_step(i, ray, false, cell, fraction, loss_cell, loss_fraction);
+    }
+    if (*ray).alive {
+        passed *= lens_ghost_step(b, ray, true, cell, fraction, loss_cell, loss_fraction);
+    }
+    for (var i = b; i > 0u && (*ray).alive; i--) {
+        passed *= lens_ghost_step(i - 1u, ray, false, cell, fraction, loss_cell, loss_fraction);
+    }
+    if !(*ray).alive {
+        return 0.0;
+    }
+    return passed / probability;
+}
+
 // Sample `sample` of pixel (pixel_x, pixel_y) through the lens, in the world frame (metres).
 fn camera_ray(pixel_x: u32, pixel_y: u32, sample: u32) -> CameraRay {
     var unused: CameraWavelengths;
@@ -758,6 +934,36 @@ fn camera_ray_with(pixel_x: u32, pixel_y: u32, sample: u32,
         depth = lens_constants.film_distance + dz;
     }
 
+    // One sample in GHOST_EVERY follows a ghost path (LensCamera::trace_ghost_samples): from
+    // a point drawn over the rear element, with that drawing's camera weight.
+    if lens_constants.ghost_pairs != 0u
+        && (sample + hash32(film_key ^ LENS_GHOST_KEY)) % GHOST_EVERY == 0u {
+        let disk = lens_concentric_disk(pupil_u, pupil_v);
+        let rear = vec2f(disk.x * lens_constants.rear_radius, disk.y * lens_constants.rear_radius);
+        let drawn = lens_drawn_weight_over(vec2f(ox, oy), depth, rear, true);
+        let rear_z = lens_constants.film_z - lens_constants.film_distance;
+        let to = vec3f(rear.x - ox, rear.y - oy, rear_z - oz);
+        let length = sqrt(to.x * to.x + to.y * to.y + to.z * to.z);
+        var ray = LensRay(vec3f(ox, oy, oz), to / length, true);
+        let u = f32(hash32(hash32(film_key ^ LENS_GHOST_KEY) ^ sample) >> 8u)
+            * (1.0 / 16777216.0);
+        let passed = lens_ghost(&ray, u, nm);
+        var weight = 0.0;
+        if ray.alive && drawn > 0.0 {
+            weight = drawn * passed * f32(GHOST_EVERY);
+        }
+        // A ghost sample carries its hero wavelength alone.
+        (*wavelengths).nm[0] = nm;
+        (*wavelengths).factor[0] = wavelength_weight;
+        for (var k = 1u; k < MAX_WAVELENGTHS; k++) {
+            (*wavelengths).nm[k] = nm;
+            (*wavelengths).factor[k] = 0.0;
+            (*wavelengths).offset[k] = vec2i(0, 0);
+        }
+        (*wavelengths).offset[0] = vec2i(0, 0);
+        return lens_to_world(ray, weight, nm, wavelength_weight, pixel);
+    }
+
     // The pupil point and the camera weight (PupilSampler::sample_with / sample_tilted).
     let chosen = lens_pupil_point(ox, oy, pupil_u, pupil_v);
     let to = vec3f(chosen.point.x - ox, chosen.point.y - oy, -depth);
@@ -789,8 +995,18 @@ fn camera_ray_with(pixel_x: u32, pixel_y: u32, sample: u32,
     } else if lens_constants.has_mask != 0u || lens_constants.reflectance_wavelengths != 0u {
         weight *= transmission;
     }
+    if lens_constants.ghost_pairs != 0u {
+        // The ordinary samples are the other GHOST_EVERY − 1 in GHOST_EVERY.
+        weight *= f32(GHOST_EVERY) / f32(GHOST_EVERY - 1u);
+    }
+    return lens_to_world(ray, weight, nm, wavelength_weight, pixel);
+}
 
-    // Lens frame (mm) -> camera frame (m) -> world (LensCamera::move_to_world).
+// A lens-frame camera ray in the world frame (LensCamera::move_to_world): lens frame (mm) ->
+// camera frame (m) -> world; zero weight when it was blocked.
+fn lens_to_world(ray: LensRay, lens_weight: f32, nm: f32, wavelength_weight: f32,
+                 pixel: u32) -> CameraRay {
+    var weight = lens_weight;
     let m = lens_constants.world_from_camera;
     let p = vec3f(ray.origin.x * 1e-3, ray.origin.y * 1e-3, (ray.origin.z - lens_constants.film_z) * 1e-3);
     let v = ray.direction;

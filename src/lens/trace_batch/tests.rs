@@ -418,7 +418,7 @@ fn surface_losses_agree_with_the_exact_reference_in_every_kernel() {
                         }
                     })
                     .collect();
-                let mut input = batch_of(&rays);
+                let input = batch_of(&rays);
                 let wavelengths = Wavelengths { table, nm: &nm };
                 let run = |kernel, isa| {
                     let mut batch = input.clone();

@@ -7,7 +7,9 @@ use bevy_ecs::world::Mut;
 use super::run_on_tiles;
 use crate::film::FilmTile;
 use crate::lens::camera::{CameraPose, FilmGeometry, LensCamera};
-use crate::lens::elements::{ActiveLens, Dispersion, FilmFormat, FilmPlacement, LensGeometry};
+use crate::lens::elements::{
+    ActiveLens, Dispersion, FilmFormat, FilmPlacement, Flare, LensGeometry,
+};
 use crate::lens::movements::FilmMovements;
 use crate::lens::pupil::ExitPupil;
 use crate::pipeline::Stage;
@@ -25,6 +27,7 @@ pub(crate) type ActiveLensQuery<'w, 's> = Query<
         &'static ExitPupil,
         Option<&'static Dispersion>,
         Option<&'static FilmMovements>,
+        Option<&'static Flare>,
     ),
     With<ActiveLens>,
 >;
@@ -37,12 +40,13 @@ pub(crate) type LensChanged = Or<(
     Changed<ExitPupil>,
     Changed<Dispersion>,
     Changed<FilmMovements>,
+    Changed<Flare>,
     Added<ActiveLens>,
 )>;
 
 /// The camera the active lens makes for this render's film and pose.
 pub(crate) fn lens_camera<'a>(
-    (geometry, _placement, pupil, dispersion, movements): ActiveLensItem<'a>,
+    (geometry, _placement, pupil, dispersion, movements, flare): ActiveLensItem<'a>,
     pose: &CameraPose,
     settings: &RenderSettings,
     film_format: &FilmFormat,
@@ -59,6 +63,11 @@ pub(crate) fn lens_camera<'a>(
             .as_deref()
             .filter(|_| Dispersion::is_spectral(dispersion, geometry)),
         wavelengths: settings.wavelengths,
+        ghosts: geometry
+            .system
+            .ghosts
+            .as_deref()
+            .filter(|_| flare != Some(&Flare::Off)),
     }
 }
 
@@ -69,6 +78,7 @@ pub(crate) type ActiveLensItem<'a> = (
     &'a ExitPupil,
     Option<&'a Dispersion>,
     Option<&'a FilmMovements>,
+    Option<&'a Flare>,
 );
 
 /// GenerateRays: camera rays of this pass for every tile, traced through the active lens.
