@@ -18,49 +18,83 @@ pub(super) struct Losses<'a> {
 }
 
 impl Losses<'_> {
-    /// Each lane's table wavelength for the block starting at ray `start` (`n` lanes).
+    /// Each lane's table wavelength for the block starting at ray `start` (`n` lanes): the
+    /// offset of its wavelength's row within a surface's entries, and the fraction toward the
+    /// next row.
     #[inline(always)]
-    pub fn block_positions(&self, start: usize, n: usize, positions: &mut [(usize, f32)]) {
+    pub fn block_positions(&self, start: usize, n: usize, scratch: &mut LossScratch) {
+        let row = SurfaceReflectance::cosine_entries();
+        let mut put = |lane: usize, (w, t): (usize, f32)| {
+            scratch.row[lane] = (w * row) as u32;
+            scratch.fraction[lane] = t;
+        };
         match self.nm {
             Some(nm) => {
-                for (position, &nm) in positions[..n].iter_mut().zip(&nm[start..start + n]) {
-                    *position = self.table.position(nm);
+                for (lane, &nm) in nm[start..start + n].iter().enumerate() {
+                    put(lane, self.table.position(nm));
                 }
             }
-            None => positions[..n].fill(self.table.position(FRAUNHOFER_D_NM as f32)),
+            None => {
+                let at = self.table.position(FRAUNHOFER_D_NM as f32);
+                for lane in 0..n {
+                    put(lane, at);
+                }
+            }
         }
+        scratch.transmission[..n].fill(1.0);
     }
 
-    /// Multiplies the `transmission` of every lane that `survived` step `step` by 1 − R at its
-    /// `cosine` and table wavelength.
+    /// Multiplies the transmission of every lane that `survived` step `step` by 1 − R at its
+    /// `cosine` and table wavelength ([`SurfaceReflectance::lookup`], written out over the
+    /// block so that the gathers vectorise).
     #[inline(always)]
     pub fn attenuate(
         &self,
         step: usize,
         cosines: &[f32],
-        survived: impl Fn(usize) -> bool,
-        positions: &[(usize, f32)],
-        transmission: &mut [f32],
+        survived: &[bool],
+        scratch: &mut LossScratch,
     ) {
-        let surface = self.surface_of_step[step];
-        for (lane, t) in transmission.iter_mut().enumerate() {
-            if survived(lane) {
-                *t *= 1.0 - self.table.lookup(surface, cosines[lane], positions[lane]);
-            }
+        let n = survived.len();
+        let entries = self.table.entries();
+        let row = SurfaceReflectance::cosine_entries();
+        let steps = (row - 1) as f32;
+        let surface = self.surface_of_step[step] * self.table.wavelength_entries() * row;
+        // The last entry a lookup reads: the next row's next cosine.
+        assert!(
+            surface + scratch.row[..n].iter().copied().max().unwrap_or(0) as usize + 2 * row
+                <= entries.len()
+        );
+        let (cosines, rows, fractions) = (&cosines[..n], &scratch.row[..n], &scratch.fraction[..n]);
+        let transmission = &mut scratch.transmission[..n];
+        for lane in 0..n {
+            let x = (cosines[lane] * steps).clamp(0.0, steps);
+            let c = (x as u32).min(row as u32 - 2);
+            let u = x - c as f32;
+            let i = surface + (rows[lane] + c) as usize;
+            // SAFETY: c + 1 < row and the row after the lane's is in the table (asserted).
+            let at = |k: usize| unsafe { *entries.get_unchecked(k) };
+            let r0 = at(i) + u * (at(i + 1) - at(i));
+            let r1 = at(i + row) + u * (at(i + row + 1) - at(i + row));
+            let r = r0 + fractions[lane] * (r1 - r0);
+            transmission[lane] *= if survived[lane] { 1.0 - r } else { 1.0 };
         }
     }
 }
 
-/// A block's scratch for the losses: every lane's table wavelength and its transmission so far.
+/// A block's scratch for the losses: every lane's table wavelength (its row's offset and the
+/// fraction toward the next) and its transmission so far.
 pub(super) struct LossScratch {
-    pub positions: [(usize, f32); BLOCK],
+    pub row: [u32; BLOCK],
+    pub fraction: [f32; BLOCK],
     pub transmission: [f32; BLOCK],
 }
 
 impl LossScratch {
     pub fn new() -> Self {
         LossScratch {
-            positions: [(0, 0.0); BLOCK],
+            row: [0; BLOCK],
+            fraction: [0.0; BLOCK],
             transmission: [1.0; BLOCK],
         }
     }

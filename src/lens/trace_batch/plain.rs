@@ -31,8 +31,7 @@ pub(super) fn trace_plain(plan: &Plan, rays: &mut RayBatch) {
         let n = end - start;
         let spectral = plan.block_etas(start, n, &mut etas);
         if let Some(losses) = &plan.losses {
-            losses.block_positions(start, n, &mut scratch.positions);
-            scratch.transmission[..n].fill(1.0);
+            losses.block_positions(start, n, &mut scratch);
         }
         let ox = &mut rays.ox[start..end];
         let oy = &mut rays.oy[start..end];
@@ -79,13 +78,7 @@ pub(super) fn trace_plain(plan: &Plan, rays: &mut RayBatch) {
                 clip_plain(clip, ox, oy, alive, throughput);
             }
             if let Some(losses) = &plan.losses {
-                losses.attenuate(
-                    step,
-                    &cosines[..n],
-                    |lane| alive[lane],
-                    &scratch.positions[..n],
-                    &mut scratch.transmission[..n],
-                );
+                losses.attenuate(step, &cosines[..n], alive, &mut scratch);
             }
             if !any_alive {
                 break;

@@ -42,6 +42,7 @@ pub(super) fn trace_simd(full_plan: &Plan, rays: &mut RayBatch) {
         alive: [f32x8::ZERO; CHUNKS],
     };
     let mut cosines = [0.0f32; BLOCK];
+    let mut survived = [false; BLOCK];
     let mut scratch = LossScratch::new();
     let len = rays.len();
     let mut start = 0;
@@ -52,8 +53,7 @@ pub(super) fn trace_simd(full_plan: &Plan, rays: &mut RayBatch) {
         load_block(rays, start, end, &mut block);
         let n = end - start;
         if let Some(losses) = &full_plan.losses {
-            losses.block_positions(start, n, &mut scratch.positions);
-            scratch.transmission[..n].fill(1.0);
+            losses.block_positions(start, n, &mut scratch);
         }
         let mut transmission = None;
         for (step, surface) in plan.iter().enumerate() {
@@ -69,14 +69,13 @@ pub(super) fn trace_simd(full_plan: &Plan, rays: &mut RayBatch) {
                 transmission = simd_clip(clip, &mut block, chunks);
             }
             if let Some(losses) = &full_plan.losses {
-                let alive = &block.alive;
-                losses.attenuate(
-                    step,
-                    &cosines[..n],
-                    |lane| alive[lane / LANES].to_bitmask() & (1 << (lane % LANES)) != 0,
-                    &scratch.positions[..n],
-                    &mut scratch.transmission[..n],
-                );
+                for (c, alive) in block.alive[..chunks].iter().enumerate() {
+                    let mask = alive.to_bitmask();
+                    for lane in 0..LANES {
+                        survived[c * LANES + lane] = mask & (1 << lane) != 0;
+                    }
+                }
+                losses.attenuate(step, &cosines[..n], &survived[..n], &mut scratch);
             }
             if !any_alive {
                 break;
