@@ -18,7 +18,7 @@ use crate::film::output::{
     check_not_terminal, check_writable, is_stdout, same_file, shown, write_output,
 };
 use crate::glass::FRAUNHOFER_D_NM;
-use crate::lens::diagram::draw_diagram;
+use crate::lens::diagram::draw_diagram_with;
 use crate::lens::io::bundled::read_lens;
 use crate::lens::io::export::export_text;
 use crate::lens::pupil_view::PupilViews;
@@ -44,6 +44,10 @@ pub struct LensArgs {
     /// Draw the lens cross-section with traced ray fans to this SVG file.
     #[arg(long, value_name = "FILE.svg")]
     pub diagram: Option<PathBuf>,
+    /// With `--diagram`: draw the on-axis bundle along the ghost path of surfaces A and B too
+    /// (0-based, as `ghosts` lists them in `--json`).
+    #[arg(long, value_name = "A,B", requires = "diagram", allow_hyphen_values = true, value_parser = surface_pair)]
+    pub ghost: Option<[usize; 2]>,
     /// Report first-order data (and trace `--trace` rays without their own) at this wavelength,
     /// nm; the film stays where the focus puts it at d.
     #[arg(
@@ -124,11 +128,33 @@ pub fn run(args: &LensArgs) -> anyhow::Result<ExitCode> {
         write_pupil_view(&report, path, format)?;
     }
     if let Some(path) = &args.diagram {
-        let svg = draw_diagram(
+        if let Some([a, b]) = args.ghost {
+            let ghosts = report.geometry.system.ghosts.as_deref();
+            let pairs = ghosts.map_or(&[][..], |g| &g.pairs[..]);
+            if pairs.is_empty() {
+                bail!(
+                    "--ghost {a},{b}: {} has no ghosts with {} coating: no surface reflects",
+                    report.prescription.name,
+                    report.coating_name()
+                );
+            }
+            if !pairs.contains(&[a.min(b), a.max(b)]) {
+                let reflecting: std::collections::BTreeSet<usize> =
+                    pairs.iter().flatten().copied().collect();
+                bail!(
+                    "--ghost {a},{b}: not a ghost of {} with {} coating (two different surfaces among those that reflect: {:?})",
+                    report.prescription.name,
+                    report.coating_name(),
+                    reflecting
+                );
+            }
+        }
+        let svg = draw_diagram_with(
             &report.geometry.system,
             report.film_distance,
             report.film_diagonal,
             &report.prescription.name,
+            args.ghost.map(|[a, b]| [a.min(b), a.max(b)]),
         );
         crate::film::output::write_atomically(path, |w| {
             w.extend_from_slice(svg.as_bytes());
@@ -244,4 +270,20 @@ pub fn trace_json(report: &LensReport, input: &str) -> anyhow::Result<Value> {
         })
         .collect::<anyhow::Result<Vec<Value>>>()?;
     Ok(Value::Array(results))
+}
+
+/// `--ghost A,B`: two surface numbers.
+fn surface_pair(text: &str) -> Result<[usize; 2], String> {
+    let numbers: Vec<&str> = text.split(',').collect();
+    match numbers[..] {
+        [a, b] => match (a.trim().parse(), b.trim().parse()) {
+            (Ok(a), Ok(b)) => Ok([a, b]),
+            _ => Err(format!(
+                "'{text}': two surface numbers A,B (0-based), e.g. 2,5"
+            )),
+        },
+        _ => Err(format!(
+            "'{text}': two surface numbers A,B (0-based), e.g. 2,5"
+        )),
+    }
 }

@@ -33,7 +33,7 @@ pub enum Command {
     /// Render a glTF scene (default: the built-in "dof dragons" scene) through a lens.
     Render(Box<render::RenderArgs>),
     /// Inspect a lens: first-order data, focus, pupils; trace rays; draw its cross-section.
-    Lens(lens::LensArgs),
+    Lens(Box<lens::LensArgs>),
     /// List the lenses built into realcam: focal length, f-number, field of view on 35 mm,
     /// elements, aspheres, year and source.
     Lenses(lenses::LensesArgs),

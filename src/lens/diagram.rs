@@ -6,6 +6,7 @@ use std::fmt::Write;
 
 use super::field::field_edge;
 use super::first_order::FirstOrder;
+use super::ghost::{ghost_steps, trace_ghost_path};
 use super::prescription::sag;
 use super::system::LensSystem;
 use super::trace::{Ray, Travel, normalize, trace_path};
@@ -43,6 +44,18 @@ pub fn draw_diagram(
     film_diagonal: f64,
     title: &str,
 ) -> String {
+    draw_diagram_with(system, film_distance, film_diagonal, title, None)
+}
+
+/// [`draw_diagram`], with `ghost` the on-axis bundle along the ghost path of that pair of
+/// surfaces too (see [`super::ghost`]).
+pub fn draw_diagram_with(
+    system: &LensSystem,
+    film_distance: f64,
+    film_diagonal: f64,
+    title: &str,
+    ghost: Option<[usize; 2]>,
+) -> String {
     let s = &system.f64s;
     let film_z = system.rear_z() + film_distance;
     let max_aperture = system
@@ -60,12 +73,14 @@ pub fn draw_diagram(
         scale,
         height: 2.0 * y_max * scale + 60.0,
     };
+    // A ghost's caption takes a line of its own.
+    let caption = if ghost.is_some() { 16.0 } else { 0.0 };
     let mut svg = String::new();
     let _ = writeln!(
         svg,
         r#"<svg xmlns="http://www.w3.org/2000/svg" width="{WIDTH}" height="{:.0}" viewBox="0 0 {WIDTH} {:.0}" font-family="sans-serif" font-size="13">"#,
-        view.height + 20.0,
-        view.height + 20.0
+        view.height + 20.0 + caption,
+        view.height + 20.0 + caption
     );
     let _ = writeln!(svg, r#"<rect width="100%" height="100%" fill="white"/>"#);
     let _ = writeln!(svg, r#"<text x="20" y="18">{}</text>"#, escape(title));
@@ -174,8 +189,56 @@ pub fn draw_diagram(
             field.to_degrees()
         );
     }
+    if let Some(pair) = ghost {
+        draw_ghost(&mut svg, &view, system, film_z, z0, pair);
+        let _ = writeln!(
+            svg,
+            r##"<text x="20" y="{:.0}" fill="#8e44ad">purple: the on-axis bundle reflected by surfaces {} and {} (a ghost)</text>"##,
+            view.height + 26.0,
+            pair[0],
+            pair[1]
+        );
+    }
     svg.push_str("</svg>\n");
     svg
+}
+
+/// The on-axis bundle from infinity along the ghost path of `pair`, to the film plane.
+fn draw_ghost(
+    svg: &mut String,
+    view: &View,
+    system: &LensSystem,
+    film_z: f64,
+    z0: f64,
+    pair: [usize; 2],
+) {
+    let s = &system.f64s;
+    let steps = ghost_steps(s.len(), pair, true);
+    let index = |i: usize| (s.index_front[i], s.index_back[i]);
+    let pupil_radius = FirstOrder::compute(system).map_or(system.front_semi_aperture(), |fo| {
+        fo.entrance_pupil.diameter_mm / 2.0
+    });
+    for k in 0..RAYS_PER_FAN {
+        let height = pupil_radius * (2.0 * k as f64 / (RAYS_PER_FAN - 1) as f64 - 1.0);
+        let mut path = vec![(z0, height)];
+        let ray = Ray {
+            origin: [0.0, height, z0],
+            direction: [0.0, 0.0, 1.0],
+        };
+        let result = trace_ghost_path(
+            s,
+            ray,
+            &steps,
+            index,
+            |_, _| 0.0,
+            |p| path.push((p[2], p[1])),
+        );
+        if let Some((out, _)) = result {
+            let t = (film_z - out.origin[2]) / out.direction[2];
+            path.push((film_z, out.origin[1] + t * out.direction[1]));
+        }
+        draw_ray(svg, view, &path, "#8e44ad", result.is_some());
+    }
 }
 
 /// The on-axis fan and the fan from the film point at the field edge (`edge`: its height and

@@ -160,10 +160,23 @@ pub fn ghost_steps(
 /// critical angle, or a surface missed ends it.
 pub fn trace_ghost<T: Float>(
     surfaces: &SurfaceArrays<T>,
+    ray: Ray<T>,
+    steps: &[(usize, Step)],
+    index: impl Fn(usize) -> (T, T),
+    reflectance: impl Fn(usize, T) -> T,
+) -> Option<(Ray<T>, T)> {
+    trace_ghost_path(surfaces, ray, steps, index, reflectance, |_| {})
+}
+
+/// As [`trace_ghost`], calling `visit(point)` at every surface the path reaches (for drawing
+/// it).
+pub fn trace_ghost_path<T: Float>(
+    surfaces: &SurfaceArrays<T>,
     mut ray: Ray<T>,
     steps: &[(usize, Step)],
     index: impl Fn(usize) -> (T, T),
     reflectance: impl Fn(usize, T) -> T,
+    mut visit: impl FnMut([T; 3]),
 ) -> Option<(Ray<T>, T)> {
     let to_f64 = |v: T| v.to_f64().unwrap_or(f64::NAN);
     let (zero, one) = (T::zero(), T::one());
@@ -173,6 +186,7 @@ pub fn trace_ghost<T: Float>(
         let vertex_z = surfaces.vertex_z[i];
         let t = profile.intersect(vertex_z, &ray)?;
         let p = add(ray.origin, scale(ray.direction, t));
+        visit(p);
         if p[0] * p[0] + p[1] * p[1] > surfaces.semi_aperture_sq[i] {
             return None;
         }

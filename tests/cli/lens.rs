@@ -483,3 +483,55 @@ fn ghosts_are_the_pairs_of_reflecting_surfaces_with_their_strength_and_paraxial_
     }
     assert!(report("ideal")["ghosts"].as_array().unwrap().is_empty());
 }
+
+/// `--diagram --ghost A,B` draws the on-axis bundle along that ghost path (in purple, most of
+/// it passing for the ghost that focuses on the film); a pair that is not a ghost, a lossless
+/// lens and a malformed pair are refused in words.
+#[test]
+fn the_diagram_draws_a_ghost_path_and_refuses_pairs_that_are_not_ghosts() {
+    let dir = tempfile::tempdir().unwrap();
+    let svg = dir.path().join("ghost.svg");
+    let svg_arg = svg.to_str().unwrap();
+    let (code, _, stderr) = realcam(
+        &[
+            "lens",
+            "dgauss.50mm",
+            "--diagram",
+            svg_arg,
+            "--ghost",
+            "9,1",
+        ],
+        None,
+    );
+    assert_eq!(code, 0, "{stderr}");
+    let text = std::fs::read_to_string(&svg).unwrap();
+    let ghost_rays: Vec<&str> = text
+        .lines()
+        .filter(|l| l.starts_with("<polyline") && l.contains("#8e44ad"))
+        .collect();
+    assert!(ghost_rays.len() >= 5, "{ghost_rays:?}");
+    let passing = ghost_rays
+        .iter()
+        .filter(|l| !l.contains("dasharray"))
+        .count();
+    assert!(passing * 2 > ghost_rays.len(), "{ghost_rays:?}");
+    assert!(text.contains("reflected by surfaces 1 and 9"));
+    for (args, expected) in [
+        (
+            vec!["--ghost", "1,5"],
+            "--ghost 1,5: not a ghost of dgauss.50mm",
+        ),
+        (
+            vec!["--ghost", "1,9", "--coating", "ideal"],
+            "has no ghosts with ideal coating",
+        ),
+        (vec!["--ghost", "1"], "two surface numbers A,B"),
+        (vec!["--ghost", "-1,2"], "two surface numbers A,B"),
+    ] {
+        let mut full = vec!["lens", "dgauss.50mm", "--diagram", svg_arg];
+        full.extend(args);
+        let (code, _, stderr) = realcam(&full, None);
+        assert_ne!(code, 0);
+        assert!(stderr.contains(expected), "{stderr}");
+    }
+}
