@@ -34,6 +34,10 @@ pub struct SurfaceReflectance {
     /// Per surface (front to back), per table wavelength, per cosine entry: R of unpolarised
     /// light.
     entries: Vec<f32>,
+    /// The same entries as bilinear cells, per surface, per wavelength interval, per cosine
+    /// interval: the four corners [R(c, w), R(c + 1, w), R(c, w + 1), R(c + 1, w + 1)], so
+    /// that the batch kernels' look-up is one 16-byte load.
+    cells: Vec<[f32; 4]>,
     wavelengths: usize,
 }
 
@@ -70,9 +74,25 @@ impl SurfaceReflectance {
                 }
             }
         }
+        let row = COSINE_STEPS + 1;
+        let cells = (0..coatings.len())
+            .flat_map(|surface| {
+                (0..wavelengths - 1).map(move |w| (surface * wavelengths + w) * row)
+            })
+            .flat_map(|start| (0..COSINE_STEPS).map(move |c| start + c))
+            .map(|i| {
+                [
+                    entries[i],
+                    entries[i + 1],
+                    entries[i + row],
+                    entries[i + row + 1],
+                ]
+            })
+            .collect();
         Some(Arc::new(SurfaceReflectance {
             coatings,
             entries,
+            cells,
             wavelengths,
         }))
     }
@@ -125,6 +145,12 @@ impl SurfaceReflectance {
     /// Table wavelengths per surface ([`WAVELENGTH_STEP_NM`] apart from `LAMBDA_MIN`).
     pub fn wavelength_entries(&self) -> usize {
         self.wavelengths
+    }
+
+    /// The bilinear cells (see the field's docs): per surface `(wavelength_entries() − 1) ·
+    /// COSINE_STEPS` of them.
+    pub fn cells(&self) -> &[[f32; 4]] {
+        &self.cells
     }
 
     /// Every entry, surface-major, then wavelength, then cosine: what the GPU uploads.

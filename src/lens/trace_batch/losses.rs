@@ -5,7 +5,7 @@
 
 use super::BLOCK;
 use crate::glass::FRAUNHOFER_D_NM;
-use crate::lens::reflectance::SurfaceReflectance;
+use crate::lens::reflectance::{COSINE_STEPS, SurfaceReflectance};
 
 /// What the kernels need to apply the losses.
 pub(super) struct Losses<'a> {
@@ -19,13 +19,12 @@ pub(super) struct Losses<'a> {
 
 impl Losses<'_> {
     /// Each lane's table wavelength for the block starting at ray `start` (`n` lanes): the
-    /// offset of its wavelength's row within a surface's entries, and the fraction toward the
-    /// next row.
+    /// offset of its wavelength interval's cells within a surface's, and the fraction toward
+    /// the next wavelength.
     #[inline(always)]
     pub fn block_positions(&self, start: usize, n: usize, scratch: &mut LossScratch) {
-        let row = SurfaceReflectance::cosine_entries();
         let mut put = |lane: usize, (w, t): (usize, f32)| {
-            scratch.row[lane] = (w * row) as u32;
+            scratch.row[lane] = (w * COSINE_STEPS) as u32;
             scratch.fraction[lane] = t;
         };
         match self.nm {
@@ -45,8 +44,8 @@ impl Losses<'_> {
     }
 
     /// Multiplies the transmission of every lane that `survived` step `step` by 1 − R at its
-    /// `cosine` and table wavelength ([`SurfaceReflectance::lookup`], written out over the
-    /// block so that the gathers vectorise).
+    /// `cosine` and table wavelength: [`SurfaceReflectance::lookup`] (the same arithmetic on
+    /// the same entries), one cell load per lane.
     #[inline(always)]
     pub fn attenuate(
         &self,
@@ -56,26 +55,19 @@ impl Losses<'_> {
         scratch: &mut LossScratch,
     ) {
         let n = survived.len();
-        let entries = self.table.entries();
-        let row = SurfaceReflectance::cosine_entries();
-        let steps = (row - 1) as f32;
-        let surface = self.surface_of_step[step] * self.table.wavelength_entries() * row;
-        // The last entry a lookup reads: the next row's next cosine.
-        assert!(
-            surface + scratch.row[..n].iter().copied().max().unwrap_or(0) as usize + 2 * row
-                <= entries.len()
-        );
+        let intervals = self.table.wavelength_entries() - 1;
+        let surface = self.surface_of_step[step] * intervals * COSINE_STEPS;
+        let cells = &self.table.cells()[surface..surface + intervals * COSINE_STEPS];
+        let steps = COSINE_STEPS as f32;
         let (cosines, rows, fractions) = (&cosines[..n], &scratch.row[..n], &scratch.fraction[..n]);
         let transmission = &mut scratch.transmission[..n];
         for lane in 0..n {
             let x = (cosines[lane] * steps).clamp(0.0, steps);
-            let c = (x as u32).min(row as u32 - 2);
+            let c = (x as u32).min(COSINE_STEPS as u32 - 1);
             let u = x - c as f32;
-            let i = surface + (rows[lane] + c) as usize;
-            // SAFETY: c + 1 < row and the row after the lane's is in the table (asserted).
-            let at = |k: usize| unsafe { *entries.get_unchecked(k) };
-            let r0 = at(i) + u * (at(i + 1) - at(i));
-            let r1 = at(i + row) + u * (at(i + row + 1) - at(i + row));
+            let [a, b, c0, d] = cells[(rows[lane] + c) as usize];
+            let r0 = a + u * (b - a);
+            let r1 = c0 + u * (d - c0);
             let r = r0 + fractions[lane] * (r1 - r0);
             transmission[lane] *= if survived[lane] { 1.0 - r } else { 1.0 };
         }
