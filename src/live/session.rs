@@ -479,6 +479,16 @@ impl Session {
                 "f_number": geometry.f_number(),
                 "film_distance_mm": film.film_distance,
                 "stop_diameter_mm": geometry.system.stop_diameter(),
+                // A zoom lens's positions (1-based, as `zoom_position` takes them), each with
+                // its published focal length where the file gives one.
+                "zoom_positions": self
+                    .prescription
+                    .spacings
+                    .zoom
+                    .iter()
+                    .enumerate()
+                    .map(|(i, p)| json!({ "position": i + 1, "focal_length_mm": p.focal_length_mm }))
+                    .collect::<Vec<_>>(),
             }),
             _ => Value::Null,
         }

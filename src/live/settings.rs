@@ -16,7 +16,7 @@ pub type SpecParser = Arc<dyn Fn(&[String]) -> Result<JobSpec, String> + Send + 
 
 /// Options a live session changes without reloading the scene or rebuilding its BVH, by their
 /// names in the API (`realcam render`'s long options without dashes, `-` as `_`).
-pub const LIVE_OPTIONS: [&str; 23] = [
+pub const LIVE_OPTIONS: [&str; 24] = [
     "lens",
     "focus_distance",
     "film_distance",
@@ -34,6 +34,7 @@ pub const LIVE_OPTIONS: [&str; 23] = [
     "wavelengths",
     "coating",
     "flare",
+    "zoom_position",
     "width",
     "height",
     "spp",
@@ -43,7 +44,7 @@ pub const LIVE_OPTIONS: [&str; 23] = [
 ];
 
 /// Settings that take whole numbers (the rest of the numeric ones take any number).
-const WHOLE: [&str; 7] = [
+const WHOLE: [&str; 8] = [
     "width",
     "height",
     "spp",
@@ -51,6 +52,7 @@ const WHOLE: [&str; 7] = [
     "max_depth",
     "blades",
     "wavelengths",
+    "zoom_position",
 ];
 /// Settings that take two numbers (`[x, y]` in JSON, `X,Y` on the command line).
 const PAIRS: [&str; 2] = ["shift", "tilt"];

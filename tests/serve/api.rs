@@ -806,3 +806,79 @@ fn the_live_lab_renders_on_the_gpu_and_swaps_lenses_there() {
         "{stats}"
     );
 }
+
+/// The zoom ring: a zoom lens's positions are in the state's `lens_info` (with their published
+/// focal lengths), `zoom_position` moves its groups live (the focal length follows, nothing is
+/// reloaded), a position the lens lacks is refused with 400 in words, and `null` returns to the
+/// lens as written.
+#[test]
+fn the_zoom_ring_moves_a_zoom_lens_live() {
+    let dir = tempfile::tempdir().unwrap();
+    let lens = dir.path().join("test-zoom.toml");
+    std::fs::write(
+        &lens,
+        r#"
+name = "test-zoom"
+surfaces = [
+  { radius = 100.0, thickness = 3.0, glass = { n = 1.5 }, diameter = 30.0 },
+  { radius = -100.0, thickness = 20.0, diameter = 30.0 },
+  { stop = true, thickness = 2.0, diameter = 10.0 },
+  { radius = 50.0, thickness = 4.0, glass = { n = 1.5 }, diameter = 24.0 },
+  { radius = -50.0, thickness = 40.0, diameter = 24.0 },
+]
+
+[zoom]
+surfaces = [2]
+positions = [
+  { focal_length_mm = 39, gaps = [20.0] },
+  { focal_length_mm = 56, gaps = [50.0] },
+  { focal_length_mm = 100, gaps = [90.0] },
+]
+"#,
+    )
+    .unwrap();
+    let mut args = SMALL.to_vec();
+    let path = lens.to_str().unwrap().to_string();
+    args.extend(["--lens", &path]);
+    let served = Served::start_in(dir, &args);
+    let first = served.wait_until_done();
+    let positions = first["lens_info"]["zoom_positions"]
+        .as_array()
+        .unwrap()
+        .clone();
+    assert_eq!(positions.len(), 3, "{first}");
+    assert_eq!(positions[2]["position"], 3);
+    assert_eq!(positions[2]["focal_length_mm"], 100.0);
+    let written = first["lens_info"]["focal_length_mm"].as_f64().unwrap();
+    let mut focal_lengths = Vec::new();
+    for position in 1..=3 {
+        let reply = served.post("/api/settings", &json!({ "zoom_position": position }));
+        assert_eq!(reply.status, 200, "{}", reply.json());
+        let state = served.wait_until_done();
+        assert_eq!(state["zoom_position"], position);
+        focal_lengths.push(state["lens_info"]["focal_length_mm"].as_f64().unwrap());
+    }
+    // The groups part, the focal length grows (39, 56, 100 mm nominal).
+    assert!(
+        focal_lengths.windows(2).all(|w| w[1] > w[0] * 1.2),
+        "{focal_lengths:?}"
+    );
+    assert!(
+        (focal_lengths[0] - written).abs() < 1e-9,
+        "{focal_lengths:?} vs {written}"
+    );
+    let refused = served.post("/api/settings", &json!({ "zoom_position": 4 }));
+    assert_eq!(refused.status, 400);
+    assert!(
+        refused.json().to_string().contains("zoom position 4"),
+        "{}",
+        refused.json()
+    );
+    let back = served.post("/api/settings", &json!({ "zoom_position": null }));
+    assert_eq!(back.status, 200);
+    let state = served.wait_until_done();
+    assert_eq!(state["zoom_position"], Value::Null);
+    assert!((state["lens_info"]["focal_length_mm"].as_f64().unwrap() - written).abs() < 1e-9);
+    let stats = served.get("/api/stats").json();
+    assert_eq!(stats["scene_loads"].as_u64(), Some(1), "{stats}");
+}

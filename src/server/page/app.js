@@ -50,6 +50,16 @@ function show(newState, reset = false) {
   }
   if (state.wavelengths) $("wavelengths").value = String(state.wavelengths);
   $("coating").value = state.coating ?? "";
+  // The zoom ring: one entry per position of a zoom lens, hidden for a fixed one.
+  const positions = (state.lens_info && state.lens_info.zoom_positions) || [];
+  $("zoom_ring").hidden = positions.length === 0;
+  const ring = $("zoom_position");
+  const entries = [["", "as written"]].concat(positions.map((p) =>
+    [String(p.position), p.focal_length_mm ? `${p.position}: ${readable(p.focal_length_mm)} mm` : String(p.position)]));
+  if (ring.options.length !== entries.length || [...ring.options].some((o, i) => o.value !== entries[i][0] || o.text !== entries[i][1])) {
+    ring.replaceChildren(...entries.map(([value, text]) => new Option(text, value)));
+  }
+  ring.value = state.zoom_position ? String(state.zoom_position) : "";
   if (reset || document.activeElement !== $("spp_target_input")) $("spp_target_input").value = state.spp;
   if ($("lens").value !== state.lens) $("lens").value = state.lens;
   $("spp").textContent = state.spp_done;
@@ -169,6 +179,7 @@ async function start() {
   }
   $("wavelengths").addEventListener("change", (e) => change("/api/settings", { wavelengths: Number(e.target.value) }));
   $("coating").addEventListener("change", (e) => change("/api/settings", { coating: e.target.value || null }));
+  $("zoom_position").addEventListener("change", (e) => change("/api/settings", { zoom_position: e.target.value ? Number(e.target.value) : null }));
   $("spp_target_input").addEventListener("change", (e) => change("/api/settings", { spp: Number(e.target.value) }));
   $("image").addEventListener("click", (e) => {
     const box = e.target.getBoundingClientRect();
