@@ -25,24 +25,7 @@ use realcam::lens::settings::LensSettings;
 use serde_json::json;
 
 /// The test zoom as realcam's `.toml`; the stop opens 10, 9 and 8 mm at the three positions.
-const ZOOM_TOML: &str = r#"
-name = "test-zoom"
-surfaces = [
-  { radius = 100.0, thickness = 3.0, glass = { n = 1.5 }, diameter = 30.0 },
-  { radius = -100.0, thickness = 20.0, diameter = 30.0 },
-  { stop = true, thickness = 2.0, diameter = 10.0 },
-  { radius = 50.0, thickness = 4.0, glass = { n = 1.5 }, diameter = 24.0 },
-  { radius = -50.0, thickness = 40.0, diameter = 24.0 },
-]
-
-[zoom]
-surfaces = [2]
-positions = [
-  { focal_length_mm = 39, gaps = [20.0], stop_diameter = 10.0 },
-  { focal_length_mm = 56, gaps = [50.0], stop_diameter = 9.0 },
-  { focal_length_mm = 100, gaps = [90.0], stop_diameter = 8.0 },
-]
-"#;
+use crate::support::TWO_GROUP_ZOOM as ZOOM_TOML;
 
 /// The gap after the first group at each position, mm.
 const GAPS: [f64; 3] = [20.0, 50.0, 90.0];

@@ -815,28 +815,7 @@ fn the_live_lab_renders_on_the_gpu_and_swaps_lenses_there() {
 fn the_zoom_ring_moves_a_zoom_lens_live() {
     let dir = tempfile::tempdir().unwrap();
     let lens = dir.path().join("test-zoom.toml");
-    std::fs::write(
-        &lens,
-        r#"
-name = "test-zoom"
-surfaces = [
-  { radius = 100.0, thickness = 3.0, glass = { n = 1.5 }, diameter = 30.0 },
-  { radius = -100.0, thickness = 20.0, diameter = 30.0 },
-  { stop = true, thickness = 2.0, diameter = 10.0 },
-  { radius = 50.0, thickness = 4.0, glass = { n = 1.5 }, diameter = 24.0 },
-  { radius = -50.0, thickness = 40.0, diameter = 24.0 },
-]
-
-[zoom]
-surfaces = [2]
-positions = [
-  { focal_length_mm = 39, gaps = [20.0] },
-  { focal_length_mm = 56, gaps = [50.0] },
-  { focal_length_mm = 100, gaps = [90.0] },
-]
-"#,
-    )
-    .unwrap();
+    std::fs::write(&lens, crate::support::TWO_GROUP_ZOOM).unwrap();
     let mut args = SMALL.to_vec();
     let path = lens.to_str().unwrap().to_string();
     args.extend(["--lens", &path]);

@@ -5,6 +5,8 @@
 
 #[path = "../live_server/mod.rs"]
 mod live_server;
+#[path = "../support/mod.rs"]
+mod support;
 
 mod api;
 mod browser;

@@ -260,3 +260,24 @@ pub fn matte(gltf: &mut GltfBuilder, rgb: [f32; 3]) -> usize {
 pub fn emitter(gltf: &mut GltfBuilder, nits: f32) -> usize {
     gltf.material(json!({"pbrMetallicRoughness": {"baseColorFactor": [0.0, 0.0, 0.0, 1.0]}, "emissiveFactor": [1.0, 1.0, 1.0], "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": nits}}, "extensionsUsed": []}))
 }
+
+/// A two-group zoom lens (`.toml`): the gap after surface 2 is 20, 50 or 90 mm at its three
+/// positions (published focal lengths 39, 56 and 100 mm; stop 10, 9, 8 mm).
+pub const TWO_GROUP_ZOOM: &str = r#"
+name = "test-zoom"
+surfaces = [
+  { radius = 100.0, thickness = 3.0, glass = { n = 1.5 }, diameter = 30.0 },
+  { radius = -100.0, thickness = 20.0, diameter = 30.0 },
+  { stop = true, thickness = 2.0, diameter = 10.0 },
+  { radius = 50.0, thickness = 4.0, glass = { n = 1.5 }, diameter = 24.0 },
+  { radius = -50.0, thickness = 40.0, diameter = 24.0 },
+]
+
+[zoom]
+surfaces = [2]
+positions = [
+  { focal_length_mm = 39, gaps = [20.0], stop_diameter = 10.0 },
+  { focal_length_mm = 56, gaps = [50.0], stop_diameter = 9.0 },
+  { focal_length_mm = 100, gaps = [90.0], stop_diameter = 8.0 },
+]
+"#;

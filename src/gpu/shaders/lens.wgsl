@@ -407,6 +407,34 @@ fn lens_index_after(surface: u32, i: u32, t: f32) -> f32 {
     return a + t * (lens_tables[row + i + 1u] - a);
 }
 
+// An entry of a table over wavelength and the fraction toward the next.
+struct LensTablePosition {
+    cell: u32,
+    fraction: f32,
+}
+
+// DispersionTable::position: where `nm` falls in the dispersion table (1 nm entries).
+fn lens_dispersion_position(nm: f32) -> LensTablePosition {
+    let last = lens_constants.dispersion_len - 1u;
+    let x = clamp(nm - lens_constants.dispersion_lambda_min, 0.0, f32(last));
+    let cell = min(u32(x), last - 1u);
+    return LensTablePosition(cell, x - f32(cell));
+}
+
+// SurfaceReflectance::position: where a ray at `nm` falls in the reflectance table (rays at
+// the lens's own indices lose what they would at the d line).
+fn lens_loss_position(nm: f32) -> LensTablePosition {
+    var loss_nm = FRAUNHOFER_D_NM;
+    if lens_constants.spectral != 0u {
+        loss_nm = nm;
+    }
+    let last = max(lens_constants.reflectance_wavelengths, 2u) - 1u;
+    let x = clamp((loss_nm - lens_constants.dispersion_lambda_min) / REFLECTANCE_STEP_NM,
+                  0.0, f32(last));
+    let cell = min(u32(x), last - 1u);
+    return LensTablePosition(cell, x - f32(cell));
+}
+
 // Traces a film-side ray through every surface to the scene side (trace_batch with
 // Travel::FilmToScene; at the ray's own wavelength `nm` in a spectral render), returning the
 // diaphragm mask's transmission along it.
@@ -419,28 +447,18 @@ fn lens_trace(ray: ptr<function, LensRay>, nm: f32) -> f32 {
 fn lens_trace_toward(ray: ptr<function, LensRay>, nm: f32, backward: bool) -> f32 {
     let count = lens_constants.surface_count;
     var transmission = 1.0;
-    // DispersionTable::position: entry i and the fraction toward i + 1.
-    let last = lens_constants.dispersion_len - 1u;
-    let x = clamp(nm - lens_constants.dispersion_lambda_min, 0.0, f32(last));
-    let cell = min(u32(x), last - 1u);
-    let fraction = x - f32(cell);
+    let index_at = lens_dispersion_position(nm);
+    let cell = index_at.cell;
+    let fraction = index_at.fraction;
     var carried = 1.0;
     if lens_constants.spectral != 0u && !backward {
         carried = lens_index_after(count - 1u, cell, fraction);
     }
-    // The surfaces' losses at the ray's wavelength (at the d line for rays at the lens's own
-    // indices): SurfaceReflectance::position.
     let losses = lens_constants.reflectance_wavelengths != 0u;
     var loss = 1.0;
-    var loss_nm = FRAUNHOFER_D_NM;
-    if lens_constants.spectral != 0u {
-        loss_nm = nm;
-    }
-    let loss_last = max(lens_constants.reflectance_wavelengths, 2u) - 1u;
-    let loss_x = clamp((loss_nm - lens_constants.dispersion_lambda_min) / REFLECTANCE_STEP_NM,
-                       0.0, f32(loss_last));
-    let loss_cell = min(u32(loss_x), loss_last - 1u);
-    let loss_fraction = loss_x - f32(loss_cell);
+    let loss_at = lens_loss_position(nm);
+    let loss_cell = loss_at.cell;
+    let loss_fraction = loss_at.fraction;
     var clip_step = lens_constants.clip_step;
     if backward && clip_step != 0xffffffffu {
         clip_step = count - 1u - clip_step;
@@ -843,20 +861,12 @@ fn lens_ghost(ray: ptr<function, LensRay>, u: f32, nm: f32) -> f32 {
     let probability = lens_tables[o + 3u * k] - below;
     let a = u32(lens_tables[o + 3u * k + 1u]);
     let b = u32(lens_tables[o + 3u * k + 2u]);
-    // The indices' and the reflectances' table positions (as lens_trace_toward finds them).
-    let last = lens_constants.dispersion_len - 1u;
-    let x = clamp(nm - lens_constants.dispersion_lambda_min, 0.0, f32(last));
-    let cell = min(u32(x), last - 1u);
-    let fraction = x - f32(cell);
-    var loss_nm = FRAUNHOFER_D_NM;
-    if lens_constants.spectral != 0u {
-        loss_nm = nm;
-    }
-    let loss_last = max(lens_constants.reflectance_wavelengths, 2u) - 1u;
-    let loss_x = clamp((loss_nm - lens_constants.dispersion_lambda_min) / REFLECTANCE_STEP_NM,
-                       0.0, f32(loss_last));
-    let loss_cell = min(u32(loss_x), loss_last - 1u);
-    let loss_fraction = loss_x - f32(loss_cell);
+    let index_at = lens_dispersion_position(nm);
+    let loss_at = lens_loss_position(nm);
+    let cell = index_at.cell;
+    let fraction = index_at.fraction;
+    let loss_cell = loss_at.cell;
+    let loss_fraction = loss_at.fraction;
     // film → n−1 … a+1 → (a) → a+1 … b−1 → (b) → b−1 … 0 → scene (ghost_steps).
     let count = lens_constants.surface_count;
     var passed = 1.0;
