@@ -19,7 +19,7 @@ use bytemuck::{Pod, Zeroable};
 use super::compute::{Access, Bindings, storage_buffer, uniform_buffer};
 use super::context::{GpuContext, GpuUnavailable};
 use crate::glass::FRAUNHOFER_D_NM;
-use crate::lens::camera::{FilmTilt, LensCamera, camera_seeds};
+use crate::lens::camera::{FilmTilt, GHOST_BLOCK, LensCamera, camera_seeds};
 use crate::lens::ghost::GHOST_EVERY;
 use crate::lens::hero_wavelengths::{BACKWARD_START_MM, MAX_WAVELENGTHS, SPLAT_RADIUS};
 use crate::lens::pupil::{PupilSampling, SEGMENTS};
@@ -58,7 +58,11 @@ pub fn shared_constants() -> String {
          const REFLECTANCE_COSINE_STEPS: u32 = {COSINE_STEPS}u;\n\
          const REFLECTANCE_STEP_NM: f32 = {step:?};\n\
          const FRAUNHOFER_D_NM: f32 = {d:?};\n\
-         const GHOST_EVERY: u32 = {GHOST_EVERY}u;\n",
+         const GHOST_EVERY: u32 = {GHOST_EVERY}u;\n\
+         const GHOST_BLOCK_X: u32 = {bx}u;\n\
+         const GHOST_BLOCK_Y: u32 = {by}u;\n",
+        bx = GHOST_BLOCK[0],
+        by = GHOST_BLOCK[1],
         step = WAVELENGTH_STEP_NM as f32,
         d = FRAUNHOFER_D_NM as f32,
     )

@@ -290,14 +290,30 @@ const WAVELENGTH_KEY: u32 = 0x5741_5645; // "WAVE"
 /// Mixed into a pixel's film key for its ghost samples: which ones, and their pairs.
 const GHOST_KEY: u32 = 0x4748_5354; // "GHST"
 
-/// Whether sample `sample` of the pixel with film key `film_key` is a ghost sample: every
-/// [`GHOST_EVERY`]th, from an offset the key picks (so each sample is one with probability
-/// 1/[`GHOST_EVERY`]).
+/// Whether sample `sample` of a pixel in the ghost block with key `block_key`
+/// ([`ghost_block_key`]) is a ghost sample: every [`GHOST_EVERY`]th, from an offset the key
+/// picks (so each sample is one with probability 1/[`GHOST_EVERY`]).
 #[inline(always)]
-pub(crate) fn is_ghost_sample(film_key: u32, sample: u32) -> bool {
+pub(crate) fn is_ghost_sample(block_key: u32, sample: u32) -> bool {
     sample
-        .wrapping_add(hash32(film_key ^ GHOST_KEY))
+        .wrapping_add(hash32(block_key ^ GHOST_KEY))
         .is_multiple_of(GHOST_EVERY)
+}
+
+/// The pixels that take their ghost samples in the same passes: blocks of 8 × 4, a GPU
+/// warp's worth, so that its lanes all follow ghost paths or all ordinary ones (each waiting
+/// for the other's path would cost the slower of the two on every lane).
+pub(crate) const GHOST_BLOCK: [u32; 2] = [8, 4];
+
+/// The key of the ghost block of the pixel with key `pixel_key` (keys `key_width` to a row),
+/// mixed with the render's film seed.
+#[inline(always)]
+pub(crate) fn ghost_block_key(pixel_key: u32, key_width: u32, film_seed: u32) -> u32 {
+    let (x, y) = (pixel_key % key_width, pixel_key / key_width);
+    let block = (y / GHOST_BLOCK[1])
+        .wrapping_mul(0x1_0000)
+        .wrapping_add(x / GHOST_BLOCK[0]);
+    hash32(block ^ film_seed)
 }
 
 /// The uniform number choosing a ghost sample's pair.
@@ -491,14 +507,15 @@ impl LensCamera<'_> {
             return;
         }
         let (film_seed, _) = camera_seeds(seed);
+        let key_width = self.film.pixel_keys().width as u32;
         let n = s.pixel.len();
         s.ghost.resize(n, false);
         s.ghost_u.resize(n, 0.0);
         for i in 0..n {
-            let key = hash32(s.pixel[i] ^ film_seed);
-            let ghost = is_ghost_sample(key, sample);
+            let block = ghost_block_key(s.pixel[i], key_width, film_seed);
+            let ghost = is_ghost_sample(block, sample);
             s.ghost[i] = ghost;
-            s.ghost_u[i] = ghost_pair_u(key, sample);
+            s.ghost_u[i] = ghost_pair_u(hash32(s.pixel[i] ^ film_seed), sample);
             out.rays.alive[i] &= !ghost;
         }
     }

@@ -19,8 +19,9 @@
 //!
 //! # The estimator
 //!
-//! One camera sample in [`GHOST_EVERY`] (which ones: a random offset per pixel, so each sample
-//! is a ghost sample with probability 1/[`GHOST_EVERY`]) is a ghost sample; the others are the
+//! One camera sample in [`GHOST_EVERY`] (which ones: a random offset per block of 8 × 4 pixels,
+//! so each sample is a ghost sample with probability 1/[`GHOST_EVERY`] and a GPU warp's lanes
+//! take theirs together) is a ghost sample; the others are the
 //! ordinary camera samples, their weight divided by 1 − 1/[`GHOST_EVERY`]. A ghost sample draws
 //! its rear-plane point uniformly over the rear element (every ghost path crosses it, where an
 //! exit pupil's bounds would miss some), a pair with probability p ∝ its strength (R_a·R_b on the
@@ -389,10 +390,12 @@ mod tests {
     /// estimate the same integral; they agree within their noise.
     #[test]
     fn ghost_samples_agree_with_random_reflection_at_every_surface() {
-        use crate::lens::camera::{CameraRays, LensCamera, camera_seeds, is_ghost_sample};
+        use crate::lens::camera::{
+            CameraRays, LensCamera, camera_seeds, ghost_block_key, is_ghost_sample,
+        };
         use crate::lens::pupil::concentric_disk;
         use crate::lens::test_lens::{PLAIN, TestLens};
-        use crate::sampling::{Rng, hash32};
+        use crate::sampling::Rng;
 
         let lens = TestLens::new("dgauss.50mm", PLAIN);
         let bare = SurfaceReflectance::with_model(&lens.system.rows, |_| None, CoatingModel::None);
@@ -405,7 +408,8 @@ mod tests {
             ..lens.camera()
         };
         let (x, y, seed) = (7u32, 5u32, 11u64);
-        let key = hash32(lens.film.pixel_keys().key(x, y) ^ camera_seeds(seed).0);
+        let keys = lens.film.pixel_keys();
+        let key = ghost_block_key(keys.key(x, y), keys.width as u32, camera_seeds(seed).0);
         let samples = 1u32 << 17;
         let mut out = CameraRays::default();
         let (mut sum, mut sum_sq) = (0.0f64, 0.0f64);

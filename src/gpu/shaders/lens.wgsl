@@ -867,23 +867,29 @@ fn lens_ghost(ray: ptr<function, LensRay>, u: f32, nm: f32) -> f32 {
     let fraction = index_at.fraction;
     let loss_cell = loss_at.cell;
     let loss_fraction = loss_at.fraction;
-    // film → n−1 … a+1 → (a) → a+1 … b−1 → (b) → b−1 … 0 → scene (ghost_steps).
+    // film → n−1 … a+1 → (a) → a+1 … b−1 → (b) → b−1 … 0 → scene (ghost_steps), as one loop
+    // so the step is compiled once.
     let count = lens_constants.surface_count;
+    let first = count - 1u - a;
+    let between = b - a - 1u;
     var passed = 1.0;
-    for (var i = count; i > a + 1u && (*ray).alive; i--) {
-        passed *= lens_ghost_step(i - 1u, ray, false, cell, fraction, loss_cell, loss_fraction);
-    }
-    if (*ray).alive {
-        passed *= lens_ghost_step(a, ray, true, cell, fraction, loss_cell, loss_fraction);
-    }
-    for (var i = a + 1u; i < b && (*ray).alive; i++) {
-        passed *= lens_ghost_step(i, ray, false, cell, fraction, loss_cell, loss_fraction);
-    }
-    if (*ray).alive {
-        passed *= lens_ghost_step(b, ray, true, cell, fraction, loss_cell, loss_fraction);
-    }
-    for (var i = b; i > 0u && (*ray).alive; i--) {
-        passed *= lens_ghost_step(i - 1u, ray, false, cell, fraction, loss_cell, loss_fraction);
+    for (var k = 0u; k < count + 2u * (b - a) && (*ray).alive; k++) {
+        var surface: u32;
+        var reflect = false;
+        if k < first {
+            surface = count - 1u - k;
+        } else if k == first {
+            surface = a;
+            reflect = true;
+        } else if k < first + 1u + between {
+            surface = a + 1u + (k - first - 1u);
+        } else if k == first + 1u + between {
+            surface = b;
+            reflect = true;
+        } else {
+            surface = b - 1u - (k - first - 2u - between);
+        }
+        passed *= lens_ghost_step(surface, ray, reflect, cell, fraction, loss_cell, loss_fraction);
     }
     if !(*ray).alive {
         return 0.0;
@@ -946,8 +952,13 @@ fn camera_ray_with(pixel_x: u32, pixel_y: u32, sample: u32,
 
     // One sample in GHOST_EVERY follows a ghost path (LensCamera::trace_ghost_samples): from
     // a point drawn over the rear element, with that drawing's camera weight.
+    // The pixel's ghost block (camera.rs ghost_block_key): 8 × 4 pixels, a warp, decide
+    // together.
+    let block_x = (pixel % lens_constants.key_width) / GHOST_BLOCK_X;
+    let block_y = (pixel / lens_constants.key_width) / GHOST_BLOCK_Y;
+    let block_key = hash32((block_y * 65536u + block_x) ^ lens_constants.film_seed);
     if lens_constants.ghost_pairs != 0u
-        && (sample + hash32(film_key ^ LENS_GHOST_KEY)) % GHOST_EVERY == 0u {
+        && (sample + hash32(block_key ^ LENS_GHOST_KEY)) % GHOST_EVERY == 0u {
         let disk = lens_concentric_disk(pupil_u, pupil_v);
         let rear = vec2f(disk.x * lens_constants.rear_radius, disk.y * lens_constants.rear_radius);
         let drawn = lens_drawn_weight_over(vec2f(ox, oy), depth, rear, true);
