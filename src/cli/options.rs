@@ -79,6 +79,10 @@ pub struct LensOptions {
     /// [default: the lens as its surfaces are written].
     #[arg(long, value_name = "N", allow_hyphen_values = true, value_parser = whole_within::<usize>(1, MAX_ZOOM_POSITIONS))]
     pub zoom_position: Option<usize>,
+    /// A zoom lens at the position of this focal length, mm (one of its design's positions:
+    /// within 2 % of its paraxial focal length, or its published one).
+    #[arg(long = "zoom", value_name = "FOCAL_MM", allow_hyphen_values = true, conflicts_with = "zoom_position", value_parser = number::<f64>)]
+    pub zoom_focal_length: Option<f64>,
     /// Coat every surface so, whatever the lens file says: `none` (bare glass: Fresnel's
     /// losses), `single` (a quarter wave of MgF₂ at 550 nm on the air–glass surfaces, cemented
     /// ones bare), `multi` (a broadband three-layer stack, likewise) or `ideal` (a perfect
@@ -109,6 +113,7 @@ impl LensOptions {
             aperture_image,
             glass,
             zoom_position,
+            zoom_focal_length,
             coating,
         } = self.clone();
         LensSettings {
@@ -126,6 +131,7 @@ impl LensOptions {
             aperture_image,
             glasses: glass,
             zoom_position,
+            zoom_focal_length,
             coating,
         }
     }

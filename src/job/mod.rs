@@ -152,7 +152,7 @@ impl<'a> Job<'a> {
         };
         let lenses: Vec<RunLens> = prescriptions
             .into_iter()
-            .map(|prescription| {
+            .map(|prescription| -> anyhow::Result<RunLens> {
                 let (focus, aperture) = lens_defaults(
                     spec,
                     &placement,
@@ -171,17 +171,18 @@ impl<'a> Job<'a> {
                     lens.insert(FocusOnPixel { x, y });
                 }
                 renderer.set_diaphragm(entity, diaphragm.clone());
-                renderer.set_zoom_position(entity, spec.lens.zoom_setting());
+                let zoom = spec.lens.zoom_setting_for(&prescription)?;
+                renderer.set_zoom_position(entity, zoom);
                 renderer.set_coating_choice(entity, spec.lens.coating_choice());
-                RunLens {
+                Ok(RunLens {
                     film_diagonal: film_diagonal(&prescription),
                     prescription,
                     entity,
                     focus,
                     aperture,
-                }
+                })
             })
-            .collect();
+            .collect::<anyhow::Result<_>>()?;
 
         let width = spec
             .width

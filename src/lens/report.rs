@@ -127,7 +127,7 @@ impl LensReport {
             options.aperture(ApertureSetting::Full),
         );
         set_diaphragm(&mut world, entity, options.diaphragm()?);
-        set_zoom_position(&mut world, entity, options.zoom_setting());
+        set_zoom_position(&mut world, entity, options.zoom_setting_for(&prescription)?);
         set_coating_choice(&mut world, entity, options.coating_choice());
         activate_lens(&mut world, entity);
         let start = std::time::Instant::now();

@@ -12,12 +12,14 @@ use crate::lens::diaphragm::{ApertureMask, Blades, Diaphragm};
 use crate::lens::elements::CoatingChoice;
 use crate::lens::elements::DEFAULT_FILM_DIAGONAL_MM;
 use crate::lens::elements::FocusSetting;
+use crate::lens::first_order::FirstOrder;
 use crate::lens::focus::FocusMode;
 use crate::lens::io::{GlassSubstitute, ReadOptions};
 use crate::lens::pupil::PupilSampling;
 #[cfg(doc)]
 use crate::lens::spacing::ZoomSetting;
-use crate::lens::{LensFormat, Prescription};
+use crate::lens::spacing::rows_at;
+use crate::lens::{LensFormat, LensSystem, Prescription};
 
 /// Largest film distance accepted. Film distances far beyond the focal length focus near the
 /// front focal point at huge magnification; 100 m is beyond any real bellows, and keeps the
@@ -56,6 +58,9 @@ pub struct LensSettings {
     /// The zoom position of a zoom lens, 1-based as Zemax numbers its configurations
     /// (`--zoom-position`; `None`: the lens as its surfaces are written).
     pub zoom_position: Option<usize>,
+    /// The zoom position of a zoom lens by its focal length, mm (`--zoom`): the position whose
+    /// focal length this is.
+    pub zoom_focal_length: Option<f64>,
     /// The coating on every surface (`--coating`; `None`: as the lens file says, and the
     /// default model on the surfaces it says nothing of).
     pub coating: Option<CoatingModel>,
@@ -165,9 +170,53 @@ impl LensSettings {
             .transpose()
     }
 
-    /// The zoom position as the lens entity's [`ZoomSetting`] counts it (0-based).
-    pub fn zoom_setting(&self) -> Option<usize> {
-        self.zoom_position.map(|n| n.saturating_sub(1))
+    /// The zoom position of `lens` as its entity's [`ZoomSetting`] counts it (0-based):
+    /// `--zoom-position`, or the position whose focal
+    /// length `--zoom` names (within 2 % of the paraxial one, or its published figure); a
+    /// focal length between positions, or `--zoom` on a fixed lens, is refused in words.
+    pub fn zoom_setting_for(&self, lens: &Prescription) -> anyhow::Result<Option<usize>> {
+        let Some(mm) = self.zoom_focal_length else {
+            return Ok(self.zoom_position.map(|n| n.saturating_sub(1)));
+        };
+        let positions = &lens.spacings.zoom;
+        if positions.is_empty() {
+            anyhow::bail!(
+                "--zoom {mm} mm: {} has fixed spacings, no zoom positions",
+                lens.name
+            );
+        }
+        let focal_lengths: Vec<f64> = positions
+            .iter()
+            .map(|position| {
+                rows_at(&lens.rows, Some(position), None)
+                    .ok()
+                    .and_then(|rows| FirstOrder::compute(&LensSystem::new(&rows, None)).ok())
+                    .map_or(f64::NAN, |first_order| first_order.focal_length)
+            })
+            .collect();
+        let named = |k: usize| {
+            (focal_lengths[k] - mm).abs() <= 0.02 * mm
+                || positions[k]
+                    .focal_length_mm
+                    .is_some_and(|published| (published - mm).abs() <= 1e-9 * mm)
+        };
+        if let Some(k) = (0..positions.len()).filter(|&k| named(k)).min_by(|&a, &b| {
+            (focal_lengths[a] - mm)
+                .abs()
+                .total_cmp(&(focal_lengths[b] - mm).abs())
+        }) {
+            return Ok(Some(k));
+        }
+        let list: Vec<String> = focal_lengths
+            .iter()
+            .enumerate()
+            .map(|(k, f)| format!("{} at {f:.1} mm", k + 1))
+            .collect();
+        anyhow::bail!(
+            "--zoom {mm} mm: {} zooms through its design's positions only ({}); name one of those focal lengths, or --zoom-position N",
+            lens.name,
+            list.join(", ")
+        )
     }
 
     pub fn validate(&self) -> anyhow::Result<()> {
@@ -199,6 +248,7 @@ impl LensSettings {
         positive("aperture", self.aperture)?;
         positive("f-number", self.f_number)?;
         positive("film-diagonal", self.film_diagonal)?;
+        positive("zoom", self.zoom_focal_length)?;
         Ok(())
     }
 }

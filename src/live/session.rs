@@ -271,8 +271,11 @@ impl Session {
         }
         // The diaphragm and the film movements are the session's, whichever lens is on.
         self.renderer.set_diaphragm(self.lens, diaphragm);
-        self.renderer
-            .set_zoom_position(self.lens, spec.lens.zoom_setting());
+        let zoom = spec
+            .lens
+            .zoom_setting_for(&self.prescription)
+            .map_err(|e| format!("{e:#}"))?;
+        self.renderer.set_zoom_position(self.lens, zoom);
         self.renderer
             .set_coating_choice(self.lens, spec.lens.coating_choice());
         self.renderer.set_movements(self.lens, spec.movements());

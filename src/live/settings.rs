@@ -16,7 +16,7 @@ pub type SpecParser = Arc<dyn Fn(&[String]) -> Result<JobSpec, String> + Send + 
 
 /// Options a live session changes without reloading the scene or rebuilding its BVH, by their
 /// names in the API (`realcam render`'s long options without dashes, `-` as `_`).
-pub const LIVE_OPTIONS: [&str; 24] = [
+pub const LIVE_OPTIONS: [&str; 25] = [
     "lens",
     "focus_distance",
     "film_distance",
@@ -35,6 +35,7 @@ pub const LIVE_OPTIONS: [&str; 24] = [
     "coating",
     "flare",
     "zoom_position",
+    "zoom",
     "width",
     "height",
     "spp",
@@ -66,9 +67,10 @@ const WORDS: [&str; 6] = [
     "flare",
 ];
 /// Pairs of settings of which one replaces the other.
-const EITHER: [(&str, &str); 2] = [
+const EITHER: [(&str, &str); 3] = [
     ("focus_distance", "film_distance"),
     ("f_number", "aperture"),
+    ("zoom_position", "zoom"),
 ];
 /// Settings that only qualify another: removing it removes them.
 const QUALIFIERS: [(&str, [&str; 2]); 1] = [("blades", ["blade_rotation", "blade_curvature"])];

@@ -535,3 +535,55 @@ fn the_diagram_draws_a_ghost_path_and_refuses_pairs_that_are_not_ghosts() {
         assert!(stderr.contains(expected), "{stderr}");
     }
 }
+
+/// `--zoom FOCAL_MM`: the zoom position whose focal length that is (its paraxial one within
+/// 2 %, computed here by reading each position's `--zoom-position` report, or its published
+/// one), the same report and render as `--zoom-position N`; a focal length between positions,
+/// `--zoom` on a fixed lens, and both options at once are refused in words.
+#[test]
+fn zoom_by_focal_length_picks_the_position_of_that_focal_length() {
+    use support::cli::{ok, realcam as run, refused};
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("zoom.toml"), crate::support::TWO_GROUP_ZOOM).unwrap();
+    let json = |args: &[&str]| -> serde_json::Value {
+        let output = run(dir.path(), args);
+        ok(&output);
+        serde_json::from_slice(&output.stdout).unwrap()
+    };
+    for n in ["1", "2", "3"] {
+        let by_position = json(&["lens", "zoom.toml", "--json", "--zoom-position", n]);
+        let f = by_position["focal_length_mm"].as_f64().unwrap();
+        // A focal length 1 % off the paraxial one still names the position.
+        let named = format!("{}", f * 1.01);
+        let by_focal_length = json(&["lens", "zoom.toml", "--json", "--zoom", &named]);
+        assert_eq!(
+            by_focal_length["focal_length_mm"], by_position["focal_length_mm"],
+            "position {n}"
+        );
+    }
+    // The published figure of position 3 (100 mm) names it too.
+    let published = json(&["lens", "zoom.toml", "--json", "--zoom", "100"]);
+    let third = json(&["lens", "zoom.toml", "--json", "--zoom-position", "3"]);
+    assert_eq!(published["focal_length_mm"], third["focal_length_mm"]);
+    refused(
+        &run(dir.path(), &["lens", "zoom.toml", "--zoom", "70"]),
+        &[
+            "--zoom 70 mm",
+            "design's positions only",
+            "--zoom-position N",
+        ],
+    );
+    refused(
+        &run(dir.path(), &["lens", "dgauss.50mm", "--zoom", "50"]),
+        &["--zoom 50 mm", "fixed spacings"],
+    );
+    refused(
+        &run(dir.path(), &["lens", "zoom.toml", "--zoom", "-5"]),
+        &["--zoom must be a positive number"],
+    );
+    let both = run(
+        dir.path(),
+        &["lens", "zoom.toml", "--zoom", "100", "--zoom-position", "3"],
+    );
+    assert!(!both.status.success());
+}
