@@ -19,7 +19,7 @@ use crate::lens::elements::{
 };
 use crate::lens::field::{field_angle, field_edge};
 use crate::lens::first_order::FirstOrder;
-use crate::lens::focus::{closest_focus_mm, paraxial_focus_distance};
+use crate::lens::focus::{FocusMode, closest_focus_mm, paraxial_focus_distance};
 use crate::lens::ghost::ghost_focus_z;
 use crate::lens::pupil::ExitPupil;
 use crate::lens::settings::LensSettings;
@@ -51,11 +51,16 @@ pub struct ZoomPositionReport {
     pub focal_length_mm: f64,
     pub f_number: f64,
     /// Diagonal field of view on the report's film (real chief rays); `None` where no chief
-    /// ray reaches the film's corner.
+    /// ray reaches the film's corner, or where this position cannot focus at the report's
+    /// distance.
     pub field_of_view_deg: Option<f64>,
     /// The closest focus distance, metres from the film (the focus groups' where the lens has
     /// them, else moving the whole lens).
     pub close_focus_m: f64,
+    /// The diagonal field of view focused at infinity and at the closest focus (the groups
+    /// moved, or the whole lens, as focusing does): how much the framing breathes.
+    pub field_of_view_infinity_deg: Option<f64>,
+    pub field_of_view_close_deg: Option<f64>,
 }
 
 /// The first-order data of every zoom position of `prescription`, derived as
@@ -72,22 +77,43 @@ fn zoom_position_reports(
         FocusSetting::Distance { metres, .. } => metres,
         FocusSetting::FilmDistance(_) => f64::INFINITY,
     };
-    let groups = prescription.spacings.focus.as_ref().map(|g| (g, metres));
+    let groups = |metres: f64| prescription.spacings.focus.as_ref().map(|g| (g, metres));
     let mut reports = Vec::new();
     for (i, position) in prescription.spacings.zoom.iter().enumerate() {
         let at = |e: String| anyhow::anyhow!("zoom position {}: {e}", i + 1);
-        let rows = rows_at(&prescription.rows, Some(position), groups).map_err(at)?;
-        let geometry = build_geometry(&lens, &rows, aperture).map_err(at)?;
-        let film_distance = film_distance_for(&geometry, focus).map_err(at)?;
+        // The lens at this position focused at `metres` as `focus` says: its geometry, and its
+        // film distance where this position can focus there (another position of the report
+        // may focus closer than this one).
+        let focused = |metres: f64, focus: FocusSetting| -> anyhow::Result<_> {
+            let rows = rows_at(&prescription.rows, Some(position), groups(metres)).map_err(at)?;
+            let geometry = build_geometry(&lens, &rows, aperture).map_err(at)?;
+            let film_distance = film_distance_for(&geometry, focus).ok();
+            Ok((geometry, film_distance))
+        };
+        let field_of_view = |geometry: &LensGeometry, film_distance: Option<f64>| {
+            field_angle(&geometry.system, film_distance?, film_diagonal / 2.0)
+                .map(|a| 2.0 * a.to_degrees())
+        };
+        let (geometry, film_distance) = focused(metres, focus)?;
+        let close_focus_m = prescription
+            .spacings
+            .closest_focus_mm(closest_focus_mm(&geometry.system, &geometry.first_order))
+            / 1000.0;
+        let at_distance = |metres: f64| -> anyhow::Result<Option<f64>> {
+            let focus = FocusSetting::Distance {
+                metres,
+                mode: FocusMode::Paraxial,
+            };
+            let (geometry, film_distance) = focused(metres, focus)?;
+            Ok(field_of_view(&geometry, film_distance))
+        };
         reports.push(ZoomPositionReport {
             focal_length_mm: geometry.first_order.focal_length,
             f_number: geometry.first_order.f_number,
-            field_of_view_deg: field_angle(&geometry.system, film_distance, film_diagonal / 2.0)
-                .map(|a| 2.0 * a.to_degrees()),
-            close_focus_m: prescription
-                .spacings
-                .closest_focus_mm(closest_focus_mm(&geometry.system, &geometry.first_order))
-                / 1000.0,
+            field_of_view_deg: field_of_view(&geometry, film_distance),
+            close_focus_m,
+            field_of_view_infinity_deg: at_distance(f64::INFINITY)?,
+            field_of_view_close_deg: at_distance(close_focus_m)?,
         });
     }
     Ok(reports)

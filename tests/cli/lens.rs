@@ -587,3 +587,49 @@ fn zoom_by_focal_length_picks_the_position_of_that_focal_length() {
     );
     assert!(!both.status.success());
 }
+
+/// Breathing in `zoom_positions`: each position's field of view focused at infinity and at its
+/// closest focus is what `--zoom-position N --focus-distance D` reports for that focus, and a
+/// unit-focused lens (this zoom moves no group with focus) narrows its view as it focuses
+/// closer (the lens moves away from the film).
+#[test]
+fn zoom_positions_give_the_field_of_view_at_infinity_and_at_close_focus() {
+    use support::cli::{ok, realcam as run};
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("zoom.toml"), crate::support::TWO_GROUP_ZOOM).unwrap();
+    let json = |args: &[&str]| -> serde_json::Value {
+        let output = run(dir.path(), args);
+        ok(&output);
+        serde_json::from_slice(&output.stdout).unwrap()
+    };
+    let all = json(&["lens", "zoom.toml", "--json"]);
+    let positions = all["zoom_positions"].as_array().unwrap().clone();
+    let first = &positions[0];
+    let (infinity, close) = (
+        first["field_of_view_infinity_deg"].as_f64().unwrap(),
+        first["field_of_view_close_deg"].as_f64().unwrap(),
+    );
+    assert!(close < infinity, "{first}");
+    for (k, position) in positions.iter().enumerate() {
+        let n = (k + 1).to_string();
+        let close_m = position["close_focus_m"].as_f64().unwrap().to_string();
+        for (distance, key) in [
+            ("inf", "field_of_view_infinity_deg"),
+            (close_m.as_str(), "field_of_view_close_deg"),
+        ] {
+            let one = json(&[
+                "lens",
+                "zoom.toml",
+                "--json",
+                "--zoom-position",
+                &n,
+                "--focus-distance",
+                distance,
+            ]);
+            assert_eq!(
+                one["field_of_view_deg"], position[key],
+                "position {n} at {distance}"
+            );
+        }
+    }
+}
