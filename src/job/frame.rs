@@ -412,6 +412,16 @@ fn settings_fingerprint(
             .describe(!lens.prescription.coatings.is_empty())
     );
     fingerprint["flare"] = json!(spec.flare == crate::lens::elements::Flare::On);
+    // A zoom lens's position changes the picture as a lens swap does (recorded only for a zoom
+    // lens, so a fixed lens keeps the fingerprint it had).
+    if !lens.prescription.spacings.zoom.is_empty() {
+        let position = spec
+            .lens
+            .zoom_setting_for(&lens.prescription)
+            .ok()
+            .flatten();
+        fingerprint["zoom_position"] = json!(position.map(|p| p + 1));
+    }
     if !lens.prescription.coatings.is_empty() {
         fingerprint["lens_coatings"] = lens
             .prescription

@@ -613,3 +613,46 @@ fn an_unused_focus_mode_is_named() {
     let said = ok(&realcam(dir.path(), &focused));
     assert!(!said.contains("--focus-mode best chooses"), "{said}");
 }
+
+/// A zoom lens's position is part of a frame's settings: shards rendered at two positions are
+/// refused by `merge` (and a checkpoint by `--resume`) as different settings, named.
+#[test]
+fn shards_of_two_zoom_positions_do_not_merge() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("zoom.toml"), support::TWO_GROUP_ZOOM).unwrap();
+    for (shard, position, out) in [("0/2", "1", "a.png"), ("1/2", "3", "b.png")] {
+        ok(&realcam(
+            dir.path(),
+            &[
+                "render",
+                "--lens",
+                "zoom.toml",
+                "--zoom-position",
+                position,
+                "--spp",
+                "2",
+                "--width",
+                "16",
+                "--height",
+                "16",
+                "--shard",
+                shard,
+                "--out",
+                out,
+            ],
+        ));
+    }
+    refused(
+        &realcam(
+            dir.path(),
+            &[
+                "merge",
+                "a.shard-0-of-2.exr",
+                "b.shard-1-of-2.exr",
+                "--out",
+                "m.png",
+            ],
+        ),
+        &["different settings", "zoom_position: 1 vs 3"],
+    );
+}
