@@ -27,8 +27,9 @@
 //! exit pupil's bounds would miss some), a pair with probability p ∝ its strength (R_a·R_b on the
 //! axis at the d line), traces that ghost path, and weighs what it sees by
 //! W·T/(p/[`GHOST_EVERY`]), W the camera weight of the rear-element point and T the path's
-//! transmission. The sum of both kinds is unbiased for the image with every single- and
-//! two-reflection path; paths with four reflections or more (R⁴ ~ 10⁻⁸ coated) are left out.
+//! transmission. The sum of both kinds is unbiased for the image made by every path that
+//! reflects inside the lens never or twice (an odd number of reflections sends light back out
+//! of the rear); paths with four reflections or more (R⁴ ~ 10⁻⁸ coated) are left out.
 
 use num_traits::Float;
 
