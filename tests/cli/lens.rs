@@ -253,11 +253,7 @@ fn zoom_positions_are_reported_exported_and_rendered() {
     use support::cli::{ok, realcam as run, refused};
     let dir = tempfile::tempdir().unwrap();
     std::fs::write(dir.path().join("zoom.toml"), ZOOM).unwrap();
-    let json = |args: &[&str]| -> serde_json::Value {
-        let output = run(dir.path(), args);
-        ok(&output);
-        serde_json::from_slice(&output.stdout).unwrap()
-    };
+    let json = |args: &[&str]| json_of(dir.path(), args);
     let all = json(&["lens", "zoom.toml", "--json"]);
     let positions = all["zoom_positions"].as_array().unwrap().clone();
     assert_eq!(positions.len(), 3);
@@ -542,14 +538,10 @@ fn the_diagram_draws_a_ghost_path_and_refuses_pairs_that_are_not_ghosts() {
 /// `--zoom` on a fixed lens, and both options at once are refused in words.
 #[test]
 fn zoom_by_focal_length_picks_the_position_of_that_focal_length() {
-    use support::cli::{ok, realcam as run, refused};
+    use support::cli::{realcam as run, refused};
     let dir = tempfile::tempdir().unwrap();
     std::fs::write(dir.path().join("zoom.toml"), crate::support::TWO_GROUP_ZOOM).unwrap();
-    let json = |args: &[&str]| -> serde_json::Value {
-        let output = run(dir.path(), args);
-        ok(&output);
-        serde_json::from_slice(&output.stdout).unwrap()
-    };
+    let json = |args: &[&str]| json_of(dir.path(), args);
     for n in ["1", "2", "3"] {
         let by_position = json(&["lens", "zoom.toml", "--json", "--zoom-position", n]);
         let f = by_position["focal_length_mm"].as_f64().unwrap();
@@ -594,14 +586,9 @@ fn zoom_by_focal_length_picks_the_position_of_that_focal_length() {
 /// closer (the lens moves away from the film).
 #[test]
 fn zoom_positions_give_the_field_of_view_at_infinity_and_at_close_focus() {
-    use support::cli::{ok, realcam as run};
     let dir = tempfile::tempdir().unwrap();
     std::fs::write(dir.path().join("zoom.toml"), crate::support::TWO_GROUP_ZOOM).unwrap();
-    let json = |args: &[&str]| -> serde_json::Value {
-        let output = run(dir.path(), args);
-        ok(&output);
-        serde_json::from_slice(&output.stdout).unwrap()
-    };
+    let json = |args: &[&str]| json_of(dir.path(), args);
     let all = json(&["lens", "zoom.toml", "--json"]);
     let positions = all["zoom_positions"].as_array().unwrap().clone();
     let first = &positions[0];
@@ -632,4 +619,11 @@ fn zoom_positions_give_the_field_of_view_at_infinity_and_at_close_focus() {
             );
         }
     }
+}
+
+/// `realcam ARGS` in `dir`, which must succeed, its standard output as JSON.
+fn json_of(dir: &std::path::Path, args: &[&str]) -> serde_json::Value {
+    let output = support::cli::realcam(dir, args);
+    support::cli::ok(&output);
+    serde_json::from_slice(&output.stdout).unwrap()
 }

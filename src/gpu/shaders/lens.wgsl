@@ -295,17 +295,20 @@ fn lens_normal(s: LensSurface, hx: f32, hy: f32, hz: f32) -> vec3f {
     return vec3f(n.x * inv_length, n.y * inv_length, n.z * inv_length);
 }
 
+// Where `ray` meets surface `s`, by the kernel of its shape (trace_batch's per-surface choice).
+fn lens_hit(s: LensSurface, ray: LensRay) -> LensHit {
+    if s.shape == LENS_SPHERE {
+        return lens_hit_sphere(s, ray);
+    } else if s.shape == LENS_CONIC {
+        return lens_hit_conic(s, ray);
+    }
+    return lens_hit_polynomial(s, ray);
+}
+
 // Returns the ray's cosine in the less dense of the two media (the reflectance table's angle
 // coordinate: refract.rs's Crossing::cosine).
 fn lens_refract(s: LensSurface, ray: ptr<function, LensRay>, eta: f32) -> f32 {
-    var found: LensHit;
-    if s.shape == LENS_SPHERE {
-        found = lens_hit_sphere(s, *ray);
-    } else if s.shape == LENS_CONIC {
-        found = lens_hit_conic(s, *ray);
-    } else {
-        found = lens_hit_polynomial(s, *ray);
-    }
+    let found = lens_hit(s, *ray);
     let t = found.t;
     let p = (*ray).origin;
     let v = (*ray).direction;
@@ -767,14 +770,7 @@ fn lens_ghost_step(surface: u32, ray: ptr<function, LensRay>, reflect: bool, cel
     let count = lens_constants.surface_count;
     // The scene-to-film copy: its geometry is the surface's whichever way the ray goes.
     let s = lens_surfaces[count + surface];
-    var found: LensHit;
-    if s.shape == LENS_SPHERE {
-        found = lens_hit_sphere(s, *ray);
-    } else if s.shape == LENS_CONIC {
-        found = lens_hit_conic(s, *ray);
-    } else {
-        found = lens_hit_polynomial(s, *ray);
-    }
+    let found = lens_hit(s, *ray);
     let p = (*ray).origin;
     let d = (*ray).direction;
     let h = vec3f(p.x + found.t * d.x, p.y + found.t * d.y, p.z + found.t * d.z);
