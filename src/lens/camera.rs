@@ -563,22 +563,21 @@ impl LensCamera<'_> {
             } else {
                 FRAUNHOFER_D_NM as f32
             };
-            let traced = match (self.dispersion, f32s.reflectance.as_deref()) {
-                (_, None) => None,
-                (table, Some(reflectance)) => {
-                    let at = reflectance.position(nm);
-                    let lambda = table.map(|t| t.position(nm));
-                    let index = |surface: usize| match (table, lambda) {
-                        (Some(t), Some(p)) => {
-                            (t.index_before(surface, p), t.index_after(surface, p))
-                        }
-                        _ => (f32s.index_front[surface], f32s.index_back[surface]),
-                    };
-                    trace_ghost(f32s, ray, ghosts.film_steps(pair), index, |k, c| {
-                        reflectance.lookup(k, c, at)
-                    })
-                }
+            // The media's indices at the ray's wavelength, or the lens's own.
+            let at_nm = self.dispersion.map(|table| (table, table.position(nm)));
+            let index = |surface: usize| match at_nm {
+                Some((table, p)) => (
+                    table.index_before(surface, p),
+                    table.index_after(surface, p),
+                ),
+                None => (f32s.index_front[surface], f32s.index_back[surface]),
             };
+            let traced = f32s.reflectance.as_deref().and_then(|reflectance| {
+                let at = reflectance.position(nm);
+                trace_ghost(f32s, ray, ghosts.film_steps(pair), index, |k, c| {
+                    reflectance.lookup(k, c, at)
+                })
+            });
             match traced {
                 Some((leaving, transmission)) if weight > 0.0 => {
                     [rays.ox[i], rays.oy[i], rays.oz[i]] = leaving.origin;

@@ -232,27 +232,13 @@ fn diagram_names_other_than_svg_are_refused() {
     assert!(svg.starts_with("<svg"), "{svg}");
 }
 
-/// A two-group zoom (see tests/lens/zoom.rs): the gap after surface 2 is 20, 50 or 90 mm.
-const ZOOM: &str = r#"surfaces = [
-  { radius = 100.0, thickness = 3.0, glass = { n = 1.5 }, diameter = 30.0 },
-  { radius = -100.0, thickness = 20.0, diameter = 30.0 },
-  { stop = true, thickness = 2.0, diameter = 10.0 },
-  { radius = 50.0, thickness = 4.0, glass = { n = 1.5 }, diameter = 24.0 },
-  { radius = -50.0, thickness = 40.0, diameter = 24.0 },
-]
-
-[zoom]
-surfaces = [2]
-positions = [{ gaps = [20.0] }, { gaps = [50.0] }, { gaps = [90.0], stop_diameter = 8.0 }]
-"#;
-
 /// `realcam lens` lists a zoom's positions, reports any one of them with `--zoom-position`,
 /// and exports them; `realcam render` renders each position.
 #[test]
 fn zoom_positions_are_reported_exported_and_rendered() {
     use support::cli::{ok, realcam as run, refused};
     let dir = tempfile::tempdir().unwrap();
-    std::fs::write(dir.path().join("zoom.toml"), ZOOM).unwrap();
+    std::fs::write(dir.path().join("zoom.toml"), crate::support::TWO_GROUP_ZOOM).unwrap();
     let json = |args: &[&str]| json_of(dir.path(), args);
     let all = json(&["lens", "zoom.toml", "--json"]);
     let positions = all["zoom_positions"].as_array().unwrap().clone();
