@@ -108,6 +108,10 @@ pub struct RenderArgs {
     /// Write render statistics as JSON (`-`: to standard output).
     #[arg(long, value_name = "FILE.json")]
     pub stats: Option<PathBuf>,
+    /// Render every zoom position of each zoom lens (`realcam lens NAME --json` lists them), one
+    /// frame each, named `<out>-000-zoom1.png`, … (a lens with fixed spacings renders once).
+    #[arg(long, conflicts_with_all = ["zoom_position", "zoom_focal_length"])]
+    pub zoom_sweep: bool,
     /// Rack focus: render FRAMES frames focused from NEAR to FAR metres (evenly in dioptres),
     /// numbered `<out>-000.png`, … ; with several lenses, each lens gets its sequence.
     #[arg(long, value_name = "NEAR:FAR:FRAMES", allow_hyphen_values = true, conflicts_with_all = ["focus_distance", "film_distance"])]
@@ -132,11 +136,11 @@ pub struct RenderArgs {
     pub checkpoint_every: Option<f64>,
     /// Continue the render saved in CHECKPOINT (same scene and settings, and the same --shard
     /// for a shard's checkpoint) to the target --spp.
-    #[arg(long, value_name = "CHECKPOINT", conflicts_with_all = ["focus_sweep", "aperture_sweep", "f_number_sweep"])]
+    #[arg(long, value_name = "CHECKPOINT", conflicts_with_all = ["zoom_sweep", "focus_sweep", "aperture_sweep", "f_number_sweep"])]
     pub resume: Option<PathBuf>,
     /// Render only the I-th (0-based) of N disjoint sample subsets, to a partial EXR that
     /// `realcam merge` combines (one shard per render-farm task).
-    #[arg(long, value_name = "I/N", allow_hyphen_values = true, conflicts_with_all = ["focus_sweep", "aperture_sweep", "f_number_sweep"])]
+    #[arg(long, value_name = "I/N", allow_hyphen_values = true, conflicts_with_all = ["zoom_sweep", "focus_sweep", "aperture_sweep", "f_number_sweep"])]
     pub shard: Option<Shard>,
     /// Colour from the lens's glass: `on` gives every camera ray its own wavelength, refracted
     /// with each glass's index at it (axial and lateral colour, from the glass data); `off`
@@ -202,6 +206,7 @@ impl RenderArgs {
             exposure,
             quality,
             stats,
+            zoom_sweep,
             focus_sweep,
             aperture_sweep,
             f_number_sweep,
@@ -252,6 +257,7 @@ impl RenderArgs {
                 shift_mm: shift.unwrap_or_default(),
                 tilt_deg: tilt.unwrap_or_default(),
             },
+            zoom_sweep,
             focus_sweep,
             stop_sweep: aperture_sweep
                 .map(StopSweep::Diameter)

@@ -41,6 +41,7 @@ pub struct ServeArgs {
 /// `realcam render` options that describe a batch run, not a live view.
 fn refuse_batch_options(args: &RenderArgs) -> anyhow::Result<()> {
     let given = [
+        ("--zoom-sweep", args.zoom_sweep),
         ("--focus-sweep", args.focus_sweep.is_some()),
         ("--aperture-sweep", args.aperture_sweep.is_some()),
         ("--f-number-sweep", args.f_number_sweep.is_some()),

@@ -33,6 +33,8 @@ pub(super) struct FrameReport {
     pub(super) lens: String,
     pub(super) focal_length_mm: f64,
     pub(super) f_number: f64,
+    /// The zoom position (0-based) of a zoom lens.
+    pub(super) zoom: Option<usize>,
     pub(super) focus: FocusSetting,
     pub(super) film_distance_mm: f64,
     pub(super) film_diagonal_mm: f64,
@@ -57,8 +59,11 @@ impl FrameReport {
             (None, FocusSetting::Distance { metres, .. }) => format!("focus {metres:.2} m"),
             (None, FocusSetting::FilmDistance(mm)) => format!("film at {mm:.2} mm"),
         };
+        let zoom = self
+            .zoom
+            .map_or(String::new(), |p| format!(" zoom {}", p + 1));
         format!(
-            "{}\nf={:.1}mm f/{:.1}\n{focus}",
+            "{}{zoom}\nf={:.1}mm f/{:.1}\n{focus}",
             self.lens, self.focal_length_mm, self.f_number
         )
     }
@@ -67,6 +72,7 @@ impl FrameReport {
         json!({
             "out": self.out.display().to_string(),
             "lens": self.lens,
+            "zoom_position": self.zoom.map(|p| p + 1),
             "focal_length_mm": self.focal_length_mm,
             "f_number": self.f_number,
             "focus_distance_m": match (self.probe, self.focus) {
@@ -105,6 +111,7 @@ pub(super) fn render_frame(
     renderer.set_active_lens(lens.entity);
     // Each lens on its own film: the lens derivation re-runs through change detection.
     renderer.set_film(lens.film_diagonal, spec.lens.pupil_sampling);
+    renderer.set_zoom_position(lens.entity, frame.zoom);
     set_if_changed(renderer, lens.entity, frame.focus);
     set_if_changed(renderer, lens.entity, frame.aperture);
     let derivation_before = renderer.world.resource::<LensDerivationStats>().total_time;
@@ -287,6 +294,7 @@ pub(super) fn render_frame(
         lens: lens.prescription.name.clone(),
         focal_length_mm,
         f_number,
+        zoom: frame.zoom,
         focus: frame.focus,
         film_distance_mm,
         film_diagonal_mm: lens.film_diagonal,
@@ -415,12 +423,7 @@ fn settings_fingerprint(
     // A zoom lens's position changes the picture as a lens swap does (recorded only for a zoom
     // lens, so a fixed lens keeps the fingerprint it had).
     if !lens.prescription.spacings.zoom.is_empty() {
-        let position = spec
-            .lens
-            .zoom_setting_for(&lens.prescription)
-            .ok()
-            .flatten();
-        fingerprint["zoom_position"] = json!(position.map(|p| p + 1));
+        fingerprint["zoom_position"] = json!(frame.zoom.map(|p| p + 1));
     }
     if !lens.prescription.coatings.is_empty() {
         fingerprint["lens_coatings"] = lens

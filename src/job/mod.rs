@@ -34,7 +34,7 @@ use crate::scene::CameraHints;
 use crate::scene::default_scene::{DEFAULT_SCENE_GLB, DEFAULT_SCENE_PATH};
 use frame::{Outcome, remove_spent_checkpoints, render_frame, write_frame_images};
 use outputs::{Formats, refuse_overwriting_scene_files};
-use plan::{FrameRequest, StopSweep, frame_count, plan_frames};
+use plan::{FrameRequest, StopSweep, ZoomFrames, frame_count, plan_frames};
 use setup::{
     Placement, autofocus, choose_environment, frame_scene, place_camera, within_focus_range,
 };
@@ -85,6 +85,8 @@ pub struct RunLens {
     pub entity: Entity,
     pub focus: FocusSetting,
     pub aperture: ApertureSetting,
+    /// The zoom positions its frames render.
+    pub zoom: ZoomFrames,
 }
 
 impl<'a> Job<'a> {
@@ -138,6 +140,15 @@ impl<'a> Job<'a> {
         for warning in prescriptions.iter().flat_map(|p| &p.warnings) {
             eprintln!("warning: {warning}");
         }
+        if spec.zoom_sweep
+            && let Some(fixed) = prescriptions.iter().find(|p| p.spacings.zoom.is_empty())
+            && prescriptions.iter().all(|p| p.spacings.zoom.is_empty())
+        {
+            bail!(
+                "--zoom-sweep: {} has fixed spacings, no zoom positions to sweep (`realcam lens NAME --json` lists a zoom lens's zoom_positions)",
+                fixed.name
+            );
+        }
         let hinted_film_diagonal = placement.hints.film_diagonal_mm;
         let film_diagonal =
             |lens: &Prescription| spec.lens.film_diagonal_for(lens, hinted_film_diagonal);
@@ -171,8 +182,14 @@ impl<'a> Job<'a> {
                     lens.insert(FocusOnPixel { x, y });
                 }
                 renderer.set_diaphragm(entity, diaphragm.clone());
-                let zoom = spec.lens.zoom_setting_for(&prescription)?;
-                renderer.set_zoom_position(entity, zoom);
+                let zoom = if spec.zoom_sweep {
+                    ZoomFrames::sweep(prescription.spacings.zoom.len())
+                } else {
+                    ZoomFrames::Fixed(spec.lens.zoom_setting_for(&prescription)?)
+                };
+                if let ZoomFrames::Fixed(setting) = zoom {
+                    renderer.set_zoom_position(entity, setting);
+                }
                 renderer.set_coating_choice(entity, spec.lens.coating_choice());
                 Ok(RunLens {
                     film_diagonal: film_diagonal(&prescription),
@@ -180,6 +197,7 @@ impl<'a> Job<'a> {
                     entity,
                     focus,
                     aperture,
+                    zoom,
                 })
             })
             .collect::<anyhow::Result<_>>()?;
@@ -204,7 +222,7 @@ impl<'a> Job<'a> {
             width,
             height,
             frames: frame_count(
-                lenses.len(),
+                &lenses.iter().map(|l| l.zoom.count()).collect::<Vec<_>>(),
                 spec.focus_sweep,
                 spec.stop_sweep.map(StopSweep::sweep),
             )?,
@@ -257,8 +275,10 @@ impl<'a> Job<'a> {
         let names: Vec<String> = lenses.iter().map(|l| l.prescription.name.clone()).collect();
         let focus: Vec<FocusSetting> = lenses.iter().map(|l| l.focus).collect();
         let aperture: Vec<ApertureSetting> = lenses.iter().map(|l| l.aperture).collect();
+        let zoom: Vec<ZoomFrames> = lenses.iter().map(|l| l.zoom.clone()).collect();
         let frames = plan_frames(&FrameRequest {
             lens_names: &names,
+            zoom: &zoom,
             focus: &focus,
             aperture: &aperture,
             focus_sweep: spec.focus_sweep,

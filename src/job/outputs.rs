@@ -83,8 +83,10 @@ pub fn check_values(spec: &JobSpec) -> anyhow::Result<()> {
 /// formats the outputs' names ask for.
 pub fn validate(spec: &JobSpec) -> anyhow::Result<Formats> {
     check_values(spec)?;
+    // Before the lenses are read, a zoom sweep counts as its fewest positions, two a lens.
+    let zoom_frames = vec![if spec.zoom_sweep { 2 } else { 1 }; spec.lenses.len().max(1)];
     let frames = frame_count(
-        spec.lenses.len(),
+        &zoom_frames,
         spec.focus_sweep,
         spec.stop_sweep.map(StopSweep::sweep),
     )?;

@@ -108,26 +108,31 @@ impl Shard {
     }
 }
 
-/// Most frames one run renders (lenses × focus frames × stop frames): a run plans all its
-/// frames up front, and a contact sheet holds them all.
+/// Most frames one run renders (lenses × zoom positions × focus frames × stop frames): a run
+/// plans all its frames up front, and a contact sheet holds them all.
 pub const MAX_FRAMES: usize = 10_000;
 
-/// How many frames a run of `lenses` lenses and these sweeps renders; refuses more than
-/// [`MAX_FRAMES`].
+/// How many frames a run renders whose lenses render `zoom_frames` zoom positions each (1 for
+/// every lens without `--zoom-sweep`; no lenses: the one default lens), with these sweeps;
+/// refuses more than [`MAX_FRAMES`].
 pub fn frame_count(
-    lenses: usize,
+    zoom_frames: &[usize],
     focus_sweep: Option<Sweep>,
     stop_sweep: Option<Sweep>,
 ) -> anyhow::Result<usize> {
     let per_lens = |sweep: Option<Sweep>| sweep.map_or(1, |s| s.frames as usize);
-    let frames = lenses
-        .max(1)
+    let lens_frames = zoom_frames.iter().sum::<usize>().max(1);
+    let frames = lens_frames
         .saturating_mul(per_lens(focus_sweep))
         .saturating_mul(per_lens(stop_sweep));
     if frames > MAX_FRAMES {
+        let lenses = if lens_frames == zoom_frames.len().max(1) {
+            format!("{} lens(es)", lens_frames)
+        } else {
+            format!("{lens_frames} lens settings (zoom positions)")
+        };
         anyhow::bail!(
-            "this run would render {frames} frames ({} lens(es) × {} focus × {} stop settings), more than realcam's limit of {MAX_FRAMES} per run; split it into several runs",
-            lenses.max(1),
+            "this run would render {frames} frames ({lenses} × {} focus × {} stop settings), more than realcam's limit of {MAX_FRAMES} per run; split it into several runs",
             per_lens(focus_sweep),
             per_lens(stop_sweep)
         );
@@ -173,6 +178,8 @@ pub struct Frame {
     pub lens: usize,
     /// Frame number within its lens's sequence.
     pub number: usize,
+    /// The zoom position (0-based) a zoom lens renders at; `None`: as its surfaces are written.
+    pub zoom: Option<usize>,
     pub focus: FocusSetting,
     pub aperture: ApertureSetting,
     pub out: PathBuf,
@@ -182,6 +189,9 @@ pub struct Frame {
 /// Per-lens defaults (from the scene's hints or autofocus) and the run's sweeps.
 pub struct FrameRequest<'a> {
     pub lens_names: &'a [String],
+    /// Per lens, the zoom positions it renders: its one setting, or with `--zoom-sweep` each of
+    /// its positions in turn ([`ZoomFrames`]).
+    pub zoom: &'a [ZoomFrames],
     pub focus: &'a [FocusSetting],
     pub aperture: &'a [ApertureSetting],
     pub focus_sweep: Option<Sweep>,
@@ -191,10 +201,47 @@ pub struct FrameRequest<'a> {
     pub exr: Option<&'a Path>,
 }
 
-/// Every frame of the run: for each lens, its focus sweep × stop sweep (or the single
-/// setting). Outputs are named `<stem>[-<lens>][-<NNN>][-f<N>].<ext>`: the lens part when there
-/// are several lenses, the number when a lens has several frames, the f-number (to a tenth) in
-/// an f-number sweep.
+/// The zoom positions one lens renders in a run.
+#[derive(Clone, Debug, PartialEq)]
+pub enum ZoomFrames {
+    /// One setting: a position (0-based), or `None` for the lens as its surfaces are written.
+    Fixed(Option<usize>),
+    /// `--zoom-sweep`: each of the lens's this many positions, in order.
+    Sweep(usize),
+}
+
+impl ZoomFrames {
+    /// `--zoom-sweep` over a lens with `positions` zoom positions: each of them, or for a lens
+    /// with fixed spacings its one picture.
+    pub fn sweep(positions: usize) -> ZoomFrames {
+        if positions == 0 {
+            ZoomFrames::Fixed(None)
+        } else {
+            ZoomFrames::Sweep(positions)
+        }
+    }
+
+    /// How many frames of each focus and stop setting the lens renders.
+    pub fn count(&self) -> usize {
+        match *self {
+            ZoomFrames::Fixed(_) => 1,
+            ZoomFrames::Sweep(positions) => positions,
+        }
+    }
+
+    fn settings(&self) -> Vec<Option<usize>> {
+        match *self {
+            ZoomFrames::Fixed(setting) => vec![setting],
+            ZoomFrames::Sweep(positions) => (0..positions).map(Some).collect(),
+        }
+    }
+}
+
+/// Every frame of the run: for each lens, its zoom positions × focus sweep × stop sweep (or the
+/// single setting). Outputs are named `<stem>[-<lens>][-<NNN>][-zoom<P>][-f<N>].<ext>`: the
+/// lens part when there are several lenses, the number when a lens has several frames, the zoom
+/// position (1-based, as `--zoom-position` counts) in a zoom sweep, the f-number (to a tenth)
+/// in an f-number sweep.
 pub fn plan_frames(request: &FrameRequest) -> Vec<Frame> {
     let mut frames = Vec::new();
     let several_lenses = request.lens_names.len() > 1;
@@ -214,14 +261,18 @@ pub fn plan_frames(request: &FrameRequest) -> Vec<Frame> {
             Some(sweep) => sweep.settings(),
             None => vec![request.aperture[lens]],
         };
-        let sequence = focuses.len() * apertures.len() > 1;
-        for (number, (focus, aperture)) in focuses
-            .iter()
-            .flat_map(|f| apertures.iter().map(move |a| (*f, *a)))
-            .enumerate()
-        {
+        let zooms = request.zoom[lens].settings();
+        let zoom_sweep = matches!(request.zoom[lens], ZoomFrames::Sweep(_));
+        let sequence = zooms.len() * focuses.len() * apertures.len() > 1;
+        let (focuses, apertures) = (&focuses, &apertures);
+        let settings = zooms.iter().flat_map(|&z| {
+            focuses
+                .iter()
+                .flat_map(move |&f| apertures.iter().map(move |&a| (z, f, a)))
+        });
+        for (number, (zoom, focus, aperture)) in settings.enumerate() {
             let suffix = format!(
-                "{}{}{}",
+                "{}{}{}{}",
                 if several_lenses {
                     format!("-{name}")
                 } else {
@@ -231,6 +282,10 @@ pub fn plan_frames(request: &FrameRequest) -> Vec<Frame> {
                     format!("-{number:03}")
                 } else {
                     String::new()
+                },
+                match zoom {
+                    Some(position) if zoom_sweep => format!("-zoom{}", position + 1),
+                    _ => String::new(),
                 },
                 match aperture {
                     ApertureSetting::FNumber(n)
@@ -244,6 +299,7 @@ pub fn plan_frames(request: &FrameRequest) -> Vec<Frame> {
             frames.push(Frame {
                 lens,
                 number,
+                zoom,
                 focus,
                 aperture,
                 out: with_suffix(request.out, &suffix),
@@ -326,8 +382,10 @@ mod tests {
         let names = vec!["dgauss.50mm".to_string(), "wide.22mm".to_string()];
         let focus = [FocusSetting::default(); 2];
         let aperture = [ApertureSetting::Full; 2];
+        let zoom = [ZoomFrames::Fixed(None), ZoomFrames::Fixed(None)];
         let request = FrameRequest {
             lens_names: &names,
+            zoom: &zoom,
             focus: &focus,
             aperture: &aperture,
             focus_sweep: Some("1:10:3".parse().unwrap()),
@@ -353,6 +411,7 @@ mod tests {
         let names = vec!["dgauss.50mm".to_string()];
         let request = FrameRequest {
             lens_names: &names,
+            zoom: &[ZoomFrames::Fixed(None)],
             focus: &[FocusSetting::default()],
             aperture: &[ApertureSetting::Full],
             focus_sweep: None,
@@ -396,6 +455,41 @@ mod tests {
     }
 
     #[test]
+    fn a_zoom_sweep_renders_each_position_named_by_its_number() {
+        let names = vec!["zoom".to_string(), "dgauss.50mm".to_string()];
+        let zoom = [ZoomFrames::sweep(3), ZoomFrames::sweep(0)];
+        let request = FrameRequest {
+            lens_names: &names,
+            zoom: &zoom,
+            focus: &[FocusSetting::default(); 2],
+            aperture: &[ApertureSetting::Full; 2],
+            focus_sweep: None,
+            focus_mode: FocusMode::Paraxial,
+            stop_sweep: Some(StopSweep::FNumber("4:8:2".parse().unwrap())),
+            out: Path::new("z.png"),
+            exr: None,
+        };
+        let frames = plan_frames(&request);
+        let named: Vec<(&Path, Option<usize>)> =
+            frames.iter().map(|f| (f.out.as_path(), f.zoom)).collect();
+        assert_eq!(
+            named,
+            [
+                ("z-zoom-000-zoom1-f4.png", Some(0)),
+                ("z-zoom-001-zoom1-f8.png", Some(0)),
+                ("z-zoom-002-zoom2-f4.png", Some(1)),
+                ("z-zoom-003-zoom2-f8.png", Some(1)),
+                ("z-zoom-004-zoom3-f4.png", Some(2)),
+                ("z-zoom-005-zoom3-f8.png", Some(2)),
+                // A lens with fixed spacings renders its one setting.
+                ("z-dgauss.50mm-000-f4.png", None),
+                ("z-dgauss.50mm-001-f8.png", None),
+            ]
+            .map(|(p, z)| (Path::new(p), z))
+        );
+    }
+
+    #[test]
     fn runs_of_too_many_frames_are_refused_before_planning() {
         let sweep = |frames| {
             Some(Sweep {
@@ -404,14 +498,25 @@ mod tests {
                 frames,
             })
         };
-        assert_eq!(frame_count(0, None, None).unwrap(), 1);
-        assert_eq!(frame_count(2, sweep(3), sweep(4)).unwrap(), 24);
-        assert_eq!(frame_count(1, sweep(10_000), None).unwrap(), 10_000);
-        let message = frame_count(3, sweep(10_000), sweep(10_000))
+        assert_eq!(frame_count(&[], None, None).unwrap(), 1);
+        assert_eq!(frame_count(&[1, 1], sweep(3), sweep(4)).unwrap(), 24);
+        assert_eq!(frame_count(&[1], sweep(10_000), None).unwrap(), 10_000);
+        let message = frame_count(&[1, 1, 1], sweep(10_000), sweep(10_000))
             .unwrap_err()
             .to_string();
         assert!(
-            message.contains("300000000 frames") && message.contains("10000"),
+            message.contains("300000000 frames")
+                && message.contains("3 lens(es)")
+                && message.contains("10000"),
+            "{message}"
+        );
+        // A zoom sweep renders each position of each zoom lens: 3 + 1 lens settings.
+        assert_eq!(frame_count(&[3, 1], sweep(2), None).unwrap(), 8);
+        let message = frame_count(&[3, 1], sweep(10_000), None)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            message.contains("4 lens settings (zoom positions)"),
             "{message}"
         );
     }

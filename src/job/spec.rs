@@ -56,6 +56,8 @@ pub struct JobSpec {
     pub focus_on: Option<[u32; 2]>,
     /// Shift and tilt of the film.
     pub movements: FilmMovements,
+    /// Render every zoom position of each zoom lens, one frame each (`--zoom-sweep`).
+    pub zoom_sweep: bool,
     /// A rack focus: frames from near to far.
     pub focus_sweep: Option<Sweep>,
     /// A stop sweep: frames from one stop to another, by diameter or by f-number.

@@ -3,7 +3,7 @@
 
 use crate::support;
 
-use support::cli::{ok, realcam, refused};
+use support::cli::{ok, realcam, refused, refused_by_parser};
 
 use std::path::Path;
 use std::process::{Command, Stdio};
@@ -654,5 +654,101 @@ fn shards_of_two_zoom_positions_do_not_merge() {
             ],
         ),
         &["different settings", "zoom_position: 1 vs 3"],
+    );
+}
+
+/// The paraxial focal length of `support::TWO_GROUP_ZOOM` with `gap` mm after its first
+/// element: a y–nu trace of its four refracting surfaces (c, thickness after, index after).
+fn two_group_zoom_focal_length(gap: f64) -> f64 {
+    let surfaces = [
+        (1.0 / 100.0, 3.0, 1.5),
+        (-1.0 / 100.0, gap + 2.0, 1.0),
+        (1.0 / 50.0, 4.0, 1.5),
+        (-1.0 / 50.0, 0.0, 1.0),
+    ];
+    let (mut y, mut nu, mut n) = (1.0, 0.0, 1.0);
+    for (c, t, n_after) in surfaces {
+        nu -= y * c * (n_after - n);
+        n = n_after;
+        y += t * nu / n;
+    }
+    -1.0 / nu
+}
+
+/// `--zoom-sweep` renders each zoom position of a zoom lens, one frame each, named by the
+/// position, at that position's focal length (a paraxial trace of its gaps, written here); a
+/// lens with fixed spacings beside it
+/// renders once, a run of fixed lenses alone is refused, and so is a position given too.
+#[test]
+fn a_zoom_sweep_renders_every_position_of_a_zoom_lens() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("zoom.toml"), support::TWO_GROUP_ZOOM).unwrap();
+    let small = [
+        "render", "--spp", "2", "--width", "24", "--height", "16", "--out", "z.png",
+    ];
+    let with = |extra: &[&'static str]| [&small[..], extra].concat();
+    ok(&realcam(
+        dir.path(),
+        &with(&[
+            "--lens",
+            "zoom.toml",
+            "--lens",
+            "dgauss.50mm",
+            "--zoom-sweep",
+            "--stats",
+            "stats.json",
+            "--contact-sheet",
+            "sheet.png",
+        ]),
+    ));
+    let stats: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("stats.json")).unwrap())
+            .unwrap();
+    let frames = stats["frames"].as_array().unwrap();
+    let seen: Vec<(String, serde_json::Value)> = frames
+        .iter()
+        .map(|f| {
+            (
+                f["out"].as_str().unwrap().to_string(),
+                f["zoom_position"].clone(),
+            )
+        })
+        .collect();
+    assert_eq!(
+        seen,
+        [
+            ("z-test-zoom-000-zoom1.png", serde_json::json!(1)),
+            ("z-test-zoom-001-zoom2.png", serde_json::json!(2)),
+            ("z-test-zoom-002-zoom3.png", serde_json::json!(3)),
+            ("z-dgauss.50mm.png", serde_json::Value::Null),
+        ]
+        .map(|(o, z)| (o.to_string(), z))
+    );
+    for (frame, gap) in frames.iter().zip([20.0, 50.0, 90.0]) {
+        let f = frame["focal_length_mm"].as_f64().unwrap();
+        let expected = two_group_zoom_focal_length(gap);
+        assert!((f / expected - 1.0).abs() < 1e-6, "{f} vs {expected}");
+        assert!(dir.path().join(frame["out"].as_str().unwrap()).is_file());
+    }
+    assert!(dir.path().join("sheet.png").is_file());
+    refused(
+        &realcam(
+            dir.path(),
+            &with(&["--lens", "dgauss.50mm", "--zoom-sweep"]),
+        ),
+        &["--zoom-sweep", "dgauss.50mm has fixed spacings"],
+    );
+    refused_by_parser(
+        &realcam(
+            dir.path(),
+            &with(&[
+                "--lens",
+                "zoom.toml",
+                "--zoom-sweep",
+                "--zoom-position",
+                "2",
+            ]),
+        ),
+        &["--zoom-sweep", "--zoom-position"],
     );
 }
