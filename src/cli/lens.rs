@@ -18,7 +18,7 @@ use crate::film::output::{
     check_not_terminal, check_writable, is_stdout, same_file, shown, write_output,
 };
 use crate::glass::FRAUNHOFER_D_NM;
-use crate::lens::diagram::draw_diagram_with;
+use crate::lens::diagram::draw_report_diagram;
 use crate::lens::io::bundled::read_lens;
 use crate::lens::io::export::export_text;
 use crate::lens::pupil_view::PupilViews;
@@ -149,13 +149,7 @@ pub fn run(args: &LensArgs) -> anyhow::Result<ExitCode> {
                 );
             }
         }
-        let svg = draw_diagram_with(
-            &report.geometry.system,
-            report.film_distance,
-            report.film_diagonal,
-            &report.prescription.name,
-            args.ghost.map(|[a, b]| [a.min(b), a.max(b)]),
-        );
+        let svg = draw_report_diagram(&report, args.ghost.map(|[a, b]| [a.min(b), a.max(b)]));
         crate::film::output::write_atomically(path, |w| {
             w.extend_from_slice(svg.as_bytes());
             Ok(())

@@ -1,13 +1,16 @@
 //! The lens cross-section as SVG: elements, stop, film, axis, and traced ray fans (on axis
 //! and at the edge of the field), blocked rays dashed. Drawn in the meridional (y–z) plane of
-//! the lens frame, scene on the left.
+//! the lens frame, scene on the left. A zoom or focus-group lens gets its groups' motion
+//! underneath ([`super::group_motion`]): a row per setting, the film fixed on the right.
 
 use std::fmt::Write;
 
 use super::field::field_edge;
 use super::first_order::FirstOrder;
 use super::ghost::{ghost_steps, trace_ghost_path};
+use super::group_motion::GroupMotion;
 use super::prescription::sag;
+use super::report::LensReport;
 use super::system::LensSystem;
 use super::trace::{Ray, Travel, normalize, trace_path};
 use crate::glass::{FRAUNHOFER_C_NM, FRAUNHOFER_D_NM, FRAUNHOFER_F_NM};
@@ -36,25 +39,32 @@ impl View {
     }
 }
 
-/// SVG text of the cross-section of `system` with its film `film_distance` behind the rear
-/// vertex and a film of diagonal `film_diagonal` (mm).
-pub fn draw_diagram(
-    system: &LensSystem,
-    film_distance: f64,
-    film_diagonal: f64,
-    title: &str,
-) -> String {
-    draw_diagram_with(system, film_distance, film_diagonal, title, None)
+/// SVG text of the cross-section of the lens `report` describes, at its settings, with the
+/// groups' motion of a zoom or focus-group lens and (`ghost`) a ghost path.
+pub fn draw_report_diagram(report: &LensReport, ghost: Option<[usize; 2]>) -> String {
+    draw_diagram_with(
+        &report.geometry.system,
+        report.film_distance,
+        report.film_diagonal,
+        &report.prescription.name,
+        ghost,
+        GroupMotion::of(&report.prescription).as_ref(),
+    )
 }
 
+/// Height of one row of the group-motion strip, px.
+const MOTION_ROW: f64 = 30.0;
+
 /// [`draw_diagram`], with `ghost` the on-axis bundle along the ghost path of that pair of
-/// surfaces too (see [`super::ghost`]).
-pub fn draw_diagram_with(
+/// surfaces too (see [`super::ghost`]), and `motion` the groups of a zoom or focus-group lens
+/// at each of its settings.
+fn draw_diagram_with(
     system: &LensSystem,
     film_distance: f64,
     film_diagonal: f64,
     title: &str,
     ghost: Option<[usize; 2]>,
+    motion: Option<&GroupMotion>,
 ) -> String {
     let s = &system.f64s;
     let film_z = system.rear_z() + film_distance;
@@ -64,7 +74,14 @@ pub fn draw_diagram_with(
         .map(|r| r.base.aperture / 2.0)
         .fold(0.0, f64::max);
     let y_max = max_aperture.max(film_diagonal / 2.0) * 1.15;
-    let lead = (0.3 * film_z).max(max_aperture);
+    // Room in front for the longest setting of a lens whose groups move (its rows are drawn
+    // against this film plane).
+    let front = motion
+        .iter()
+        .flat_map(|m| &m.states)
+        .map(|s| film_z + s.from_film_mm[0])
+        .fold(0.0, f64::min);
+    let lead = (0.3 * film_z).max(max_aperture) - front;
     let z0 = -lead;
     let scale = (WIDTH - 40.0) / (film_z + film_distance.max(5.0) * 0.1 + lead);
     let view = View {
@@ -73,8 +90,9 @@ pub fn draw_diagram_with(
         scale,
         height: 2.0 * y_max * scale + 60.0,
     };
-    // A ghost's caption takes a line of its own.
-    let caption = if ghost.is_some() { 16.0 } else { 0.0 };
+    // A ghost's caption takes a line of its own; the groups' motion its rows and a caption.
+    let caption = if ghost.is_some() { 16.0 } else { 0.0 }
+        + motion.map_or(0.0, |m| MOTION_ROW * m.states.len() as f64 + 24.0);
     let mut svg = String::new();
     let _ = writeln!(
         svg,
@@ -199,8 +217,100 @@ pub fn draw_diagram_with(
             pair[1]
         );
     }
+    if let Some(motion) = motion {
+        let top = view.height + 20.0 + if ghost.is_some() { 16.0 } else { 0.0 };
+        draw_motion(&mut svg, &view, film_z, motion, top);
+    }
     svg.push_str("</svg>\n");
     svg
+}
+
+/// The groups' motion below the cross-section, from `top` (px): per setting a row with each
+/// group as a bar from its first to its last vertex (moving groups orange, fixed ones blue),
+/// the stop as a tick, the film plane of the cross-section above as the common reference, and
+/// each group's front vertex joined from row to row. Each bar carries its group, setting and
+/// distance from the film as data attributes.
+fn draw_motion(svg: &mut String, view: &View, film_z: f64, motion: &GroupMotion, top: f64) {
+    // A group "moves" when it shifts by more than a line's width at any scale, 0.05 mm: a
+    // patent's rounded gaps leave a fixed group a few micrometres off its paraxial film plane.
+    let moves = |g: &super::group_motion::Group| {
+        let first = &motion.states[0].from_film_mm;
+        motion.states.iter().any(|s| {
+            (s.from_film_mm[g.first] - first[g.first]).abs() > 0.05
+                || (s.from_film_mm[g.last] - first[g.last]).abs() > 0.05
+        })
+    };
+    let _ = writeln!(
+        svg,
+        r##"<text x="20" y="{:.0}" fill="#444">groups at each setting, against a fixed film (right): <tspan fill="#d35400">moving</tspan>, <tspan fill="#3a6b99">fixed</tspan>; black tick: the stop</text>"##,
+        top + 14.0
+    );
+    let row_y = |i: usize| top + 24.0 + MOTION_ROW * i as f64 + MOTION_ROW * 0.6;
+    let x = |from_film: f64| view.x(film_z + from_film);
+    for (g_index, group) in motion.groups.iter().enumerate() {
+        let colour = if moves(group) { "#d35400" } else { "#3a6b99" };
+        let fronts: Vec<String> = motion
+            .states
+            .iter()
+            .enumerate()
+            .map(|(i, s)| format!("{:.2},{:.2}", x(s.from_film_mm[group.first]), row_y(i)))
+            .collect();
+        if fronts.len() > 1 {
+            let _ = writeln!(
+                svg,
+                r##"<polyline points="{}" fill="none" stroke="{colour}" stroke-width="1" stroke-dasharray="3 2"/>"##,
+                fronts.join(" ")
+            );
+        }
+        for (i, state) in motion.states.iter().enumerate() {
+            let (from, to) = (
+                state.from_film_mm[group.first],
+                state.from_film_mm[group.last],
+            );
+            let _ = writeln!(
+                svg,
+                r##"<rect x="{:.2}" y="{:.2}" width="{:.2}" height="8" fill="{colour}" data-group="G{}" data-setting="{}" data-from-film-mm="{from:.6}" data-to-film-mm="{to:.6}"/>"##,
+                x(from),
+                row_y(i) - 4.0,
+                (x(to) - x(from)).max(2.0),
+                g_index + 1,
+                i + 1
+            );
+            if i == 0 {
+                let _ = writeln!(
+                    svg,
+                    r##"<text x="{:.2}" y="{:.2}" font-size="11" fill="{colour}">G{}</text>"##,
+                    x(from),
+                    row_y(i) - 6.0,
+                    g_index + 1
+                );
+            }
+        }
+    }
+    for (i, state) in motion.states.iter().enumerate() {
+        let _ = writeln!(
+            svg,
+            r##"<text x="20" y="{:.2}" font-size="11" fill="#444">{}</text>"##,
+            row_y(i) - 8.0,
+            escape(&state.label)
+        );
+        if let Some(stop) = motion.stop {
+            let at = x(state.from_film_mm[stop]);
+            let _ = writeln!(
+                svg,
+                r#"<line x1="{at:.2}" y1="{:.2}" x2="{at:.2}" y2="{:.2}" stroke="black" stroke-width="2"/>"#,
+                row_y(i) - 7.0,
+                row_y(i) + 7.0
+            );
+        }
+    }
+    let film = x(0.0);
+    let _ = writeln!(
+        svg,
+        r##"<line x1="{film:.2}" y1="{:.2}" x2="{film:.2}" y2="{:.2}" stroke="#222" stroke-width="2"/>"##,
+        row_y(0) - 10.0,
+        row_y(motion.states.len() - 1) + 10.0
+    );
 }
 
 /// The on-axis bundle from infinity along the ghost path of `pair`, to the film plane.

@@ -32,6 +32,7 @@ pub mod first_order;
 pub mod focus;
 pub mod focus_probe;
 pub mod ghost;
+pub mod group_motion;
 pub mod hero_wavelengths;
 pub mod info;
 pub mod io;

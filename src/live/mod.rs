@@ -19,7 +19,7 @@ use serde_json::{Map, Value, json};
 use crate::film::Image;
 use crate::film::format::{ImageFormat, Tone, encode_image};
 use crate::lens::Prescription;
-use crate::lens::diagram::draw_diagram;
+use crate::lens::diagram::draw_report_diagram;
 use crate::lens::report::LensReport;
 use crate::lens::settings::LensSettings;
 use crate::pipeline::{PassCancel, RenderStats};
@@ -242,12 +242,7 @@ impl LiveLab {
         let (prescription, options) = published.lens.ok_or("no lens yet")?;
         let report =
             LensReport::derive((*prescription).clone(), &options).map_err(|e| format!("{e:#}"))?;
-        let svg = draw_diagram(
-            &report.geometry.system,
-            report.film_distance,
-            report.film_diagonal,
-            &report.prescription.name,
-        );
+        let svg = draw_report_diagram(&report, None);
         let (json, svg) = (Arc::new(report.to_json()), Arc::new(svg));
         *cache = Some((
             published.settings_generation,

@@ -613,3 +613,100 @@ fn json_of(dir: &std::path::Path, args: &[&str]) -> serde_json::Value {
     support::cli::ok(&output);
     serde_json::from_slice(&output.stdout).unwrap()
 }
+
+/// The group-motion rows of a `--diagram`: per setting, each group's first and last vertex
+/// measured from the film (the bars' data attributes), keyed by (group, setting).
+fn group_rows(svg: &str) -> std::collections::BTreeMap<(String, usize), (f64, f64)> {
+    let attribute = |tag: &str, name: &str| -> String {
+        let start = tag.find(&format!("{name}=\"")).unwrap() + name.len() + 2;
+        tag[start..][..tag[start..].find('"').unwrap()].to_string()
+    };
+    svg.lines()
+        .filter(|l| l.contains("data-group="))
+        .map(|tag| {
+            (
+                (
+                    attribute(tag, "data-group"),
+                    attribute(tag, "data-setting").parse().unwrap(),
+                ),
+                (
+                    attribute(tag, "data-from-film-mm").parse().unwrap(),
+                    attribute(tag, "data-to-film-mm").parse().unwrap(),
+                ),
+            )
+        })
+        .collect()
+}
+
+/// A zoom's diagram shows its groups at every zoom position against a fixed film, each placed
+/// by the position's gaps and its paraxial back focus (a y–nu trace written in the test
+/// support): the front group's first vertex stands 3 + gap + 2 + 4 mm + BFD in front of the
+/// film, the rear group (stop and second element) 2 + 4 mm + BFD. A focus-group lens gets a row
+/// at infinity and at close focus, its groups parted by exactly the focus gap's travel.
+#[test]
+fn the_diagram_shows_the_groups_at_each_setting() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("zoom.toml"), support::TWO_GROUP_ZOOM).unwrap();
+    let svg_path = dir.path().join("zoom.svg");
+    let lens = dir.path().join("zoom.toml");
+    let (code, _, stderr) = realcam(
+        &[
+            "lens",
+            lens.to_str().unwrap(),
+            "--diagram",
+            svg_path.to_str().unwrap(),
+        ],
+        None,
+    );
+    assert_eq!(code, 0, "{stderr}");
+    let svg = std::fs::read_to_string(&svg_path).unwrap();
+    let rows = group_rows(&svg);
+    assert_eq!(rows.len(), 6, "two groups at three positions: {rows:?}");
+    for (setting, gap) in [(1, 20.0), (2, 50.0), (3, 90.0)] {
+        let bfd = support::two_group_zoom_paraxial(gap).1;
+        let g1 = rows[&("G1".to_string(), setting)];
+        let g2 = rows[&("G2".to_string(), setting)];
+        let close = |a: f64, b: f64| (a - b).abs() < 1e-5;
+        assert!(close(g1.0, -(3.0 + gap + 6.0 + bfd)), "{g1:?} at gap {gap}");
+        assert!(close(g1.1, -(gap + 6.0 + bfd)), "{g1:?}");
+        assert!(close(g2.0, -(6.0 + bfd)) && close(g2.1, -bfd), "{g2:?}");
+    }
+    assert!(svg.contains("zoom 2 (56 mm)"), "position labels");
+
+    let focusing = r#"
+name = "inner-focus"
+surfaces = [
+  { radius = 100.0, thickness = 3.0, glass = { n = 1.5 }, diameter = 30.0 },
+  { radius = -100.0, thickness = 20.0, diameter = 30.0 },
+  { stop = true, thickness = 2.0, diameter = 10.0 },
+  { radius = 50.0, thickness = 4.0, glass = { n = 1.5 }, diameter = 24.0 },
+  { radius = -50.0, thickness = 40.0, diameter = 24.0 },
+]
+
+[focus]
+close_focus_m = 0.5
+surfaces = [2]
+infinity = [20.0]
+close = [14.0]
+"#;
+    std::fs::write(dir.path().join("focus.toml"), focusing).unwrap();
+    let lens = dir.path().join("focus.toml");
+    let (code, _, stderr) = realcam(
+        &[
+            "lens",
+            lens.to_str().unwrap(),
+            "--diagram",
+            svg_path.to_str().unwrap(),
+        ],
+        None,
+    );
+    assert_eq!(code, 0, "{stderr}");
+    let svg = std::fs::read_to_string(&svg_path).unwrap();
+    let rows = group_rows(&svg);
+    assert_eq!(rows.len(), 4, "{rows:?}");
+    let parting = |setting: usize| {
+        rows[&("G2".to_string(), setting)].0 - rows[&("G1".to_string(), setting)].1
+    };
+    assert!((parting(1) - 20.0).abs() < 1e-5 && (parting(2) - 14.0).abs() < 1e-5);
+    assert!(svg.contains("close focus 0.5 m") && svg.contains("focused at infinity"));
+}

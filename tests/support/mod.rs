@@ -281,3 +281,22 @@ positions = [
   { focal_length_mm = 100, gaps = [90.0], stop_diameter = 8.0 },
 ]
 "#;
+
+/// The paraxial focal length and back focal length (mm) of [`TWO_GROUP_ZOOM`] with `gap` mm
+/// after its first element: a y–nu trace of its four refracting surfaces (curvature, thickness
+/// after, index after), written here from the fixture's numbers.
+pub fn two_group_zoom_paraxial(gap: f64) -> (f64, f64) {
+    let surfaces = [
+        (1.0 / 100.0, 3.0, 1.5),
+        (-1.0 / 100.0, gap + 2.0, 1.0),
+        (1.0 / 50.0, 4.0, 1.5),
+        (-1.0 / 50.0, 0.0, 1.0),
+    ];
+    let (mut y, mut nu, mut n) = (1.0, 0.0, 1.0);
+    for (c, t, n_after) in surfaces {
+        nu -= y * c * (n_after - n);
+        n = n_after;
+        y += t * nu / n;
+    }
+    (-1.0 / nu, -y / nu)
+}
