@@ -11,6 +11,9 @@
 //!   closest focus distance. Between them a gap moves linearly in the reciprocal of the focus
 //!   distance: `t(d) = t∞ + (t_close − t∞) · d_close / d`, with `d` and `d_close` measured from
 //!   the film plane (as `--focus-distance` and a lens's published minimum focus distance are).
+//!   In a zoom whose focus groups travel differently at each position (an internal-focus
+//!   zoom), each position gives its own gaps at close focus ([`ZoomPosition::close_gaps`]),
+//!   interpolated the same way from that position's gaps at infinity.
 //!   For a thin group moving to keep the image on a fixed film, the motion is exactly linear in
 //!   1/d to first order (Newton's x·x' = f²), which is why designs tabulate two positions and
 //!   sidp/physical-camera interpolates so. The film is then placed where the image of `d`
@@ -42,6 +45,10 @@ pub struct ZoomPosition {
     pub gaps: Vec<Gap>,
     /// The stop's full clear diameter at this position, mm (`None`: the prescription's).
     pub stop_diameter: Option<f64>,
+    /// Some of this position's gaps at the lens's close focus ([`FocusGroups::close_focus_m`]),
+    /// as a patent tabulates an internal-focus zoom; each surface's gap at infinity is its
+    /// entry in `gaps`. Empty: the position focuses by the lens's [`FocusGroups`] alone.
+    pub close_gaps: Vec<Gap>,
 }
 
 /// A gap that focus groups change: its thickness at infinity focus and at the closest focus.
@@ -57,6 +64,8 @@ pub struct FocusGap {
 pub struct FocusGroups {
     /// The closest focus distance, metres from the film plane.
     pub close_focus_m: f64,
+    /// The gaps that change with focus alike at every zoom position (a zoom's position-dependent
+    /// focus travel is in its positions' [`ZoomPosition::close_gaps`]).
     pub gaps: Vec<FocusGap>,
 }
 
@@ -145,6 +154,20 @@ impl VariableSpacings {
             {
                 return Err(format!("{what}: stop diameter {d} mm must be positive"));
             }
+            for gap in &position.close_gaps {
+                if !position.gaps.iter().any(|g| g.surface == gap.surface) {
+                    return Err(format!(
+                        "{what}: surface {}'s gap at close focus is given, but not its gap at infinity at this position",
+                        gap.surface + 1
+                    ));
+                }
+                length(gap.thickness, &format!("{what} at close focus"))?;
+            }
+            if !position.close_gaps.is_empty() && self.focus.is_none() {
+                return Err(format!(
+                    "{what} gives gaps at close focus, but the lens gives no close focus distance ([focus] close_focus_m)"
+                ));
+            }
         }
         if let Some(focus) = &self.focus {
             if !(focus.close_focus_m.is_finite() && focus.close_focus_m > 0.0) {
@@ -152,6 +175,12 @@ impl VariableSpacings {
                     "close focus {} m must be a positive distance",
                     focus.close_focus_m
                 ));
+            }
+            let zoom_focuses = self.zoom.iter().any(|p| !p.close_gaps.is_empty());
+            if focus.gaps.is_empty() && !zoom_focuses {
+                return Err(
+                    "the focus groups move no gap: give [focus] surfaces with their gaps at infinity and close focus, or each zoom position's close_gaps".into(),
+                );
             }
             for gap in &focus.gaps {
                 surface(gap.surface, "a focus group")?;
@@ -163,7 +192,7 @@ impl VariableSpacings {
                     .any(|p| p.gaps.iter().any(|g| g.surface == gap.surface))
                 {
                     return Err(format!(
-                        "surface {}'s gap changes both with zoom and with focus; realcam does not represent a focus group whose travel depends on the zoom position",
+                        "surface {}'s gap changes both with zoom and with focus: give its gap at close focus per zoom position instead ([zoom] positions' close_gaps)",
                         gap.surface + 1
                     ));
                 }
@@ -193,7 +222,17 @@ pub fn rows_at(
     }
     if let Some((groups, metres)) = focus {
         let travel = groups.travel(metres)?;
-        for gap in &groups.gaps {
+        let zoom_focus = zoom.iter().flat_map(|p| {
+            p.close_gaps.iter().filter_map(|close| {
+                let infinity = p.gaps.iter().rev().find(|g| g.surface == close.surface)?;
+                Some(FocusGap {
+                    surface: close.surface,
+                    infinity: infinity.thickness,
+                    close: close.thickness,
+                })
+            })
+        });
+        for gap in groups.gaps.iter().copied().chain(zoom_focus) {
             rows[gap.surface].base.thickness = gap.infinity + (gap.close - gap.infinity) * travel;
         }
     }

@@ -314,6 +314,69 @@ fn a_focus_group_lens_puts_the_image_of_its_focus_distance_on_the_film() {
     );
 }
 
+/// An internal-focus zoom: at each position the gap after the front group closes by its own
+/// amount for focus at 1 m (3, 6 and 10 mm), as a patent tabulates such a zoom per position.
+/// Focused at a distance, each position's gap is interpolated in 1/d from its own infinity and
+/// close values, and the paraxial image of that distance lies on the film; the close gaps
+/// round-trip through the `.toml`.
+#[test]
+fn a_zoom_whose_focus_travel_depends_on_the_position_focuses_each_position() {
+    let text = ZOOM_TOML
+        .replace("gaps = [20.0],", "gaps = [20.0], close_gaps = [17.0],")
+        .replace("gaps = [50.0],", "gaps = [50.0], close_gaps = [44.0],")
+        .replace("gaps = [90.0],", "gaps = [90.0], close_gaps = [80.0],")
+        + "\n[focus]\nclose_focus_m = 1.0\n";
+    let lens = Prescription::parse(&text, Path::new("if-zoom.toml"), None).unwrap();
+    for (position, (infinity, close_gap)) in [(20.0, 17.0), (50.0, 44.0), (90.0, 80.0)]
+        .into_iter()
+        .enumerate()
+    {
+        for metres in [f64::INFINITY, 1.0, 2.0, 5.0] {
+            let at = report(
+                &lens,
+                LensSettings {
+                    zoom_position: Some(position + 1),
+                    focus_distance: Some(metres),
+                    ..LensSettings::default()
+                },
+            );
+            let gap = infinity + (close_gap - infinity) * (1.0 / metres);
+            let rows = &at.geometry.system.rows;
+            assert!(
+                close(rows[1].base.thickness, gap, 1e-12),
+                "position {} at {metres} m: gap {} vs {gap}",
+                position + 1,
+                rows[1].base.thickness
+            );
+            let surfaces = zoom_surfaces(gap);
+            let span: f64 = surfaces[..4].iter().map(|s| s.1).sum();
+            let object = metres * 1000.0 - span - at.film_distance;
+            let image = if metres.is_infinite() {
+                let (y, nu) = y_nu(&surfaces, 1.0, 0.0);
+                -y / nu
+            } else {
+                let u = 1e-3;
+                let (y, nu) = y_nu(&surfaces, object * u, u);
+                -y / nu
+            };
+            assert!(
+                (image - at.film_distance).abs() < 1e-6 * at.film_distance,
+                "position {} at {metres} m: image {image} mm, film {} mm",
+                position + 1,
+                at.film_distance
+            );
+        }
+    }
+    let back = Prescription::parse(&write_lens_file(&lens), Path::new("back.toml"), None).unwrap();
+    assert_eq!(back.spacings, lens.spacings);
+    // A position's close gaps need the lens's close focus distance.
+    let without = text.split("\n[focus]").next().unwrap();
+    let e = Prescription::parse(without, Path::new("no-close.toml"), None)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("close_focus_m"), "{e}");
+}
+
 /// The Zemax file reads as a zoom whose positions have the f-numbers of its `APER` rows and
 /// the focal lengths of their gaps, and round-trips through realcam's `.toml`.
 #[test]

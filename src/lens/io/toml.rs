@@ -32,9 +32,11 @@
 //! default applies.
 //!
 //! Optional `[zoom]` (`surfaces`, 1-based, and `positions`, each with `gaps` after those
-//! surfaces, optionally `focal_length_mm` and `stop_diameter`) and `[focus]` (`close_focus_m`,
-//! `surfaces`, and their gaps at `infinity` and at `close` focus) tables give a zoom lens's
-//! positions and a lens's focus groups (see [`crate::lens::spacing`]).
+//! surfaces, optionally `focal_length_mm`, `stop_diameter` and, for a zoom whose focus travel
+//! differs per position, `close_gaps`: the same gaps at close focus) and `[focus]`
+//! (`close_focus_m`, and optionally `surfaces` with their gaps at `infinity` and at `close`
+//! focus) tables give a zoom lens's positions and a lens's focus groups (see
+//! [`crate::lens::spacing`]).
 
 use std::fmt::Write;
 use std::path::Path;
@@ -84,6 +86,8 @@ struct ZoomEntry {
     focal_length_mm: Option<f64>,
     gaps: Vec<f64>,
     stop_diameter: Option<f64>,
+    /// The gaps after the `[zoom]` surfaces at close focus, at this position.
+    close_gaps: Option<Vec<f64>>,
 }
 
 /// `[focus]`: the focus groups' gaps at infinity and at the closest focus.
@@ -91,8 +95,11 @@ struct ZoomEntry {
 #[serde(deny_unknown_fields)]
 struct FocusTable {
     close_focus_m: f64,
+    #[serde(default)]
     surfaces: Vec<usize>,
+    #[serde(default)]
     infinity: Vec<f64>,
+    #[serde(default)]
     close: Vec<f64>,
 }
 
@@ -538,14 +545,27 @@ fn spacings(file: &LensFile) -> Result<VariableSpacings, String> {
                     surfaces.len()
                 ));
             }
+            let close = entry.close_gaps.as_deref().unwrap_or_default();
+            if entry.close_gaps.is_some() && close.len() != surfaces.len() {
+                return Err(format!(
+                    "[zoom] position {} gives {} close_gaps for {} surfaces",
+                    i + 1,
+                    close.len(),
+                    surfaces.len()
+                ));
+            }
+            let gaps = |values: &[f64]| {
+                surfaces
+                    .iter()
+                    .zip(values)
+                    .map(|(&surface, &thickness)| Gap { surface, thickness })
+                    .collect::<Vec<_>>()
+            };
             spacings.zoom.push(ZoomPosition {
                 focal_length_mm: entry.focal_length_mm,
-                gaps: surfaces
-                    .iter()
-                    .zip(&entry.gaps)
-                    .map(|(&surface, &thickness)| Gap { surface, thickness })
-                    .collect(),
+                gaps: gaps(&entry.gaps),
                 stop_diameter: entry.stop_diameter,
+                close_gaps: gaps(close),
             });
         }
     }
@@ -617,6 +637,21 @@ fn write_spacings(out: &mut String, spacings: &VariableSpacings, rows: &[Surface
             if let Some(d) = position.stop_diameter {
                 fields.push(format!("stop_diameter = {}", num(d)));
             }
+            if !position.close_gaps.is_empty() {
+                // A surface whose gap does not move with focus keeps its gap at infinity.
+                let close: Vec<f64> = surfaces
+                    .iter()
+                    .zip(&gaps)
+                    .map(|(&s, &infinity)| {
+                        position
+                            .close_gaps
+                            .iter()
+                            .find(|g| g.surface == s)
+                            .map_or(infinity, |g| g.thickness)
+                    })
+                    .collect();
+                fields.push(format!("close_gaps = [{}]", list(&close)));
+            }
             let _ = writeln!(out, "  {{ {} }},", fields.join(", "));
         }
         let _ = writeln!(out, "]");
@@ -631,9 +666,11 @@ fn write_spacings(out: &mut String, spacings: &VariableSpacings, rows: &[Surface
         let close: Vec<f64> = focus.gaps.iter().map(|g| g.close).collect();
         let _ = writeln!(out, "\n[focus]");
         let _ = writeln!(out, "close_focus_m = {}", num(focus.close_focus_m));
-        let _ = writeln!(out, "surfaces = [{}]", numbers.join(", "));
-        let _ = writeln!(out, "infinity = [{}]", list(&infinity));
-        let _ = writeln!(out, "close = [{}]", list(&close));
+        if !focus.gaps.is_empty() {
+            let _ = writeln!(out, "surfaces = [{}]", numbers.join(", "));
+            let _ = writeln!(out, "infinity = [{}]", list(&infinity));
+            let _ = writeln!(out, "close = [{}]", list(&close));
+        }
     }
 }
 
