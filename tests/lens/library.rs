@@ -2,8 +2,9 @@
 //! computed by realcam, against the numbers its source publishes; and `realcam lenses`.
 //!
 //! The published numbers below are copied from the sources (patents as quoted by DeepLens and
-//! lentil, the makers' marked values, the Zemax file's targets), not from realcam: see each
-//! lens file's `notes` and lenses/README.md for where each comes from.
+//! lentil, the makers' marked values, the Zemax file's targets, the patent tables of the zoom and
+//! focus-group designs), not from realcam: see each lens file's `notes` and lenses/README.md for
+//! where each comes from.
 
 use crate::support;
 
@@ -15,8 +16,10 @@ use realcam::lens::clear_aperture::widest_stop;
 use realcam::lens::field::field_angle;
 use realcam::lens::first_order::FirstOrder;
 use realcam::lens::io::bundled::{BUNDLED, BundledLens, load_lens};
+use realcam::lens::report::LensReport;
+use realcam::lens::settings::LensSettings;
 use realcam::lens::trace::{Ray, Travel, normalize, trace};
-use realcam::lens::{LensSystem, Prescription};
+use realcam::lens::{LensSystem, Prescription, SurfaceRow};
 
 /// How closely a computed focal length must meet the published one, and why.
 #[derive(Clone, Copy, Debug)]
@@ -107,6 +110,16 @@ const LIBRARY: &[Published] = &[
     patent("canon-35mm-f1.8", 35.0, Some(1.8)),
     // The Zemax file's EFLY target and FNUM.
     patent("rudolph-double-gauss", 49.4, Some(4.5)),
+    // Typed from patent tables (lenses/tools/make_patent_lenses.py), at infinity focus: US
+    // 2018/0031811 A1 Table 4 (f = 587.80 mm, FNO 4.08); WO 2021/085655 A1 Table 6 (f = 84 mm,
+    // F/1.47).
+    patent("nikon-af-s-600mm-f4e-fl-if", 587.80, Some(4.08)),
+    patent("samyang-af-85mm-f1.4-if", 84.0, Some(1.47)),
+    // The zooms as their surfaces are written, at the position whose stop opens widest: US
+    // 5,899,585 Table 1's wide end (f = 28.98 mm, F/3.46); JP 2013-140404 A Numerical Example 1's
+    // middle position (f = 135.00 mm, Fno 4.67). Every position is checked below.
+    patent("canon-ef-28-80mm-f3.5-5.6-zoom", 28.98, Some(3.46)),
+    patent("canon-ef-70-300mm-f4-5.6-zoom", 135.0, Some(4.67)),
 ];
 
 fn library() -> impl Iterator<Item = &'static BundledLens> {
@@ -169,6 +182,8 @@ fn every_design_is_bundled_with_its_source_and_licence() {
             Some("Apache-2.0") => "DeepLens-Apache-2.0.txt",
             Some("MIT") => "lentil-MIT.txt",
             Some("BSD-3-Clause") => "ray-optics-BSD-3-Clause.txt",
+            // Numbers typed from patent tables; the file says why no licence applies.
+            Some("none (facts from patent tables)") => "patent-facts.txt",
             other => panic!("{}: licence {other:?}", lens.name),
         };
         assert!(
@@ -375,6 +390,246 @@ fn rudolph_double_gauss_is_its_zemax_file() {
         assert!((a.curvature() - b.curvature()).abs() < 1e-12);
         assert!((a.base.index - b.base.index).abs() < 1e-12);
         assert_eq!(a.base.stop, b.base.stop);
+    }
+}
+
+/// A zoom lens's positions as its patent tabulates them.
+struct PatentZoom {
+    name: &'static str,
+    /// The surfaces (numbered from 1, the stop counted) after which the gaps change.
+    surfaces: &'static [usize],
+    /// Per position: focal length (mm), F-number, the gaps after `surfaces` (mm), and the back
+    /// focus (last surface to image, mm) where the patent prints it.
+    positions: &'static [(f64, f64, &'static [f64], Option<f64>)],
+}
+
+const PATENT_ZOOMS: &[PatentZoom] = &[
+    // US 5,899,585, Numerical Example 1 (Table 1): f = 28.98, 50.00, 77.08; FNo 3.46, 4.51, 5.88;
+    // D8, D17 (the stop is the patent's surface 11). No back focus is printed.
+    PatentZoom {
+        name: "canon-ef-28-80mm-f3.5-5.6-zoom",
+        surfaces: &[8, 17],
+        positions: &[
+            (28.98, 3.46, &[32.88, 3.01], None),
+            (50.00, 4.51, &[11.61, 17.95], None),
+            (77.08, 5.88, &[1.31, 37.21], None),
+        ],
+    },
+    // JP 2013-140404 A, Numerical Example 1: f = 72.20, 135.00, 290.00; Fno 4.20, 4.67, 5.86;
+    // D5, D10, D16 (after the stop, surface 16), D19, D26; BF 46.74, 47.82, 57.41.
+    PatentZoom {
+        name: "canon-ef-70-300mm-f4-5.6-zoom",
+        surfaces: &[5, 10, 16, 19, 26],
+        positions: &[
+            (72.20, 4.20, &[2.78, 26.47, 6.01, 16.39, 11.97], Some(46.74)),
+            (
+                135.00,
+                4.67,
+                &[32.18, 14.15, 24.56, 10.16, 10.82],
+                Some(47.82),
+            ),
+            (290.00, 5.86, &[56.78, 1.28, 44.99, 2.60, 1.30], Some(57.41)),
+        ],
+    },
+];
+
+/// `realcam lens`'s report of `name` at `zoom_position` (1-based; `None`: as written), focused
+/// at `metres` from the film.
+fn report_at(name: &str, zoom_position: Option<usize>, metres: f64) -> anyhow::Result<LensReport> {
+    let lens = load_lens(name, None).unwrap_or_else(|e| panic!("{name}: {e}"));
+    LensReport::derive(
+        lens,
+        &LensSettings {
+            zoom_position,
+            focus_distance: Some(metres),
+            ..LensSettings::default()
+        },
+    )
+}
+
+/// Each zoom position has the focal length and f-number its patent states for it, with the
+/// patent's gaps, and where the patent prints the back focus, the film where it says.
+#[test]
+fn zoom_positions_have_their_patents_focal_lengths_and_f_numbers() {
+    for zoom in PATENT_ZOOMS {
+        let name = zoom.name;
+        let all = report_at(name, None, f64::INFINITY).unwrap();
+        assert_eq!(all.zoom_positions.len(), zoom.positions.len(), "{name}");
+        let spacings = &all.prescription.spacings;
+        for (k, &(focal, f_number, gaps, back_focus)) in zoom.positions.iter().enumerate() {
+            let at = report_at(name, Some(k + 1), f64::INFINITY).unwrap();
+            let fo = &at.geometry.first_order;
+            // The focal length a patent states for its own table: 1 % (Basis::Patent).
+            for computed in [fo.focal_length, all.zoom_positions[k].focal_length_mm] {
+                assert!(
+                    (computed / focal - 1.0).abs() < Basis::Patent.tolerance(),
+                    "{name} position {}: focal length {computed:.3} mm, the patent's {focal} mm",
+                    k + 1
+                );
+            }
+            // The stop of each position is sized for its F-number (make_patent_lenses.py's
+            // paraxial trace); realcam's entrance pupil must agree.
+            for computed in [fo.f_number, all.zoom_positions[k].f_number] {
+                assert!(
+                    (computed / f_number - 1.0).abs() < 1e-3,
+                    "{name} position {}: f/{computed:.4}, the patent's F/{f_number}",
+                    k + 1
+                );
+            }
+            assert_eq!(spacings.zoom[k].focal_length_mm, Some(focal), "{name}");
+            let rows = &at.geometry.system.rows;
+            for (&surface, &gap) in zoom.surfaces.iter().zip(gaps) {
+                assert!(
+                    (rows[surface - 1].base.thickness - gap).abs() < 1e-9,
+                    "{name} position {}: gap after surface {surface}",
+                    k + 1
+                );
+            }
+            // The patent's back focus is printed to 0.01 mm from gaps printed to 0.01 mm; over
+            // a 290 mm focal length those reproduce it to 0.06 mm.
+            if let Some(back_focus) = back_focus {
+                assert!(
+                    (at.film_distance - back_focus).abs() < 0.1,
+                    "{name} position {}: film {:.4} mm behind the lens, the patent's BF {back_focus} mm",
+                    k + 1,
+                    at.film_distance
+                );
+            }
+        }
+    }
+}
+
+/// A prime that focuses by moving groups, as its patent tabulates them.
+struct PatentFocus {
+    name: &'static str,
+    /// The closest focus, object to image, metres.
+    close_m: f64,
+    /// The surfaces (numbered from 1) after which the gaps change, and the gaps at infinity and
+    /// at the closest focus (mm).
+    surfaces: &'static [usize],
+    infinity: &'static [f64],
+    close: &'static [f64],
+    /// The back focus (last surface to image, in air, without the patent's filter plate) at
+    /// infinity and at the closest focus, mm.
+    back_focus: (f64, f64),
+    /// At the closest focus: the object's distance in front of surface 1 (mm) and the
+    /// magnification (unsigned).
+    object_mm: f64,
+    magnification: f64,
+}
+
+const PATENT_FOCUS: &[PatentFocus] = &[
+    // US 2018/0031811 A1, Example 4 (Table 4): d11, d14 at infinity and at the close state, the
+    // object d0 = 3930.900 mm before surface 1 with TL = 469.10 mm (4.400 m object to image),
+    // beta = -0.145; air-converted BF 82.26 mm (the image plane is fixed: the focus group keeps it).
+    PatentFocus {
+        name: "nikon-af-s-600mm-f4e-fl-if",
+        close_m: 4.4,
+        surfaces: &[11, 14],
+        infinity: &[17.545, 45.385],
+        close: &[33.104, 29.826],
+        back_focus: (82.26, 82.26),
+        object_mm: 3930.9,
+        magnification: 0.145,
+    },
+    // WO 2021/085655 A1, Example 3 (Tables 5-6): D1, D2 at infinity and at 0.90 m (the object
+    // D0 = 784 mm before surface 1); BF "in Air" 16.854 and 17.045 mm; close-focus magnification
+    // 0.1128.
+    PatentFocus {
+        name: "samyang-af-85mm-f1.4-if",
+        close_m: 0.9,
+        surfaces: &[7, 9],
+        infinity: &[1.94373, 9.91877],
+        close: &[6.99684, 4.86565],
+        back_focus: (16.854, 17.045),
+        object_mm: 784.0,
+        magnification: 0.1128,
+    },
+];
+
+/// The distance in front of the first surface of the object `metres` from the film (`film` mm
+/// behind the last of `rows`), and the paraxial magnification: a y-nu trace written out here, the
+/// ray's reduced angle in object space over its angle in image space.
+fn object_and_magnification(rows: &[SurfaceRow], film: f64, metres: f64) -> (f64, f64) {
+    let span: f64 = rows[..rows.len() - 1]
+        .iter()
+        .map(|r| r.base.thickness)
+        .sum();
+    let object = metres * 1000.0 - span - film;
+    let u = 1e-3;
+    let (mut y, mut nu, mut n) = (object * u, u, 1.0);
+    for (i, row) in rows.iter().enumerate() {
+        let n_after = row.base.index;
+        nu -= y * (n_after - n) * row.curvature();
+        n = n_after;
+        if i + 1 < rows.len() {
+            y += row.base.thickness * nu / n;
+        }
+    }
+    // The image: where the ray crosses the axis, `film` mm on if the lens is focused there.
+    assert!(
+        ((-y / nu) - film).abs() < 1e-6 * film,
+        "the image is {} mm behind the lens, the film {film} mm",
+        -y / nu
+    );
+    (object, u / nu)
+}
+
+/// Focused at its patent's closest distance, a focus-group prime has the patent's close-focus
+/// gaps, puts the film where the patent's back focus says (the image on the film), and has the
+/// patent's object distance and magnification; at infinity, the patent's infinity gaps and back
+/// focus; closer than the close focus is refused.
+#[test]
+fn focus_group_primes_focus_as_their_patents_tabulate() {
+    for lens in PATENT_FOCUS {
+        let name = lens.name;
+        for (metres, gaps, back_focus) in [
+            (f64::INFINITY, lens.infinity, lens.back_focus.0),
+            (lens.close_m, lens.close, lens.back_focus.1),
+        ] {
+            let at = report_at(name, None, metres).unwrap();
+            assert_eq!(at.to_json()["closest_focus_m"], lens.close_m, "{name}");
+            let rows = &at.geometry.system.rows;
+            for (&surface, &gap) in lens.surfaces.iter().zip(gaps) {
+                assert!(
+                    (rows[surface - 1].base.thickness - gap).abs() < 1e-9,
+                    "{name} at {metres} m: gap after surface {surface} is {}, the patent's {gap}",
+                    rows[surface - 1].base.thickness
+                );
+            }
+            // The patents print the back focus to 0.01 and 0.001 mm, from radii rounded to 3-4
+            // decimals: the paraxial image of their tables lies within 0.03 mm of it.
+            assert!(
+                (at.film_distance - back_focus).abs() < 0.03,
+                "{name} at {metres} m: film {:.4} mm behind the lens, the patent's {back_focus} mm",
+                at.film_distance
+            );
+            if metres.is_finite() {
+                let (object, beta) = object_and_magnification(rows, at.film_distance, metres);
+                let beta = beta.abs();
+                // The patents' filter plates, left out here, make their object-to-image distance
+                // 0.5 and 0.85 mm longer than it is without them.
+                assert!(
+                    (object - lens.object_mm).abs() < 1.0,
+                    "{name}: the object {object:.3} mm before surface 1, the patent's {}",
+                    lens.object_mm
+                );
+                assert!(
+                    (beta - lens.magnification).abs() < 1e-3,
+                    "{name}: magnification {beta:.5} at {metres} m, the patent's {}",
+                    lens.magnification
+                );
+            }
+        }
+        let e = report_at(name, None, 0.95 * lens.close_m)
+            .err()
+            .unwrap_or_else(|| panic!("{name} focused closer than its close focus"))
+            .to_string();
+        assert!(
+            e.contains("closer than this lens focuses")
+                && e.contains(&format!("{} m", lens.close_m)),
+            "{name}: {e}"
+        );
     }
 }
 
