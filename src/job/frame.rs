@@ -56,6 +56,11 @@ impl FrameReport {
                 probe.pixel[0],
                 probe.pixel[1]
             ),
+            // Past a kilometre every lens here is focused at infinity to within its depth of
+            // field; a rack focus "to infinity" names a far distance, which reads badly.
+            (None, FocusSetting::Distance { metres, .. }) if metres >= 1e3 => {
+                "focus at infinity".to_string()
+            }
             (None, FocusSetting::Distance { metres, .. }) => format!("focus {metres:.2} m"),
             (None, FocusSetting::FilmDistance(mm)) => format!("film at {mm:.2} mm"),
         };
