@@ -10,30 +10,39 @@
 //!
 //! Depth is measured as everywhere in [`crate::lens::focus`]: from the film plane (through
 //! the frame centre) to the point, along the axis.
+//!
+//! A lens that focuses by moving groups ([`FocusGroups`]) focuses with them, as the camera's
+//! autofocus would: the point's depth becomes the lens's focus distance, which moves the groups
+//! (a new geometry, derived as for any focus change), and the probe runs again through the
+//! re-derived lens, whose framing breathed a little; the [`Renderer`](crate::pipeline::Renderer)
+//! re-runs the derivation until the depth stays put ([`LensesSettling`]). The film is then
+//! placed by the probe's real rays, as for a unit-focused lens.
 
 use std::time::Instant;
 
 use bevy_ecs::change_detection::DetectChanges;
 use bevy_ecs::component::Component;
 use bevy_ecs::entity::Entity;
+use bevy_ecs::resource::Resource;
 use bevy_ecs::system::{Commands, Query, Res, ResMut};
-use bevy_ecs::world::Ref;
+use bevy_ecs::world::{Mut, Ref};
 use glam::{Mat4, Vec3};
 
 use super::camera::{CameraPose, FilmGeometry, FilmResolution};
 use super::elements::{
-    FilmFormat, FilmPlacement, Lens, LensDerivationStats, LensFault, LensGeometry,
+    FilmFormat, FilmPlacement, FocusSetting, Lens, LensDerivationStats, LensFault, LensGeometry,
 };
 use super::first_order::FirstOrder;
-use super::focus::{INFINITY_FOCUS_MM, paraxial_film_distance, sharpest_image_z};
+use super::focus::{FocusMode, INFINITY_FOCUS_MM, paraxial_film_distance, sharpest_image_z};
 use super::movements::{FilmMovements, passing_rear_points};
+use super::spacing::FocusGroups;
 use super::system::LensSystem;
 use super::trace::{Ray, Travel, normalize, trace};
 use crate::accel::SceneAccel;
 
 /// Focus the lens on what pixel (`x`, `y`) sees ((0, 0): the image's top-left pixel). A
 /// component of the lens entity; while present it decides the film distance, not
-/// [`FocusSetting`](super::elements::FocusSetting).
+/// [`FocusSetting`].
 #[derive(Component, Clone, Copy, Debug, PartialEq, Eq)]
 pub struct FocusOnPixel {
     pub x: u32,
@@ -58,6 +67,16 @@ const ROUNDS: usize = 6;
 /// Real-ray refinements of the film distance per round.
 const REFINEMENTS: usize = 4;
 
+/// Present after a derivation round in which a lens with focus groups moved them to focus on a
+/// pixel: its geometry must be derived again (and the pixel probed through it) before it
+/// renders. The [`Renderer`](crate::pipeline::Renderer) runs the schedule again while it is.
+#[derive(Resource, Debug, Default)]
+pub struct LensesSettling;
+
+/// How far (relative) the probed depth may lie from the focus distance the groups are at before
+/// they move again: 0.01 %, a tenth of a millimetre at a metre, far inside any depth of field.
+const GROUP_FOCUS_TOLERANCE: f64 = 1e-4;
+
 type FocusTargetQuery<'w, 's> = Query<
     'w,
     's,
@@ -67,6 +86,8 @@ type FocusTargetQuery<'w, 's> = Query<
         Ref<'static, LensGeometry>,
         Ref<'static, FocusOnPixel>,
         Option<Ref<'static, FilmMovements>>,
+        Option<&'static FocusGroups>,
+        Option<Mut<'static, FocusSetting>>,
     ),
 >;
 
@@ -75,7 +96,7 @@ type FocusTargetQuery<'w, 's> = Query<
 #[allow(clippy::too_many_arguments)]
 pub fn focus_on_pixel(
     mut commands: Commands,
-    lenses: FocusTargetQuery,
+    mut lenses: FocusTargetQuery,
     accel: Option<Res<SceneAccel>>,
     pose: Option<Res<CameraPose>>,
     resolution: Res<FilmResolution>,
@@ -86,7 +107,7 @@ pub fn focus_on_pixel(
         || pose.as_ref().is_some_and(|p| p.is_changed())
         || resolution.is_changed()
         || film.is_changed();
-    for (entity, lens, geometry, target, movements) in &lenses {
+    for (entity, lens, geometry, target, movements, groups, focus) in &mut lenses {
         let movements_changed = movements.as_ref().is_some_and(|m| m.is_changed());
         if !(world_changed || geometry.is_changed() || target.is_changed() || movements_changed) {
             continue;
@@ -109,6 +130,17 @@ pub fn focus_on_pixel(
         };
         match solved {
             Ok(probe) => {
+                if let (Some(_), Some(mut focus)) = (groups, focus) {
+                    let metres = probe.object_distance_mm / 1000.0;
+                    let (at, mode) = match *focus {
+                        FocusSetting::Distance { metres, mode } => (metres, mode),
+                        FocusSetting::FilmDistance(_) => (f64::INFINITY, FocusMode::Paraxial),
+                    };
+                    if (metres - at).abs() > GROUP_FOCUS_TOLERANCE * metres {
+                        *focus = FocusSetting::Distance { metres, mode };
+                        commands.insert_resource(LensesSettling);
+                    }
+                }
                 commands
                     .entity(entity)
                     .insert((

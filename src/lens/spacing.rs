@@ -8,17 +8,23 @@
 //! - a **zoom position** ([`ZoomPosition`]) replaces some thicknesses, and where the design
 //!   changes it, the stop's diameter (Zemax's `APER`, converted to the stop it opens);
 //! - **focus groups** ([`FocusGroups`]) give some thicknesses at infinity focus and at the
-//!   closest focus distance. Between them a gap moves linearly in the reciprocal of the focus
-//!   distance: `t(d) = t∞ + (t_close − t∞) · d_close / d`, with `d` and `d_close` measured from
-//!   the film plane (as `--focus-distance` and a lens's published minimum focus distance are).
-//!   In a zoom whose focus groups travel differently at each position (an internal-focus
-//!   zoom), each position gives its own gaps at close focus ([`ZoomPosition::close_gaps`]),
-//!   interpolated the same way from that position's gaps at infinity.
-//!   For a thin group moving to keep the image on a fixed film, the motion is exactly linear in
-//!   1/d to first order (Newton's x·x' = f²), which is why designs tabulate two positions and
-//!   sidp/physical-camera interpolates so. The film is then placed where the image of `d`
-//!   falls, as for any lens, so the little the interpolation leaves over is taken up there and
-//!   the image is always on the film.
+//!   closest focus distance (`d` and `d_close` measured from the film plane, as
+//!   `--focus-distance` and a lens's published minimum focus distance are). In a zoom whose
+//!   focus groups travel differently at each position (an internal-focus zoom), each position
+//!   gives its own gaps at close focus ([`ZoomPosition::close_gaps`]) beside its gaps at
+//!   infinity.
+//!
+//! The two tabulated states fix the direction the groups move in: every focus gap at travel
+//! `τ` is `t(τ) = t∞ + (t_close − t∞) · τ`; and their image distances (rear vertex to film),
+//! `v∞` (the back focus) and `v_close` (the paraxial image of `d_close`), fix how the lens body
+//! moves against the film, `v(τ) = v∞ + (v_close − v∞) · τ` (constant for a pure
+//! internal-focus lens). Focus at `d` is the travel whose paraxial image of `d` falls at
+//! `v(τ)`, solved by bisection, as the lens's focusing cam is cut. Newton's x·x′ = f² makes τ
+//! close to `d_close / d` (linear in 1/d, as sidp/physical-camera interpolates), which is the
+//! fallback where no travel in [0, 1] solves it; but a real group's focal shift is not linear
+//! in its travel, and the linear law would leave the film of an internal-focus lens tenths of a
+//! millimetre off its design position between the tabulated states. The film is then placed
+//! where the image of `d` falls, as for any lens.
 //!
 //! On a lens entity these are components of the root: [`ZoomPositions`] and [`FocusGroups`]
 //! (from the file) and [`ZoomSetting`] (which position renders); the Geometry derivation reads
@@ -27,7 +33,10 @@
 
 use bevy_ecs::component::Component;
 
+use super::first_order::FirstOrder;
+use super::focus::paraxial_film_distance;
 use super::prescription::SurfaceRow;
+use super::system::LensSystem;
 
 /// A thickness that differs from the prescription's: row `surface`'s (0-based, front first)
 /// distance to the next surface, mm.
@@ -70,10 +79,10 @@ pub struct FocusGroups {
 }
 
 impl FocusGroups {
-    /// How far the groups have travelled from infinity (0) toward close focus (1) for focus at
-    /// `metres` from the film: `d_close / d`, linear in 1/d. Refuses a distance closer than the
-    /// close focus, naming the distance the lens accepts.
-    pub fn travel(&self, metres: f64) -> Result<f64, String> {
+    /// `d_close / d` for focus at `metres` from the film: the travel (0 at infinity, 1 at close
+    /// focus) linear in 1/d, the first-order law ([`rows_at`] solves the exact one). Refuses a
+    /// distance closer than the close focus, naming the distance the lens accepts.
+    fn linear_travel(&self, metres: f64) -> Result<f64, String> {
         if metres.is_infinite() {
             return Ok(0.0);
         }
@@ -221,7 +230,7 @@ pub fn rows_at(
         }
     }
     if let Some((groups, metres)) = focus {
-        let travel = groups.travel(metres)?;
+        let linear = groups.linear_travel(metres)?;
         let zoom_focus = zoom.iter().flat_map(|p| {
             p.close_gaps.iter().filter_map(|close| {
                 let infinity = p.gaps.iter().rev().find(|g| g.surface == close.surface)?;
@@ -232,11 +241,71 @@ pub fn rows_at(
                 })
             })
         });
-        for gap in groups.gaps.iter().copied().chain(zoom_focus) {
-            rows[gap.surface].base.thickness = gap.infinity + (gap.close - gap.infinity) * travel;
-        }
+        let gaps: Vec<FocusGap> = groups.gaps.iter().copied().chain(zoom_focus).collect();
+        let travel = if linear == 0.0 || linear == 1.0 {
+            linear
+        } else {
+            solve_travel(&rows, &gaps, groups.close_focus_m, metres).unwrap_or(linear)
+        };
+        move_groups(&mut rows, &gaps, travel);
     }
     Ok(rows)
+}
+
+/// Sets each focus gap of `rows` for the groups' `travel` (0 at infinity, 1 at close focus).
+fn move_groups(rows: &mut [SurfaceRow], gaps: &[FocusGap], travel: f64) {
+    for gap in gaps {
+        rows[gap.surface].base.thickness = gap.infinity + (gap.close - gap.infinity) * travel;
+    }
+}
+
+/// Bisection steps of [`solve_travel`]: 2⁻⁶⁰ of the travel, far below a nanometre of any gap.
+const TRAVEL_STEPS: usize = 60;
+
+/// The travel (see the module docs) at which the paraxial image of a point `metres` from the
+/// film falls at the image distance interpolated between the two tabulated states: `None`
+/// where the lens forms no real image along the way or no travel in [0, 1] solves it.
+fn solve_travel(
+    rows: &[SurfaceRow],
+    gaps: &[FocusGap],
+    close_focus_m: f64,
+    metres: f64,
+) -> Option<f64> {
+    let lens_at = |travel: f64| {
+        let mut moved = rows.to_vec();
+        move_groups(&mut moved, gaps, travel);
+        let system = LensSystem::new(&moved, None);
+        let first_order = FirstOrder::compute(&system).ok()?;
+        Some((system, first_order))
+    };
+    let image_distance = |travel: f64, mm: f64| {
+        let (system, first_order) = lens_at(travel)?;
+        paraxial_film_distance(&system, &first_order, mm).ok()
+    };
+    let v_infinity = lens_at(0.0)?.1.back_focal_length;
+    let v_close = image_distance(1.0, close_focus_m * 1000.0)?;
+    // Where the image of the point falls against where the lens body puts the film.
+    let miss = |travel: f64| {
+        let v = image_distance(travel, metres * 1000.0)?;
+        Some(v - (v_infinity + (v_close - v_infinity) * travel))
+    };
+    let (mut low, mut high) = (0.0, 1.0);
+    let (miss_low, miss_high) = (miss(low)?, miss(high)?);
+    if miss_low == 0.0 {
+        return Some(low);
+    }
+    if miss_low.signum() == miss_high.signum() {
+        return None;
+    }
+    for _ in 0..TRAVEL_STEPS {
+        let middle = 0.5 * (low + high);
+        if miss(middle)?.signum() == miss_low.signum() {
+            low = middle;
+        } else {
+            high = middle;
+        }
+    }
+    Some(0.5 * (low + high))
 }
 
 #[cfg(test)]
@@ -244,29 +313,51 @@ mod tests {
     use super::*;
 
     #[test]
-    fn focus_groups_move_linearly_in_reciprocal_distance() {
+    fn focus_groups_move_until_the_image_falls_where_the_lens_body_puts_the_film() {
+        // A plane window, then the focus gap, then an equiconvex singlet (n 1.5, R 50 mm) that
+        // moves toward the window to focus closer.
         let groups = FocusGroups {
             close_focus_m: 0.5,
             gaps: vec![FocusGap {
-                surface: 0,
-                infinity: 4.0,
+                surface: 1,
+                infinity: 10.0,
                 close: 2.0,
             }],
         };
         let rows = vec![
-            SurfaceRow::new(50.0, 3.0, 1.5, 20.0),
-            SurfaceRow::new(-50.0, 0.0, 1.0, 20.0),
+            SurfaceRow::new(0.0, 2.0, 1.5, 30.0),
+            SurfaceRow::new(0.0, 10.0, 1.0, 30.0),
+            SurfaceRow::new(50.0, 3.0, 1.5, 30.0),
+            SurfaceRow::new(-50.0, 0.0, 1.0, 30.0),
         ];
-        let at = |m: f64| {
-            rows_at(&rows, None, Some((&groups, m))).unwrap()[0]
+        let gap = |m: f64| {
+            rows_at(&rows, None, Some((&groups, m))).unwrap()[1]
                 .base
                 .thickness
         };
-        assert_eq!(at(f64::INFINITY), 4.0);
-        assert_eq!(at(0.5), 2.0);
-        // 1 m is half way in 1/d between ∞ (0) and 0.5 m (2 /m).
-        assert_eq!(at(1.0), 3.0);
-        assert_eq!(at(2.0), 3.5);
+        assert_eq!(gap(f64::INFINITY), 10.0);
+        assert_eq!(gap(0.5), 2.0);
+        // Between them the travel τ = (10 − gap)/8 puts the paraxial image of d at
+        // v∞ + (v_close − v∞)·τ: the ends' image distances, from the same lens.
+        let v = |gap: f64, mm: f64| {
+            let mut moved = rows.clone();
+            moved[1].base.thickness = gap;
+            let system = LensSystem::new(&moved, None);
+            let first_order = FirstOrder::compute(&system).unwrap();
+            paraxial_film_distance(&system, &first_order, mm).unwrap()
+        };
+        let (v_infinity, v_close) = (v(10.0, 1e12), v(2.0, 500.0));
+        for metres in [0.7, 1.0, 2.0, 10.0] {
+            let g = gap(metres);
+            let travel = (10.0 - g) / 8.0;
+            assert!((0.0..1.0).contains(&travel), "{metres} m: gap {g}");
+            let expected = v_infinity + (v_close - v_infinity) * travel;
+            assert!(
+                (v(g, metres * 1000.0) - expected).abs() < 1e-7,
+                "{metres} m: image at {} mm, the lens body's film at {expected} mm",
+                v(g, metres * 1000.0)
+            );
+        }
         let e = rows_at(&rows, None, Some((&groups, 0.3))).unwrap_err();
         assert!(e.contains("0.5 m"), "{e}");
     }

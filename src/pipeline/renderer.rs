@@ -26,10 +26,15 @@ use crate::lens::elements::{
     ActiveLens, CoatingChoice, FilmFormat, FocusSetting, LensDerivationStats, LensFault,
     activate_lens, set_coating_choice, set_diaphragm, set_zoom_position, spawn_lens,
 };
+use crate::lens::focus_probe::LensesSettling;
 use crate::lens::movements::FilmMovements;
 use crate::lens::pupil::PupilSampling;
 use crate::scene::SceneCamera;
 use crate::shade::Environment;
+
+/// Schedule runs one update makes at most while a lens settles its focus groups on a pixel
+/// ([`LensesSettling`]); each round moves them by far less than the last.
+const SETTLING_ROUNDS: usize = 8;
 
 /// Owns the world and the schedule: the library's entry point for rendering.
 pub struct Renderer {
@@ -89,7 +94,14 @@ impl Renderer {
 
     /// Runs the schedule once; returns the fault a stage reported, if any.
     pub fn update(&mut self) -> anyhow::Result<()> {
-        self.schedule.run(&mut self.world);
+        // A lens focusing on a pixel with its focus groups moves them and probes again through
+        // the re-derived lens (see `lens::focus_probe`); a few rounds settle it.
+        for _ in 0..SETTLING_ROUNDS {
+            self.schedule.run(&mut self.world);
+            if self.world.remove_resource::<LensesSettling>().is_none() {
+                break;
+            }
+        }
         if let Some(fault) = self.world.remove_resource::<PipelineFault>() {
             anyhow::bail!(fault.0);
         }
