@@ -1,7 +1,10 @@
 //! The surfaces' losses for a block of lanes: each survivor of a surface keeps 1 − R of its
 //! light, R looked up in the lens's reflectance table ([`crate::lens::reflectance`]) at the
-//! lane's angle and wavelength. A table lookup is a gather, so it runs one lane at a time, by
-//! the same scalar code in both kernels (which therefore give the same bits).
+//! lane's angle and wavelength. A table lookup is a gather: LLVM leaves the loop scalar, so on
+//! x86-64 with AVX-512 or AVX2 it runs 16 or 8 lanes at a time with the gather instructions
+//! ([`attenuate_lanes`]), the same operations in the same order, without fused multiply-adds,
+//! as the scalar loop ([`attenuate_scalar`], the reference and the tail), so every path gives
+//! the same bits. Both kernels call the same function, and so agree bit for bit too.
 
 use super::BLOCK;
 use crate::glass::FRAUNHOFER_D_NM;
@@ -57,20 +60,194 @@ impl Losses<'_> {
         let n = survived.len();
         let intervals = self.table.wavelength_entries() - 1;
         let surface = self.surface_of_step[step] * intervals * COSINE_STEPS;
-        let cells = &self.table.cells()[surface..surface + intervals * COSINE_STEPS];
-        let steps = COSINE_STEPS as f32;
-        let (cosines, rows, fractions) = (&cosines[..n], &scratch.row[..n], &scratch.fraction[..n]);
-        let transmission = &mut scratch.transmission[..n];
-        for lane in 0..n {
-            let x = (cosines[lane] * steps).clamp(0.0, steps);
-            let c = (x as u32).min(COSINE_STEPS as u32 - 1);
-            let u = x - c as f32;
-            let [a, b, c0, d] = cells[(rows[lane] + c) as usize];
-            let r0 = a + u * (b - a);
-            let r1 = c0 + u * (d - c0);
-            let r = r0 + fractions[lane] * (r1 - r0);
-            transmission[lane] *= if survived[lane] { 1.0 - r } else { 1.0 };
+        let lanes = LossLanes {
+            cells: &self.table.cells()[surface..surface + intervals * COSINE_STEPS],
+            cosines: &cosines[..n],
+            survived,
+            rows: &scratch.row[..n],
+            fractions: &scratch.fraction[..n],
+        };
+        attenuate_lanes(&lanes, &mut scratch.transmission[..n]);
+    }
+}
+
+/// One surface's losses over a block: the surface's cells (its wavelength intervals × cosine
+/// steps, four corners each), and per lane its cosine, whether it survived, its wavelength
+/// interval's first cell and its fraction toward the next wavelength.
+pub(super) struct LossLanes<'a> {
+    pub cells: &'a [[f32; 4]],
+    pub cosines: &'a [f32],
+    pub survived: &'a [bool],
+    pub rows: &'a [u32],
+    pub fractions: &'a [f32],
+}
+
+/// Multiplies `transmission` by each surviving lane's 1 − R: with the gather instructions where
+/// the CPU has them (16 or 8 lanes at a time), the rest by [`attenuate_scalar`].
+#[inline(always)]
+pub(super) fn attenuate_lanes(lanes: &LossLanes, transmission: &mut [f32]) {
+    let mut done = 0;
+    #[cfg(target_arch = "x86_64")]
+    {
+        if std::arch::is_x86_feature_detected!("avx512f")
+            && std::arch::is_x86_feature_detected!("avx512bw")
+            && std::arch::is_x86_feature_detected!("avx512vl")
+        {
+            // SAFETY: the CPU has AVX-512F, BW and VL (checked above).
+            done = unsafe { gathered::attenuate_avx512(lanes, transmission) };
+        } else if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: the CPU has AVX2 (checked above).
+            done = unsafe { gathered::attenuate_avx2(lanes, transmission) };
         }
+    }
+    attenuate_scalar(lanes, transmission, done);
+}
+
+/// The reference: lanes `from..` one at a time. R is bilinear in the cell: along the cosine
+/// within each wavelength row, then between the rows.
+#[inline(always)]
+pub(super) fn attenuate_scalar(lanes: &LossLanes, transmission: &mut [f32], from: usize) {
+    let steps = COSINE_STEPS as f32;
+    for lane in from..transmission.len() {
+        let x = (lanes.cosines[lane] * steps).clamp(0.0, steps);
+        let c = (x as u32).min(COSINE_STEPS as u32 - 1);
+        let u = x - c as f32;
+        let [a, b, c0, d] = lanes.cells[(lanes.rows[lane] + c) as usize];
+        let r0 = a + u * (b - a);
+        let r1 = c0 + u * (d - c0);
+        let r = r0 + lanes.fractions[lane] * (r1 - r0);
+        transmission[lane] *= if lanes.survived[lane] { 1.0 - r } else { 1.0 };
+    }
+}
+
+/// [`attenuate_scalar`]'s arithmetic, many lanes at a time. A dead lane's cosine may be
+/// anything (NaN included): its index is forced to cell 0 and its factor to 1, as the scalar
+/// loop's `survived` test does.
+#[cfg(target_arch = "x86_64")]
+mod gathered {
+    use std::arch::x86_64::*;
+
+    use super::{COSINE_STEPS, LossLanes};
+
+    /// Whole groups of 16 lanes; returns how many lanes it did.
+    #[target_feature(enable = "avx512f,avx512bw,avx512vl")]
+    pub(super) fn attenuate_avx512(lanes: &LossLanes, transmission: &mut [f32]) -> usize {
+        const W: usize = 16;
+        let groups = transmission.len() / W;
+        let steps = _mm512_set1_ps(COSINE_STEPS as f32);
+        let zero = _mm512_setzero_ps();
+        let one = _mm512_set1_ps(1.0);
+        let last = _mm512_set1_epi32(COSINE_STEPS as i32 - 1);
+        let base = lanes.cells.as_ptr() as *const f32;
+        for g in 0..groups {
+            let at = g * W;
+            // SAFETY: `at + W <= len` for every slice read here (all are `len` long).
+            unsafe {
+                // 16 `bool`s are 16 bytes, each 0 or 1.
+                let flags = _mm_loadu_si128(lanes.survived.as_ptr().add(at) as *const __m128i);
+                let alive = _mm_test_epi8_mask(flags, flags);
+                let cosine = _mm512_loadu_ps(lanes.cosines.as_ptr().add(at));
+                // clamp(x, 0, steps) as f32::clamp: a NaN (only in dead lanes) stays NaN and
+                // is masked off below.
+                let x = _mm512_mul_ps(cosine, steps);
+                let x = _mm512_mask_blend_ps(_mm512_cmp_ps_mask::<_CMP_LT_OQ>(x, zero), x, zero);
+                let x = _mm512_mask_blend_ps(_mm512_cmp_ps_mask::<_CMP_GT_OQ>(x, steps), x, steps);
+                let c = _mm512_min_epu32(_mm512_cvttps_epu32(x), last);
+                let u = _mm512_sub_ps(x, _mm512_cvtepu32_ps(c));
+                let rows = _mm512_loadu_si512(lanes.rows.as_ptr().add(at) as *const _);
+                let cell = _mm512_mask_blend_epi32(
+                    alive,
+                    _mm512_setzero_si512(),
+                    _mm512_add_epi32(rows, c),
+                );
+                // A cell's corners are two pairs of floats: each pair is one 64-bit load, eight
+                // lanes to a gather (half the loads of a gather per corner), then the pairs are
+                // parted into their first and second floats.
+                let bytes = _mm512_slli_epi32::<4>(cell);
+                let halves = [
+                    _mm512_castsi512_si256(bytes),
+                    _mm512_extracti64x4_epi64::<1>(bytes),
+                ];
+                let masks = [alive as u8, (alive >> 8) as u8];
+                let pair = |offset: i32, half: usize| {
+                    let index = _mm256_add_epi32(halves[half], _mm256_set1_epi32(offset));
+                    _mm512_castsi512_ps(_mm512_mask_i32gather_epi64::<1>(
+                        _mm512_setzero_si512(),
+                        masks[half],
+                        index,
+                        base as *const i64,
+                    ))
+                };
+                let firsts =
+                    _mm512_setr_epi32(0, 2, 4, 6, 8, 10, 12, 14, 16, 18, 20, 22, 24, 26, 28, 30);
+                let seconds =
+                    _mm512_setr_epi32(1, 3, 5, 7, 9, 11, 13, 15, 17, 19, 21, 23, 25, 27, 29, 31);
+                let (ab, cd) = ((pair(0, 0), pair(0, 1)), (pair(8, 0), pair(8, 1)));
+                let a = _mm512_permutex2var_ps(ab.0, firsts, ab.1);
+                let b = _mm512_permutex2var_ps(ab.0, seconds, ab.1);
+                let c0 = _mm512_permutex2var_ps(cd.0, firsts, cd.1);
+                let d = _mm512_permutex2var_ps(cd.0, seconds, cd.1);
+                let r0 = _mm512_add_ps(a, _mm512_mul_ps(u, _mm512_sub_ps(b, a)));
+                let r1 = _mm512_add_ps(c0, _mm512_mul_ps(u, _mm512_sub_ps(d, c0)));
+                let fraction = _mm512_loadu_ps(lanes.fractions.as_ptr().add(at));
+                let r = _mm512_add_ps(r0, _mm512_mul_ps(fraction, _mm512_sub_ps(r1, r0)));
+                let factor = _mm512_mask_blend_ps(alive, one, _mm512_sub_ps(one, r));
+                let out = transmission.as_mut_ptr().add(at);
+                _mm512_storeu_ps(out, _mm512_mul_ps(_mm512_loadu_ps(out), factor));
+            }
+        }
+        groups * W
+    }
+
+    /// Whole groups of 8 lanes; returns how many lanes it did.
+    #[target_feature(enable = "avx2")]
+    pub(super) fn attenuate_avx2(lanes: &LossLanes, transmission: &mut [f32]) -> usize {
+        const W: usize = 8;
+        let groups = transmission.len() / W;
+        let steps = _mm256_set1_ps(COSINE_STEPS as f32);
+        let zero = _mm256_setzero_ps();
+        let one = _mm256_set1_ps(1.0);
+        let last = _mm256_set1_epi32(COSINE_STEPS as i32 - 1);
+        let base = lanes.cells.as_ptr() as *const f32;
+        for g in 0..groups {
+            let at = g * W;
+            // SAFETY: `at + W <= len` for every slice read here (all are `len` long).
+            unsafe {
+                let mut flags = [0i32; W];
+                for k in 0..W {
+                    flags[k] = -(lanes.survived[at + k] as i32);
+                }
+                let alive = _mm256_loadu_si256(flags.as_ptr() as *const __m256i);
+                let alive_ps = _mm256_castsi256_ps(alive);
+                let cosine = _mm256_loadu_ps(lanes.cosines.as_ptr().add(at));
+                let x = _mm256_mul_ps(cosine, steps);
+                let x = _mm256_blendv_ps(x, zero, _mm256_cmp_ps::<_CMP_LT_OQ>(x, zero));
+                let x = _mm256_blendv_ps(x, steps, _mm256_cmp_ps::<_CMP_GT_OQ>(x, steps));
+                // x is in [0, 32] in live lanes, so the signed conversion is exact; the max
+                // keeps a NaN's conversion (i32::MIN) inside the table all the same.
+                let c = _mm256_min_epi32(
+                    _mm256_max_epi32(_mm256_cvttps_epi32(x), _mm256_setzero_si256()),
+                    last,
+                );
+                let u = _mm256_sub_ps(x, _mm256_cvtepi32_ps(c));
+                let rows = _mm256_loadu_si256(lanes.rows.as_ptr().add(at) as *const __m256i);
+                let cell = _mm256_and_si256(alive, _mm256_add_epi32(rows, c));
+                let first = _mm256_slli_epi32::<2>(cell);
+                let corner = |k: i32| {
+                    let index = _mm256_add_epi32(first, _mm256_set1_epi32(k));
+                    _mm256_mask_i32gather_ps::<4>(zero, base, index, alive_ps)
+                };
+                let (a, b, c0, d) = (corner(0), corner(1), corner(2), corner(3));
+                let r0 = _mm256_add_ps(a, _mm256_mul_ps(u, _mm256_sub_ps(b, a)));
+                let r1 = _mm256_add_ps(c0, _mm256_mul_ps(u, _mm256_sub_ps(d, c0)));
+                let fraction = _mm256_loadu_ps(lanes.fractions.as_ptr().add(at));
+                let r = _mm256_add_ps(r0, _mm256_mul_ps(fraction, _mm256_sub_ps(r1, r0)));
+                let factor = _mm256_blendv_ps(one, _mm256_sub_ps(one, r), alive_ps);
+                let out = transmission.as_mut_ptr().add(at);
+                _mm256_storeu_ps(out, _mm256_mul_ps(_mm256_loadu_ps(out), factor));
+            }
+        }
+        groups * W
     }
 }
 
@@ -88,6 +265,79 @@ impl LossScratch {
             row: [0; BLOCK],
             fraction: [0.0; BLOCK],
             transmission: [1.0; BLOCK],
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The gathered paths give the scalar loop's bits on every lane: live lanes with cosines
+    /// inside and outside [0, 1] (clamped), dead lanes with NaN cosines, any wavelength row, and
+    /// a tail shorter than a group.
+    #[test]
+    fn gathered_lanes_give_the_scalar_bits() {
+        let mut state = 0x9e37_79b9_7f4a_7c15u64;
+        let mut next = move || {
+            state = state
+                .wrapping_mul(6_364_136_223_846_793_005)
+                .wrapping_add(1_442_695_040_888_963_407);
+            (state >> 40) as f32 / (1u64 << 24) as f32
+        };
+        let intervals = 7;
+        let cells: Vec<[f32; 4]> = (0..intervals * COSINE_STEPS)
+            .map(|_| [next(), next(), next(), next()])
+            .collect();
+        for n in [256, 253, 7] {
+            let survived: Vec<bool> = (0..n).map(|_| next() < 0.8).collect();
+            let cosines: Vec<f32> = (0..n)
+                .map(|i| {
+                    if !survived[i] && next() < 0.5 {
+                        f32::NAN
+                    } else {
+                        next() * 1.2 - 0.1
+                    }
+                })
+                .collect();
+            let rows: Vec<u32> = (0..n)
+                .map(|_| ((next() * intervals as f32) as usize * COSINE_STEPS) as u32)
+                .collect();
+            let fractions: Vec<f32> = (0..n).map(|_| next()).collect();
+            let start: Vec<f32> = (0..n).map(|_| next()).collect();
+            let lanes = LossLanes {
+                cells: &cells,
+                cosines: &cosines,
+                survived: &survived,
+                rows: &rows,
+                fractions: &fractions,
+            };
+            let mut reference = start.clone();
+            attenuate_scalar(&lanes, &mut reference, 0);
+            let bits = |t: &[f32]| t.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+            let mut dispatched = start.clone();
+            attenuate_lanes(&lanes, &mut dispatched);
+            assert_eq!(bits(&dispatched), bits(&reference), "{n} lanes");
+            #[cfg(target_arch = "x86_64")]
+            {
+                if std::arch::is_x86_feature_detected!("avx2") {
+                    let mut t = start.clone();
+                    // SAFETY: the CPU has AVX2.
+                    let done = unsafe { gathered::attenuate_avx2(&lanes, &mut t) };
+                    attenuate_scalar(&lanes, &mut t, done);
+                    assert_eq!(bits(&t), bits(&reference), "{n} lanes, AVX2");
+                }
+                if std::arch::is_x86_feature_detected!("avx512f")
+                    && std::arch::is_x86_feature_detected!("avx512bw")
+                    && std::arch::is_x86_feature_detected!("avx512vl")
+                {
+                    let mut t = start.clone();
+                    // SAFETY: the CPU has AVX-512F, BW and VL.
+                    let done = unsafe { gathered::attenuate_avx512(&lanes, &mut t) };
+                    attenuate_scalar(&lanes, &mut t, done);
+                    assert_eq!(bits(&t), bits(&reference), "{n} lanes, AVX-512");
+                }
+            }
         }
     }
 }
