@@ -108,7 +108,7 @@ pub(super) fn attenuate_lanes(lanes: &LossLanes, transmission: &mut [f32]) {
 #[inline(always)]
 pub(super) fn attenuate_scalar(lanes: &LossLanes, transmission: &mut [f32], from: usize) {
     let steps = COSINE_STEPS as f32;
-    for lane in from..transmission.len() {
+    for (lane, transmission) in transmission.iter_mut().enumerate().skip(from) {
         let x = (lanes.cosines[lane] * steps).clamp(0.0, steps);
         let c = (x as u32).min(COSINE_STEPS as u32 - 1);
         let u = x - c as f32;
@@ -116,7 +116,7 @@ pub(super) fn attenuate_scalar(lanes: &LossLanes, transmission: &mut [f32], from
         let r0 = a + u * (b - a);
         let r1 = c0 + u * (d - c0);
         let r = r0 + lanes.fractions[lane] * (r1 - r0);
-        transmission[lane] *= if lanes.survived[lane] { 1.0 - r } else { 1.0 };
+        *transmission *= if lanes.survived[lane] { 1.0 - r } else { 1.0 };
     }
 }
 
@@ -214,8 +214,8 @@ mod gathered {
             // SAFETY: `at + W <= len` for every slice read here (all are `len` long).
             unsafe {
                 let mut flags = [0i32; W];
-                for k in 0..W {
-                    flags[k] = -(lanes.survived[at + k] as i32);
+                for (flag, &survived) in flags.iter_mut().zip(&lanes.survived[at..at + W]) {
+                    *flag = -(survived as i32);
                 }
                 let alive = _mm256_loadu_si256(flags.as_ptr() as *const __m256i);
                 let alive_ps = _mm256_castsi256_ps(alive);
