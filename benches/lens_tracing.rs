@@ -74,6 +74,35 @@ fn soa(bencher: Bencher, lens: &str, batch: usize, kernel: Kernel, isa: Isa) {
         .bench_local(|| black_box(&w).trace_soa(batch, kernel, isa, &mut work));
 }
 
+/// The plain loop through single-coated surfaces (every survivor's losses looked up at each
+/// crossing, at the lens's own indices), 1024-ray batches, on each instruction set: what the
+/// reflectance look-ups cost with and without the gather instructions.
+#[divan::bench(args = ["dgauss.50mm", "fisheye.10mm"], sample_count = 40)]
+fn soa_coated_baseline(bencher: Bencher, lens: &str) {
+    soa_coated(bencher, lens, Isa::Baseline);
+}
+
+#[divan::bench(args = ["dgauss.50mm", "fisheye.10mm"], sample_count = 40)]
+fn soa_coated_avx2(bencher: Bencher, lens: &str) {
+    soa_coated(bencher, lens, Isa::Avx2);
+}
+
+#[divan::bench(args = ["dgauss.50mm", "fisheye.10mm"], sample_count = 40)]
+fn soa_coated_widest(bencher: Bencher, lens: &str) {
+    soa_coated(bencher, lens, Isa::detect());
+}
+
+fn soa_coated(bencher: Bencher, lens: &str, isa: Isa) {
+    let mut w = workload(lens);
+    let reflectance =
+        SurfaceReflectance::with_model(&w.system.rows, |_| None, CoatingModel::Single);
+    w.system = w.system.clone().with_reflectance(reflectance);
+    let mut work = RayBatch::with_capacity(1024);
+    bencher
+        .counter(divan::counter::ItemsCount::new(RAYS))
+        .bench_local(|| black_box(&w).trace_soa(1024, Kernel::AutoVectorised, isa, &mut work));
+}
+
 /// Exit-pupil bounds of a lens (64 film segments, in parallel on all cores).
 #[divan::bench(args = lenses(), sample_count = 10)]
 fn exit_pupil_bounds(bencher: Bencher, lens: &str) {

@@ -102,6 +102,13 @@ impl LensWorkload {
         while start < len {
             let end = (start + batch_size).min(len);
             copy_rays(&self.batch, start..end, work);
+            if self.system.f32s.reflectance.is_some() {
+                // The surfaces' losses scale each ray's throughput, which starts at 1.
+                for throughput in [&mut work.tr, &mut work.tg, &mut work.tb] {
+                    throughput.clear();
+                    throughput.resize(end - start, 1.0);
+                }
+            }
             trace_batch_on(&self.system.f32s, work, Travel::FilmToScene, kernel, isa);
             passed += work.alive_count();
             start = end;

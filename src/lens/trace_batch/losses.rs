@@ -6,7 +6,7 @@
 //! as the scalar loop ([`attenuate_scalar`], the reference and the tail), so every path gives
 //! the same bits. Both kernels call the same function, and so agree bit for bit too.
 
-use super::BLOCK;
+use super::{BLOCK, Isa};
 use crate::glass::FRAUNHOFER_D_NM;
 use crate::lens::reflectance::{COSINE_STEPS, SurfaceReflectance};
 
@@ -18,6 +18,9 @@ pub(super) struct Losses<'a> {
     /// Each ray's wavelength (a spectral batch), or `None`: every ray at the lens's own
     /// indices, n_d, so its losses are those at the d line.
     pub nm: Option<&'a [f32]>,
+    /// The instruction set the kernel runs with (supported by this CPU): the look-ups use
+    /// its gathers.
+    pub isa: Isa,
 }
 
 impl Losses<'_> {
@@ -67,7 +70,7 @@ impl Losses<'_> {
             rows: &scratch.row[..n],
             fractions: &scratch.fraction[..n],
         };
-        attenuate_lanes(&lanes, &mut scratch.transmission[..n]);
+        attenuate_lanes(&lanes, &mut scratch.transmission[..n], self.isa);
     }
 }
 
@@ -82,24 +85,21 @@ pub(super) struct LossLanes<'a> {
     pub fractions: &'a [f32],
 }
 
-/// Multiplies `transmission` by each surviving lane's 1 − R: with the gather instructions where
-/// the CPU has them (16 or 8 lanes at a time), the rest by [`attenuate_scalar`].
+/// Multiplies `transmission` by each surviving lane's 1 − R: with `isa`'s gather instructions
+/// (16 or 8 lanes at a time; `isa` must be one this CPU supports), the rest by
+/// [`attenuate_scalar`].
 #[inline(always)]
-pub(super) fn attenuate_lanes(lanes: &LossLanes, transmission: &mut [f32]) {
-    let mut done = 0;
-    #[cfg(target_arch = "x86_64")]
-    {
-        if std::arch::is_x86_feature_detected!("avx512f")
-            && std::arch::is_x86_feature_detected!("avx512bw")
-            && std::arch::is_x86_feature_detected!("avx512vl")
-        {
-            // SAFETY: the CPU has AVX-512F, BW and VL (checked above).
-            done = unsafe { gathered::attenuate_avx512(lanes, transmission) };
-        } else if std::arch::is_x86_feature_detected!("avx2") {
-            // SAFETY: the CPU has AVX2 (checked above).
-            done = unsafe { gathered::attenuate_avx2(lanes, transmission) };
-        }
-    }
+pub(super) fn attenuate_lanes(lanes: &LossLanes, transmission: &mut [f32], isa: Isa) {
+    let done = match isa {
+        Isa::Baseline => 0,
+        // SAFETY (both): the caller's `isa` is supported by this CPU (`Isa::detect`).
+        #[cfg(target_arch = "x86_64")]
+        Isa::Avx512 => unsafe { gathered::attenuate_avx512(lanes, transmission) },
+        #[cfg(target_arch = "x86_64")]
+        Isa::Avx2 => unsafe { gathered::attenuate_avx2(lanes, transmission) },
+        #[cfg(not(target_arch = "x86_64"))]
+        _ => 0,
+    };
     attenuate_scalar(lanes, transmission, done);
 }
 
@@ -130,7 +130,7 @@ mod gathered {
     use super::{COSINE_STEPS, LossLanes};
 
     /// Whole groups of 16 lanes; returns how many lanes it did.
-    #[target_feature(enable = "avx512f,avx512bw,avx512vl")]
+    #[target_feature(enable = "avx512f,avx512vl,avx512bw,avx512dq")]
     pub(super) fn attenuate_avx512(lanes: &LossLanes, transmission: &mut [f32]) -> usize {
         const W: usize = 16;
         let groups = transmission.len() / W;
@@ -232,12 +232,39 @@ mod gathered {
                 let u = _mm256_sub_ps(x, _mm256_cvtepi32_ps(c));
                 let rows = _mm256_loadu_si256(lanes.rows.as_ptr().add(at) as *const __m256i);
                 let cell = _mm256_and_si256(alive, _mm256_add_epi32(rows, c));
-                let first = _mm256_slli_epi32::<2>(cell);
-                let corner = |k: i32| {
-                    let index = _mm256_add_epi32(first, _mm256_set1_epi32(k));
-                    _mm256_mask_i32gather_ps::<4>(zero, base, index, alive_ps)
+                // As for AVX-512: each corner pair one 64-bit load, four lanes to a gather, the
+                // pairs then parted (within 128-bit halves, then the halves put in order).
+                let bytes = _mm256_slli_epi32::<4>(cell);
+                let halves = [
+                    _mm256_castsi256_si128(bytes),
+                    _mm256_extracti128_si256::<1>(bytes),
+                ];
+                let lane_masks = [
+                    _mm256_cvtepi32_epi64(_mm256_castsi256_si128(alive)),
+                    _mm256_cvtepi32_epi64(_mm256_extracti128_si256::<1>(alive)),
+                ];
+                let pair = |offset: i32, half: usize| {
+                    let index = _mm_add_epi32(halves[half], _mm_set1_epi32(offset));
+                    _mm256_castsi256_ps(_mm256_mask_i32gather_epi64::<1>(
+                        _mm256_setzero_si256(),
+                        base as *const i64,
+                        index,
+                        lane_masks[half],
+                    ))
                 };
-                let (a, b, c0, d) = (corner(0), corner(1), corner(2), corner(3));
+                // (x0 y0 x1 y1 | x2 y2 x3 y3) and the next four lanes' pairs → x0…x7, y0…y7.
+                let part = |low: __m256, high: __m256| {
+                    let firsts = _mm256_shuffle_ps::<0b10_00_10_00>(low, high);
+                    let seconds = _mm256_shuffle_ps::<0b11_01_11_01>(low, high);
+                    let order = |v: __m256| {
+                        _mm256_castpd_ps(_mm256_permute4x64_pd::<0b11_01_10_00>(_mm256_castps_pd(
+                            v,
+                        )))
+                    };
+                    (order(firsts), order(seconds))
+                };
+                let (a, b) = part(pair(0, 0), pair(0, 1));
+                let (c0, d) = part(pair(8, 0), pair(8, 1));
                 let r0 = _mm256_add_ps(a, _mm256_mul_ps(u, _mm256_sub_ps(b, a)));
                 let r1 = _mm256_add_ps(c0, _mm256_mul_ps(u, _mm256_sub_ps(d, c0)));
                 let fraction = _mm256_loadu_ps(lanes.fractions.as_ptr().add(at));
@@ -315,28 +342,10 @@ mod tests {
             let mut reference = start.clone();
             attenuate_scalar(&lanes, &mut reference, 0);
             let bits = |t: &[f32]| t.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
-            let mut dispatched = start.clone();
-            attenuate_lanes(&lanes, &mut dispatched);
-            assert_eq!(bits(&dispatched), bits(&reference), "{n} lanes");
-            #[cfg(target_arch = "x86_64")]
-            {
-                if std::arch::is_x86_feature_detected!("avx2") {
-                    let mut t = start.clone();
-                    // SAFETY: the CPU has AVX2.
-                    let done = unsafe { gathered::attenuate_avx2(&lanes, &mut t) };
-                    attenuate_scalar(&lanes, &mut t, done);
-                    assert_eq!(bits(&t), bits(&reference), "{n} lanes, AVX2");
-                }
-                if std::arch::is_x86_feature_detected!("avx512f")
-                    && std::arch::is_x86_feature_detected!("avx512bw")
-                    && std::arch::is_x86_feature_detected!("avx512vl")
-                {
-                    let mut t = start.clone();
-                    // SAFETY: the CPU has AVX-512F, BW and VL.
-                    let done = unsafe { gathered::attenuate_avx512(&lanes, &mut t) };
-                    attenuate_scalar(&lanes, &mut t, done);
-                    assert_eq!(bits(&t), bits(&reference), "{n} lanes, AVX-512");
-                }
+            for isa in Isa::available() {
+                let mut t = start.clone();
+                attenuate_lanes(&lanes, &mut t, isa);
+                assert_eq!(bits(&t), bits(&reference), "{n} lanes, {}", isa.name());
             }
         }
     }

@@ -187,6 +187,7 @@ fn run(
         advance_to_front(surfaces, rays);
     }
     let n = surfaces.len();
+    let isa = isa.min(Isa::detect());
     let plan = Plan {
         surfaces: SurfaceConstants::in_travel_order(surfaces, travel),
         spectral: wavelengths.map(|w| (w, travel)),
@@ -206,9 +207,10 @@ fn run(
                 })
                 .collect(),
             nm: wavelengths.map(|w| w.nm),
+            isa,
         }),
     };
-    match isa.min(Isa::detect()) {
+    match isa {
         Isa::Baseline => run_kernel(kernel, &plan, rays),
         // SAFETY (both): `Isa::detect` found the instructions on this CPU.
         #[cfg(target_arch = "x86_64")]
