@@ -688,18 +688,24 @@ def main():
         print(f"{design['name']:34} paraxial EFL {design['paraxial_efl']:9.3f} mm   published {published}")
     for licence, (source, target) in LICENCES.items():
         outputs[f"licenses/{target}"] = (args.shared / source).read_text()
+    write_outputs(outputs, args.out, args.check, "lenses/tools/make_library.py")
+
+
+def write_outputs(outputs, out, check, tool):
+    """Writes each `relative path: text` of `outputs` under `out`; with `check`, writes nothing
+    and exits with the list of files that differ from `outputs` (naming `tool` to run)."""
     stale = []
     for rel, text in outputs.items():
-        path = args.out / rel
-        if args.check:
+        path = out / rel
+        if check:
             if not path.exists() or path.read_text() != text:
                 stale.append(rel)
             continue
         path.parent.mkdir(parents=True, exist_ok=True)
         path.write_text(text)
     if stale:
-        sys.exit("out of date (run lenses/tools/make_library.py): " + ", ".join(stale))
-    print(f"{'checked' if args.check else 'wrote'} {len(outputs)} files in {args.out}")
+        sys.exit(f"out of date (run {tool}): " + ", ".join(stale))
+    print(f"{'checked' if check else 'wrote'} {len(outputs)} files in {out}")
 
 
 def build(design, shared):

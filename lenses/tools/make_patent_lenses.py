@@ -38,7 +38,15 @@ from pathlib import Path
 
 sys.dont_write_bytecode = True  # no __pycache__ in lenses/tools/ from importing make_library
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from make_library import FULL_FRAME_DIAGONAL_MM, REPO, sag, toml_number, toml_string, trim_apertures  # noqa: E402
+from make_library import (  # noqa: E402
+    FULL_FRAME_DIAGONAL_MM,
+    REPO,
+    sag,
+    toml_number,
+    toml_string,
+    trim_apertures,
+    write_outputs,
+)
 
 LENS_VISUALIZER = "ronbuening/LensVisualizer @ bf55b14f"
 LICENCE = "none (facts from patent tables)"
@@ -899,18 +907,7 @@ def main():
         pairs = "  ".join(f"{e:.3f} ({p:g})" for e, p in zip(computed["efl"], published))
         print(f"{design['name']:34} paraxial EFL (published) {pairs}")
     outputs[f"licenses/{LICENCE_FILE}"] = LICENCE_TEXT
-    stale = []
-    for rel, text in outputs.items():
-        path = args.out / rel
-        if args.check:
-            if not path.exists() or path.read_text() != text:
-                stale.append(rel)
-            continue
-        path.parent.mkdir(parents=True, exist_ok=True)
-        path.write_text(text)
-    if stale:
-        sys.exit("out of date (run lenses/tools/make_patent_lenses.py): " + ", ".join(stale))
-    print(f"{'checked' if args.check else 'wrote'} {len(outputs)} files in {args.out}")
+    write_outputs(outputs, args.out, args.check, "lenses/tools/make_patent_lenses.py")
 
 
 if __name__ == "__main__":

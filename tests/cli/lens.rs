@@ -646,20 +646,24 @@ fn group_rows(svg: &str) -> std::collections::BTreeMap<(String, usize), (f64, f6
 #[test]
 fn the_diagram_shows_the_groups_at_each_setting() {
     let dir = tempfile::tempdir().unwrap();
-    std::fs::write(dir.path().join("zoom.toml"), support::TWO_GROUP_ZOOM).unwrap();
-    let svg_path = dir.path().join("zoom.svg");
-    let lens = dir.path().join("zoom.toml");
-    let (code, _, stderr) = realcam(
-        &[
-            "lens",
-            lens.to_str().unwrap(),
-            "--diagram",
-            svg_path.to_str().unwrap(),
-        ],
-        None,
-    );
-    assert_eq!(code, 0, "{stderr}");
-    let svg = std::fs::read_to_string(&svg_path).unwrap();
+    // `lens` written as NAME.toml, its diagram drawn: the SVG text.
+    let diagram = |name: &str, lens: &str| {
+        let lens_path = dir.path().join(format!("{name}.toml"));
+        let svg_path = dir.path().join(format!("{name}.svg"));
+        std::fs::write(&lens_path, lens).unwrap();
+        let (code, _, stderr) = realcam(
+            &[
+                "lens",
+                lens_path.to_str().unwrap(),
+                "--diagram",
+                svg_path.to_str().unwrap(),
+            ],
+            None,
+        );
+        assert_eq!(code, 0, "{stderr}");
+        std::fs::read_to_string(&svg_path).unwrap()
+    };
+    let svg = diagram("zoom", support::TWO_GROUP_ZOOM);
     let rows = group_rows(&svg);
     assert_eq!(rows.len(), 6, "two groups at three positions: {rows:?}");
     for (setting, gap) in [(1, 20.0), (2, 50.0), (3, 90.0)] {
@@ -673,35 +677,14 @@ fn the_diagram_shows_the_groups_at_each_setting() {
     }
     assert!(svg.contains("zoom 2 (56 mm)"), "position labels");
 
-    let focusing = r#"
-name = "inner-focus"
-surfaces = [
-  { radius = 100.0, thickness = 3.0, glass = { n = 1.5 }, diameter = 30.0 },
-  { radius = -100.0, thickness = 20.0, diameter = 30.0 },
-  { stop = true, thickness = 2.0, diameter = 10.0 },
-  { radius = 50.0, thickness = 4.0, glass = { n = 1.5 }, diameter = 24.0 },
-  { radius = -50.0, thickness = 40.0, diameter = 24.0 },
-]
-
-[focus]
-close_focus_m = 0.5
-surfaces = [2]
-infinity = [20.0]
-close = [14.0]
-"#;
-    std::fs::write(dir.path().join("focus.toml"), focusing).unwrap();
-    let lens = dir.path().join("focus.toml");
-    let (code, _, stderr) = realcam(
-        &[
-            "lens",
-            lens.to_str().unwrap(),
-            "--diagram",
-            svg_path.to_str().unwrap(),
-        ],
-        None,
-    );
-    assert_eq!(code, 0, "{stderr}");
-    let svg = std::fs::read_to_string(&svg_path).unwrap();
+    // The same two groups, focused by the gap between them (20 mm at infinity, 14 at 0.5 m).
+    let focusing = support::TWO_GROUP_ZOOM
+        .split("[zoom]")
+        .next()
+        .unwrap()
+        .to_string()
+        + "[focus]\nclose_focus_m = 0.5\nsurfaces = [2]\ninfinity = [20.0]\nclose = [14.0]\n";
+    let svg = diagram("focus", &focusing);
     let rows = group_rows(&svg);
     assert_eq!(rows.len(), 4, "{rows:?}");
     let parting = |setting: usize| {

@@ -739,15 +739,10 @@ fn default_scene_tilts_are_judged_by_what_they_lose() {
     );
 }
 
-/// From the command line: --focus-on with two lenses and an aperture sweep prints and records
-/// each frame's object and film distance; with --shift and --tilt too, and the fingerprint
-/// of a checkpoint records the movements; bad values are clear errors.
-#[test]
-fn cli_focus_on_with_lenses_sweeps_and_movements() {
-    let dir = tempfile::tempdir().unwrap();
-    let scene = wall(dir.path(), 2.5);
-    let scene = scene.to_str().unwrap();
-    let common = [
+/// `realcam render SCENE` of a tiny, one-bounce frame from the origin looking down −z (at a
+/// [`wall`]).
+fn facing_the_wall(scene: &str) -> Vec<&str> {
+    vec![
         "render",
         scene,
         "--width",
@@ -762,8 +757,19 @@ fn cli_focus_on_with_lenses_sweeps_and_movements() {
         "0,0,0",
         "--look-at",
         "0,0,-1",
-    ];
-    let mut args: Vec<&str> = common.to_vec();
+    ]
+}
+
+/// From the command line: --focus-on with two lenses and an aperture sweep prints and records
+/// each frame's object and film distance; with --shift and --tilt too, and the fingerprint
+/// of a checkpoint records the movements; bad values are clear errors.
+#[test]
+fn cli_focus_on_with_lenses_sweeps_and_movements() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = wall(dir.path(), 2.5);
+    let scene = scene.to_str().unwrap();
+    let common = facing_the_wall(scene);
+    let mut args: Vec<&str> = common.clone();
     args.extend([
         "--lens",
         "dgauss.50mm",
@@ -813,7 +819,7 @@ fn cli_focus_on_with_lenses_sweeps_and_movements() {
             "beyond what this lens can cover",
         ),
     ] {
-        let mut args: Vec<&str> = common.to_vec();
+        let mut args: Vec<&str> = common.clone();
         args.extend(extra.iter().copied());
         args.extend(["--out", "bad.png"]);
         let output = realcam(dir.path(), &args);
@@ -824,7 +830,7 @@ fn cli_focus_on_with_lenses_sweeps_and_movements() {
         assert!(!dir.path().join("bad.png").exists());
     }
     // A frame shifted out of the image circle renders, with a warning.
-    let mut args: Vec<&str> = common.to_vec();
+    let mut args: Vec<&str> = common.clone();
     args.extend(["--shift", "30,0", "--out", "shifted.png"]);
     let output = realcam(dir.path(), &args);
     let stderr = String::from_utf8_lossy(&output.stderr);
@@ -919,24 +925,11 @@ fn shards_record_movements_only_when_set() {
 #[test]
 fn a_focus_group_lens_focuses_on_a_pixel_with_its_groups() {
     let dir = tempfile::tempdir().unwrap();
-    let common = |scene: &Path| -> Vec<String> {
-        [
-            "render",
-            scene.to_str().unwrap(),
+    let render = |scene: &Path| {
+        let mut args = facing_the_wall(scene.to_str().unwrap());
+        args.extend([
             "--lens",
             "samyang-af-85mm-f1.4-if",
-            "--width",
-            "24",
-            "--height",
-            "16",
-            "--spp",
-            "1",
-            "--max-depth",
-            "1",
-            "--look-from",
-            "0,0,0",
-            "--look-at",
-            "0,0,-1",
             "--focus-on",
             "12,8",
             // Stopped down, the real rays' sharpest focus (where --focus-on puts the film) is
@@ -947,16 +940,15 @@ fn a_focus_group_lens_focuses_on_a_pixel_with_its_groups() {
             "stats.json",
             "--out",
             "f.png",
-        ]
-        .map(String::from)
-        .to_vec()
+        ]);
+        let output = realcam(dir.path(), &args);
+        (
+            output.status.success(),
+            String::from_utf8_lossy(&output.stderr).into_owned(),
+        )
     };
-    let near = wall(dir.path(), 1.5);
-    let args = common(&near);
-    let args: Vec<&str> = args.iter().map(String::as_str).collect();
-    let output = realcam(dir.path(), &args);
-    let stderr = String::from_utf8_lossy(&output.stderr);
-    assert!(output.status.success(), "{stderr}");
+    let (ok, stderr) = render(&wall(dir.path(), 1.5));
+    assert!(ok, "{stderr}");
     let stats: serde_json::Value =
         serde_json::from_slice(&std::fs::read(dir.path().join("stats.json")).unwrap()).unwrap();
     let frame = &stats["frames"][0];
@@ -965,12 +957,8 @@ fn a_focus_group_lens_focuses_on_a_pixel_with_its_groups() {
     let film = frame["film_distance_mm"].as_f64().unwrap();
     assert!(film > 16.8 && film < 17.05, "film {film} mm: {frame}");
 
-    let too_near = wall(dir.path(), 0.5);
-    let args = common(&too_near);
-    let args: Vec<&str> = args.iter().map(String::as_str).collect();
-    let output = realcam(dir.path(), &args);
-    let stderr = String::from_utf8_lossy(&output.stderr);
-    assert!(!output.status.success(), "{stderr}");
+    let (ok, stderr) = render(&wall(dir.path(), 0.5));
+    assert!(!ok, "{stderr}");
     assert!(
         stderr.contains("closer than this lens focuses") && stderr.contains("0.9 m"),
         "{stderr}"
