@@ -19,7 +19,7 @@
 //! `v∞` (the back focus) and `v_close` (the paraxial image of `d_close`), fix how the lens body
 //! moves against the film, `v(τ) = v∞ + (v_close − v∞) · τ` (constant for a pure
 //! internal-focus lens). Focus at `d` is the travel whose paraxial image of `d` falls at
-//! `v(τ)`, solved by bisection, as the lens's focusing cam is cut. Newton's x·x′ = f² makes τ
+//! `v(τ)`, solved in the bracket [0, 1] (regula falsi), as the lens's focusing cam is cut. Newton's x·x′ = f² makes τ
 //! close to `d_close / d` (linear in 1/d, as sidp/physical-camera interpolates), which is the
 //! fallback where no travel in [0, 1] solves it; but a real group's focal shift is not linear
 //! in its travel, and the linear law would leave the film of an internal-focus lens tenths of a
@@ -259,7 +259,9 @@ fn move_groups(rows: &mut [SurfaceRow], gaps: &[FocusGap], travel: f64) {
     }
 }
 
-/// Bisection steps of [`solve_travel`]: 2⁻⁶⁰ of the travel, far below a nanometre of any gap.
+/// How closely [`solve_travel`] puts the image on the lens body's film: a picometre (f64 reaches it in a few steps).
+const TRAVEL_TOLERANCE_MM: f64 = 1e-9;
+/// Steps of [`solve_travel`] at most (it takes a handful: the miss is smooth in the travel).
 const TRAVEL_STEPS: usize = 60;
 
 /// The travel (see the module docs) at which the paraxial image of a point `metres` from the
@@ -289,20 +291,34 @@ fn solve_travel(
         let v = image_distance(travel, metres * 1000.0)?;
         Some(v - (v_infinity + (v_close - v_infinity) * travel))
     };
+    // Regula falsi with the Illinois modification, inside the bracket [0, 1].
     let (mut low, mut high) = (0.0, 1.0);
-    let (miss_low, miss_high) = (miss(low)?, miss(high)?);
+    let (mut miss_low, mut miss_high) = (miss(low)?, miss(high)?);
     if miss_low == 0.0 {
         return Some(low);
     }
     if miss_low.signum() == miss_high.signum() {
         return None;
     }
+    let mut kept = 0i8;
     for _ in 0..TRAVEL_STEPS {
-        let middle = 0.5 * (low + high);
-        if miss(middle)?.signum() == miss_low.signum() {
-            low = middle;
+        let travel = (low * miss_high - high * miss_low) / (miss_high - miss_low);
+        let m = miss(travel)?;
+        if m.abs() < TRAVEL_TOLERANCE_MM {
+            return Some(travel);
+        }
+        if m.signum() == miss_low.signum() {
+            (low, miss_low) = (travel, m);
+            if kept == -1 {
+                miss_high *= 0.5;
+            }
+            kept = -1;
         } else {
-            high = middle;
+            (high, miss_high) = (travel, m);
+            if kept == 1 {
+                miss_low *= 0.5;
+            }
+            kept = 1;
         }
     }
     Some(0.5 * (low + high))
