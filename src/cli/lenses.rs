@@ -14,6 +14,7 @@ use serde::Serialize;
 use crate::lens::field::{field_angle, field_edge};
 use crate::lens::first_order::FirstOrder;
 use crate::lens::io::bundled::{BUNDLED, BundledLens};
+use crate::lens::spacing::rows_at;
 use crate::lens::{LensSystem, SurfaceKind};
 
 /// Diagonal of the 35 mm still frame (36 × 24 mm), on which `realcam lenses` gives every
@@ -48,6 +49,17 @@ pub struct Coverage {
     pub image_circle: Option<ImageCircle>,
 }
 
+/// One zoom position of a bundled zoom, at infinity focus.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct ZoomPositionEntry {
+    /// Paraxial effective focal length, mm (computed).
+    pub focal_length_mm: f64,
+    /// EFL / entrance-pupil diameter with the stop as the position opens it (computed).
+    pub f_number: f64,
+    /// Diagonal field of view on the 35 mm frame (`None` where its corners get no light).
+    pub field_of_view_deg: Option<f64>,
+}
+
 /// One bundled lens as `realcam lenses` reports it.
 #[derive(Clone, Debug, Serialize)]
 pub struct LensEntry {
@@ -68,6 +80,8 @@ pub struct LensEntry {
     /// Pieces of glass, cemented ones counted apart (a filter or cover plate included).
     pub elements: usize,
     pub aspheric_surfaces: usize,
+    /// A zoom's positions (`--zoom-position 1, 2, …`); empty for a lens of fixed focal length.
+    pub zoom_positions: Vec<ZoomPositionEntry>,
     pub year: Option<u32>,
     pub source: Option<String>,
     pub licence: Option<String>,
@@ -82,6 +96,27 @@ impl LensEntry {
             FirstOrder::compute(&system).with_context(|| format!("bundled lens {}", lens.name))?;
         // Infinity focus: the film at the rear focal plane.
         let film_distance = first_order.back_focal_length;
+        let zoom_positions = prescription
+            .spacings
+            .zoom
+            .iter()
+            .enumerate()
+            .map(|(i, position)| -> anyhow::Result<ZoomPositionEntry> {
+                let at = || format!("bundled lens {}, zoom position {}", lens.name, i + 1);
+                let rows = rows_at(&prescription.rows, Some(position), None)
+                    .map_err(anyhow::Error::msg)
+                    .with_context(at)?;
+                let system = LensSystem::new(&rows, None);
+                let first_order = FirstOrder::compute(&system).with_context(at)?;
+                let semi = FULL_FRAME_DIAGONAL_MM / 2.0;
+                Ok(ZoomPositionEntry {
+                    focal_length_mm: first_order.focal_length,
+                    f_number: first_order.f_number,
+                    field_of_view_deg: field_angle(&system, first_order.back_focal_length, semi)
+                        .map(|a| 2.0 * a.to_degrees()),
+                })
+            })
+            .collect::<anyhow::Result<Vec<_>>>()?;
         let coverage = |diagonal: f64| {
             let semi = diagonal / 2.0;
             let field_of_view_deg =
@@ -117,6 +152,7 @@ impl LensEntry {
                 .iter()
                 .filter(|r| r.kind() == SurfaceKind::Aspheric)
                 .count(),
+            zoom_positions,
             year: info.year,
             source: info.source.clone(),
             licence: info.licence.clone(),
@@ -181,16 +217,35 @@ fn coverage_cell(c: &Coverage) -> String {
     }
 }
 
+/// A zoom's first and last position of `figure`, as `a–b` to `decimals` (the zoom's
+/// positions run from one end of its range to the other).
+fn zoom_range(
+    positions: &[ZoomPositionEntry],
+    figure: impl Fn(&ZoomPositionEntry) -> Option<f64>,
+    decimals: usize,
+) -> Option<String> {
+    let (first, last) = (figure(positions.first()?)?, figure(positions.last()?)?);
+    Some(format!("{first:.decimals$}–{last:.decimals$}"))
+}
+
 /// The table `realcam lenses` prints.
 pub fn table(entries: &[LensEntry]) -> String {
     let rows: Vec<[String; 8]> = entries
         .iter()
         .map(|e| {
+            let zoom = &e.zoom_positions;
             [
                 e.name.to_string(),
-                with_nominal("", e.focal_length_mm, " mm", e.nominal_focal_length_mm, 1),
-                with_nominal("f/", e.f_number, "", e.nominal_f_number, 2),
-                coverage_cell(&e.full_frame),
+                zoom_range(zoom, |p| Some(p.focal_length_mm), 1).map_or_else(
+                    || with_nominal("", e.focal_length_mm, " mm", e.nominal_focal_length_mm, 1),
+                    |range| format!("{range} mm"),
+                ),
+                zoom_range(zoom, |p| Some(p.f_number), 2).map_or_else(
+                    || with_nominal("f/", e.f_number, "", e.nominal_f_number, 2),
+                    |range| format!("f/{range}"),
+                ),
+                zoom_range(zoom, |p| p.field_of_view_deg, 1)
+                    .map_or_else(|| coverage_cell(&e.full_frame), |range| format!("{range}°")),
                 e.elements.to_string(),
                 e.aspheric_surfaces.to_string(),
                 e.year.map_or("–".into(), |y| y.to_string()),
@@ -249,7 +304,8 @@ pub fn table(entries: &[LensEntry]) -> String {
             of view at infinity\nfocus on a 36 × 24 mm (\"35 mm\" full-frame) frame, 43.3 mm diagonal, from \
             real chief rays; ○ a° ⌀d: the\nimage circle, d mm across and covering a°, is smaller than the \
             frame. `realcam render` films a 35 mm\ndiagonal unless the lens, the scene or --film-diagonal \
-            says otherwise. `realcam lens NAME` shows one lens in full.\n";
+            says otherwise.\nA zoom gives its range, first to last zoom position. `realcam lens NAME` \
+            shows one lens in full.\n";
     out
 }
 

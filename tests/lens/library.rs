@@ -665,6 +665,37 @@ fn lenses_command_lists_every_bundled_lens() {
     assert!(stdout.contains("43.3 mm diagonal"), "{stdout}");
 }
 
+/// A zoom's entry in `realcam lenses` gives each zoom position (the patent's focal lengths and
+/// F-numbers: US 5,899,585, Numerical Example 1) and its table row the range; a fixed lens
+/// has none.
+#[test]
+fn lenses_gives_a_zoom_its_positions_and_range() {
+    let (code, stdout, stderr) = realcam_texts(&["lenses", "--json", "28-80"], None);
+    assert_eq!(code, 0, "{stderr}");
+    let entries: Vec<serde_json::Value> = serde_json::from_str(&stdout).unwrap();
+    let positions = entries[0]["zoom_positions"].as_array().unwrap();
+    assert_eq!(positions.len(), 3);
+    for (position, (focal, f_number)) in
+        positions
+            .iter()
+            .zip([(28.98, 3.46), (50.00, 4.51), (77.08, 5.88)])
+    {
+        let f = position["focal_length_mm"].as_f64().unwrap();
+        assert!((f / focal - 1.0).abs() < 0.01, "{f} vs {focal}");
+        let n = position["f_number"].as_f64().unwrap();
+        assert!((n - f_number).abs() < 0.01, "{n} vs {f_number}");
+        assert!(position["field_of_view_deg"].as_f64().unwrap() > 0.0);
+    }
+    let (_, table, _) = realcam_texts(&["lenses", "28-80"], None);
+    assert!(
+        table.contains("29.0–77.0 mm") && table.contains("f/3.46–5.88"),
+        "{table}"
+    );
+    let (_, stdout, _) = realcam_texts(&["lenses", "--json", "dgauss.50mm"], None);
+    let fixed: Vec<serde_json::Value> = serde_json::from_str(&stdout).unwrap();
+    assert_eq!(fixed[0]["zoom_positions"], serde_json::json!([]));
+}
+
 #[test]
 fn lenses_json_has_every_figure() {
     let (code, stdout, stderr) = realcam_texts(&["lenses", "--json"], None);
