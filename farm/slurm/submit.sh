@@ -41,7 +41,8 @@ farm options:
 
 render options: any `realcam render` option except those the farm sets (--shard, --partial,
 --checkpoint, --resume, --threads) or that do not fit a shard (--stats, --contact-sheet,
---focus-sweep, --aperture-sweep, several --lens). Give every shard of a frame the same options.
+--zoom-sweep, --focus-sweep, --aperture-sweep, --f-number-sweep, several --lens). Give every
+shard of a frame the same options.
 
 Jobs run in the directory submit.sh was run from (relative paths in render options are
 relative to it), and SCENE, FRAME and the logs are made absolute.
@@ -145,7 +146,7 @@ while (($# > 0)); do
     --shard | --partial | --checkpoint | --resume | --threads)
         die "$name is set by the farm scripts for each shard; leave it out"
         ;;
-    --stats | --contact-sheet | --focus-sweep | --aperture-sweep)
+    --stats | --contact-sheet | --zoom-sweep | --focus-sweep | --aperture-sweep | --f-number-sweep)
         die "$name does not fit a sharded frame; render one frame per submission"
         ;;
     *)

@@ -784,7 +784,7 @@ fn submit_refuses_bad_arguments_with_a_clear_message() {
     let dir = tempfile::tempdir().unwrap();
     let scene = scene();
     let scene = scene.to_str().unwrap();
-    let cases: [(&[&str], &str); 11] = [
+    let cases: [(&[&str], &str); 13] = [
         (&[], "missing SCENE"),
         (&["--shards", "2"], "the first argument is the SCENE"),
         (&[scene, "--out", "f.png"], "missing --shards"),
@@ -816,6 +816,22 @@ fn submit_refuses_bad_arguments_with_a_clear_message() {
                 "1:2:3",
             ],
             "does not fit a sharded frame",
+        ),
+        (
+            &[scene, "--shards", "2", "--out", "f.png", "--zoom-sweep"],
+            "--zoom-sweep does not fit a sharded frame",
+        ),
+        (
+            &[
+                scene,
+                "--shards",
+                "2",
+                "--out",
+                "f.png",
+                "--f-number-sweep",
+                "2:4:2",
+            ],
+            "--f-number-sweep does not fit a sharded frame",
         ),
         (
             &[
