@@ -140,13 +140,10 @@ impl<'a> Job<'a> {
         for warning in prescriptions.iter().flat_map(|p| &p.warnings) {
             eprintln!("warning: {warning}");
         }
-        if spec.zoom_sweep
-            && let Some(fixed) = prescriptions.iter().find(|p| p.spacings.zoom.is_empty())
-            && prescriptions.iter().all(|p| p.spacings.zoom.is_empty())
-        {
+        if spec.zoom_sweep && prescriptions.iter().all(|p| p.spacings.zoom.is_empty()) {
             bail!(
                 "--zoom-sweep: {} has fixed spacings, no zoom positions to sweep (`realcam lens NAME --json` lists a zoom lens's zoom_positions)",
-                fixed.name
+                prescriptions[0].name
             );
         }
         let hinted_film_diagonal = placement.hints.film_diagonal_mm;

@@ -280,20 +280,22 @@ fn solve_travel(
         let first_order = FirstOrder::compute(&system).ok()?;
         Some((system, first_order))
     };
-    let image_distance = |travel: f64, mm: f64| {
-        let (system, first_order) = lens_at(travel)?;
-        paraxial_film_distance(&system, &first_order, mm).ok()
+    let image_distance = |(system, first_order): &(LensSystem, FirstOrder), mm: f64| {
+        paraxial_film_distance(system, first_order, mm).ok()
     };
-    let v_infinity = lens_at(0.0)?.1.back_focal_length;
-    let v_close = image_distance(1.0, close_focus_m * 1000.0)?;
+    // The two tabulated states, each built once: they give the lens body's film and bracket
+    // the travel.
+    let (at_infinity, at_close) = (lens_at(0.0)?, lens_at(1.0)?);
+    let v_infinity = at_infinity.1.back_focal_length;
+    let v_close = image_distance(&at_close, close_focus_m * 1000.0)?;
     // Where the image of the point falls against where the lens body puts the film.
-    let miss = |travel: f64| {
-        let v = image_distance(travel, metres * 1000.0)?;
-        Some(v - (v_infinity + (v_close - v_infinity) * travel))
-    };
+    let film_at = |travel: f64| v_infinity + (v_close - v_infinity) * travel;
+    let miss =
+        |travel: f64| Some(image_distance(&lens_at(travel)?, metres * 1000.0)? - film_at(travel));
     // Regula falsi with the Illinois modification, inside the bracket [0, 1].
     let (mut low, mut high) = (0.0, 1.0);
-    let (mut miss_low, mut miss_high) = (miss(low)?, miss(high)?);
+    let mut miss_low = image_distance(&at_infinity, metres * 1000.0)? - film_at(low);
+    let mut miss_high = image_distance(&at_close, metres * 1000.0)? - film_at(high);
     if miss_low == 0.0 {
         return Some(low);
     }
