@@ -6,6 +6,7 @@
 
 pub mod checkpoint;
 pub mod contact_sheet;
+pub mod filter;
 pub mod footprint;
 pub mod format;
 pub mod merge;

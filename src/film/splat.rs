@@ -5,7 +5,11 @@
 //! [`crate::lens::hero_wavelengths`]). The Weight stage lists those shares per tile, in ray
 //! order; WriteFilm adds each tile's own samples first and then, for every tile in a fixed
 //! order, the shares that land in it, so the film's sums do not depend on how many threads
-//! ran the pass.
+//! ran the pass. With a reconstruction filter wider than a pixel every share, the ray's own
+//! included, spreads over the pixels around its film point instead ([`Spread`]).
+
+use super::filter::Filter;
+use crate::lens::hero_wavelengths::SPLAT_RADIUS;
 
 /// One share of a sample's weighted radiance for image pixel (`x`, `y`).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -39,5 +43,91 @@ impl PixelRect {
             && other.x0 < ax1
             && ay0 < other.y0 + other.height
             && other.y0 < ay1
+    }
+}
+
+/// How far (pixels) beyond its tile a sample's shares reach through a filter: a companion
+/// wavelength lands within [`SPLAT_RADIUS`] of its pixel, on the filter's grid possibly on the
+/// next pixel's edge, and the filter reaches one pixel further.
+pub const SPREAD_BORDER: u32 = SPLAT_RADIUS as u32 + 2;
+
+/// With a reconstruction filter wider than a pixel (see [`super::filter`]): what a tile's
+/// samples add to its pixels and to a border of [`SPREAD_BORDER`] around them, the Weight
+/// stage's sums in ray order. WriteFilm adds to each tile the part of every tile's spread that
+/// covers it, the tiles in image order, so the film's sums do not depend on the thread count.
+#[derive(Clone, Debug, Default)]
+pub struct Spread {
+    /// Image pixel of the first sum (the tile's corner less the border; may be negative).
+    pub x0: i32,
+    pub y0: i32,
+    pub width: u32,
+    pub height: u32,
+    /// Row-major RGB sums.
+    pub sums: Vec<[f32; 3]>,
+}
+
+impl Spread {
+    /// Zeroed sums for the tile `rect` and its border.
+    pub fn reset(&mut self, rect: PixelRect) {
+        let border = SPREAD_BORDER;
+        (self.x0, self.y0) = (
+            rect.x0 as i32 - border as i32,
+            rect.y0 as i32 - border as i32,
+        );
+        (self.width, self.height) = (rect.width + 2 * border, rect.height + 2 * border);
+        self.sums.clear();
+        self.sums
+            .resize((self.width * self.height) as usize, [0.0; 3]);
+    }
+
+    /// Adds `rgb` spread by `filter` from image position (`x`, `y`) (pixels, quantised) on a
+    /// frame of `size` pixels.
+    #[inline(always)]
+    pub fn add(&mut self, filter: Filter, [x, y]: [f32; 2], size: [u32; 2], rgb: [f32; 3]) {
+        let (first_x, weights_x) = filter.taps(x, size[0]);
+        let (first_y, weights_y) = filter.taps(y, size[1]);
+        for (ky, &wy) in weights_y.iter().enumerate() {
+            if wy == 0.0 {
+                continue;
+            }
+            let row = (first_y + ky as i32 - self.y0) as u32 * self.width;
+            for (kx, &wx) in weights_x.iter().enumerate() {
+                if wx == 0.0 {
+                    continue;
+                }
+                let w = wx * wy;
+                let sum = &mut self.sums[(row + (first_x + kx as i32 - self.x0) as u32) as usize];
+                *sum = [
+                    sum[0] + rgb[0] * w,
+                    sum[1] + rgb[1] * w,
+                    sum[2] + rgb[2] * w,
+                ];
+            }
+        }
+    }
+
+    /// Adds the part of these sums that covers `rect` to its row-major `sums`.
+    pub fn add_to(&self, rect: PixelRect, sums: [&mut [f32]; 3]) {
+        let [r, g, b] = sums;
+        let x_lo = self.x0.max(rect.x0 as i32);
+        let x_hi = (self.x0 + self.width as i32).min((rect.x0 + rect.width) as i32);
+        let y_lo = self.y0.max(rect.y0 as i32);
+        let y_hi = (self.y0 + self.height as i32).min((rect.y0 + rect.height) as i32);
+        for y in y_lo..y_hi {
+            for x in x_lo..x_hi {
+                let from = ((y - self.y0) as u32 * self.width + (x - self.x0) as u32) as usize;
+                let to = ((y as u32 - rect.y0) * rect.width + (x as u32 - rect.x0)) as usize;
+                let s = self.sums[from];
+                (r[to], g[to], b[to]) = (r[to] + s[0], g[to] + s[1], b[to] + s[2]);
+            }
+        }
+    }
+
+    /// Whether these sums cover any pixel of `rect`.
+    pub fn overlaps(&self, rect: &PixelRect) -> bool {
+        self.x0 < (rect.x0 + rect.width) as i32
+            && (rect.x0 as i32) < self.x0 + self.width as i32
+            && self.y0 < (rect.y0 + rect.height) as i32
+            && (rect.y0 as i32) < self.y0 + self.height as i32
     }
 }

@@ -418,6 +418,11 @@ fn settings_fingerprint(
             fingerprint["wavelengths"] = json!(settings.wavelengths);
         }
     }
+    // A checkpoint's sums hold shares spread by one filter: a box render's fingerprint is the
+    // one it had before the film had a choice.
+    if !settings.filter.is_box() {
+        fingerprint["filter"] = json!(settings.filter.name());
+    }
     // The surfaces' losses scale every pixel: how the lens is coated, and what its file says.
     fingerprint["coating"] = json!(
         spec.lens

@@ -235,6 +235,7 @@ impl<'a> Job<'a> {
             max_depth: spec.max_depth,
             tile_size: 32,
             wavelengths: spec.wavelengths,
+            filter: spec.filter,
         });
         Ok(Job {
             spec,

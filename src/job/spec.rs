@@ -14,6 +14,7 @@ use glam::Vec3;
 
 use super::plan::{Shard, StopSweep, Sweep};
 use crate::film::DEFAULT_IMAGE_SIDE;
+use crate::film::filter::Filter;
 use crate::lens::elements::{Dispersion, Flare};
 use crate::lens::movements::FilmMovements;
 use crate::lens::settings::LensSettings;
@@ -52,6 +53,8 @@ pub struct JobSpec {
     /// Wavelengths per camera sample when they do (1 ..= 8; see
     /// [`crate::lens::hero_wavelengths`]).
     pub wavelengths: u32,
+    /// The film's reconstruction filter.
+    pub filter: Filter,
     /// Focus on what this pixel sees (x, y from the top left).
     pub focus_on: Option<[u32; 2]>,
     /// Shift and tilt of the film.

@@ -32,6 +32,7 @@ use super::system::LensSystem;
 use super::trace::Travel;
 use super::trace_batch::{Isa, Wavelengths, trace_batch, trace_batch_spectral};
 use crate::batch::RayBatch;
+use crate::film::filter::quantise;
 use crate::glass::FRAUNHOFER_D_NM;
 use crate::sampling::sobol::owen_sobol;
 use crate::sampling::{Rng, hash32};
@@ -259,6 +260,10 @@ pub struct CameraRays {
     /// the ray's pixel to the pixel that wavelength's contribution goes to (see
     /// [`super::hero_wavelengths`]); empty with one.
     pub wavelength_offset: Vec<[i8; 2]>,
+    /// Where each share lands on the film relative to its ray's pixel's top-left corner,
+    /// pixels, on the film filter's grid (see [`crate::film::filter`]): laid out as
+    /// `wavelength` with several wavelengths per sample, else one per ray (the film jitter).
+    pub film_position: Vec<[f32; 2]>,
     scratch: Scratch,
 }
 
@@ -377,12 +382,15 @@ impl LensCamera<'_> {
         out.wavelength.clear();
         out.wavelength_weight.clear();
         out.wavelength_offset.clear();
+        out.film_position.clear();
+        out.film_position.resize(n, [0.0; 2]);
         if self.dispersion.is_some() {
             let count = self.wavelengths_per_sample() as usize;
             out.wavelength.resize(n * count, 0.0);
             out.wavelength_weight.resize(n * count, 0.0);
             if count > 1 {
                 out.wavelength_offset.resize(n * count, [0, 0]);
+                out.film_position.resize(n * count, [0.0; 2]);
             }
         }
         // The per-pixel loops are compiled again for wider vector units and the widest this
@@ -418,6 +426,10 @@ impl LensCamera<'_> {
         let sampler = self.pupil.sampler();
         self.camera_samples(sample, seed, &mut out.scratch);
         self.film_to_pupil(&sampler, sample, film_z, out);
+        let [film_u, film_v, ..] = &out.scratch.u;
+        for ((position, &u), &v) in out.film_position.iter_mut().zip(film_u).zip(film_v) {
+            *position = [quantise(u), quantise(v)];
+        }
         self.choose_ghost_samples(sample, seed, out);
         match self.dispersion {
             None => trace_batch(&self.system.f32s, &mut out.rays, Travel::FilmToScene),
@@ -471,6 +483,7 @@ impl LensCamera<'_> {
                         weight: &mut out.weight,
                         coefficient: &mut out.wavelength_weight,
                         offset: &mut out.wavelength_offset,
+                        position: &mut out.film_position,
                     };
                     backward.combine(hero, combined, &mut out.scratch.backward);
                     // What the mask and the surfaces pass is in each wavelength's factor.

@@ -56,6 +56,7 @@ use super::system::SurfaceArrays;
 use super::trace::Travel;
 use super::trace_batch::{Wavelengths, trace_batch_spectral};
 use crate::batch::RayBatch;
+use crate::film::filter::quantise;
 use crate::spectral::{WavelengthSample, sample_wavelength};
 
 /// Wavelengths per camera sample a spectral render traces by default (see BENCHMARKS.md,
@@ -123,6 +124,8 @@ pub(crate) struct BackwardScratch {
     /// Per backward ray, where it lands (see [`BackwardTrace::land`]).
     landed_x: Vec<i32>,
     landed_y: Vec<i32>,
+    /// The same point in continuous pixel coordinates (pixels from the frame's top-left corner).
+    landed_at: Vec<[f32; 2]>,
     /// 1/W there; 0 when that technique could not have drawn the scene ray.
     inverse_weight: Vec<f32>,
 }
@@ -138,6 +141,9 @@ pub(crate) struct Combined<'a> {
     pub coefficient: &'a mut [f32],
     /// Out: (dx, dy) from the ray's pixel to the one wavelength k's contribution goes to.
     pub offset: &'a mut [[i8; 2]],
+    /// Out, for every wavelength but the hero's: where it lands relative to the ray's pixel's
+    /// corner, pixels, quantised for the film's filter (see [`crate::film::filter`]).
+    pub position: &'a mut [[f32; 2]],
 }
 
 impl BackwardTrace<'_> {
@@ -188,6 +194,7 @@ impl BackwardTrace<'_> {
             passed,
             landed_x,
             landed_y,
+            landed_at,
             inverse_weight,
             ..
         } = scratch;
@@ -209,6 +216,11 @@ impl BackwardTrace<'_> {
             let traced = passed.get(next_passed) == Some(&(i as u32));
             for k in 1..count {
                 let j = (k - 1) * m + next_passed;
+                if traced {
+                    let [qx, qy] = landed_at[j];
+                    out.position[k * n + i] =
+                        [quantise(qx - hero.px[i]), quantise(qy - hero.py[i])];
+                }
                 (pixel[k], inverse[k], transmission[k]) = if traced {
                     (
                         [landed_x[j], landed_y[j]],
@@ -270,11 +282,14 @@ impl BackwardTrace<'_> {
         }
         scratch.inverse_weight.clear();
         scratch.inverse_weight.resize(len, 0.0);
+        scratch.landed_at.clear();
+        scratch.landed_at.resize(len, [0.0; 2]);
+        let at_out = &mut scratch.landed_at[..len];
         let (x_out, y_out) = (&mut scratch.landed_x[..len], &mut scratch.landed_y[..len]);
         let inverse_out = &mut scratch.inverse_weight[..len];
         let mut land_one = |j: usize, lens_xy: [f32; 2], plane: [f32; 2], depth: f32| {
-            let (x, y, inverse) = self.landing(rays, j, lens_xy, plane, depth);
-            (x_out[j], y_out[j], inverse_out[j]) = (x, y, inverse);
+            let (x, y, inverse, at) = self.landing(rays, j, lens_xy, plane, depth);
+            (x_out[j], y_out[j], inverse_out[j], at_out[j]) = (x, y, inverse, at);
         };
         // The film plane: through the frame centre, normal to the (tilted) film. `lens_xy` is
         // the film point as the pupil sampler takes it, `plane` where it lies in the film
@@ -317,8 +332,8 @@ impl BackwardTrace<'_> {
 
 impl BackwardTrace<'_> {
     /// Backward ray `j`'s landing at film point `lens_xy` (`plane` in the film plane's
-    /// coordinates, `depth` behind the rear plane): its pixel and 1/W, or 1/W = 0 where the
-    /// technique could not have drawn it (see [`Self::land`]).
+    /// coordinates, `depth` behind the rear plane): its pixel, 1/W and the continuous pixel
+    /// position, or 1/W = 0 where the technique could not have drawn it (see [`Self::land`]).
     #[inline(always)]
     fn landing(
         &self,
@@ -327,7 +342,7 @@ impl BackwardTrace<'_> {
         lens_xy: [f32; 2],
         plane: [f32; 2],
         depth: f32,
-    ) -> (i32, i32, f32) {
+    ) -> (i32, i32, f32, [f32; 2]) {
         let (o, d) = (rays.origin(j), rays.direction(j));
         let [qx, qy] = self.film.pixel_position(plane);
         let on_frame =
@@ -339,9 +354,9 @@ impl BackwardTrace<'_> {
         let w = self.sampler.drawn_weight(lens_xy, depth, rear);
         let valid = rays.alive[j] && on_frame && w > 0.0 && w.is_finite();
         if valid {
-            (qx as i32, qy as i32, 1.0 / w)
+            (qx as i32, qy as i32, 1.0 / w, [qx, qy])
         } else {
-            (0, 0, 0.0)
+            (0, 0, 0.0, [0.0; 2])
         }
     }
 }

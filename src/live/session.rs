@@ -350,6 +350,7 @@ impl Session {
             max_depth: self.spec.max_depth,
             tile_size: 32,
             wavelengths: self.spec.wavelengths,
+            filter: self.spec.filter,
         }
     }
 

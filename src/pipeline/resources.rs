@@ -13,6 +13,7 @@ use bevy_ecs::resource::Resource;
 use super::Stage;
 use crate::batch::HitBatch;
 use crate::film::DEFAULT_IMAGE_SIDE;
+use crate::film::filter::Filter;
 use crate::lens::camera::{CameraRays, FilmResolution};
 use crate::scene::Bounds;
 use crate::shade::{Environment, RadianceBatch, ShadeStats};
@@ -35,6 +36,8 @@ pub struct RenderSettings {
     /// Wavelengths per camera sample in a spectral render (see
     /// [`crate::lens::hero_wavelengths`]).
     pub wavelengths: u32,
+    /// How each share of a sample spreads over the pixels around its film point.
+    pub filter: Filter,
 }
 
 impl Default for RenderSettings {
@@ -46,6 +49,7 @@ impl Default for RenderSettings {
             max_depth: 8,
             tile_size: 32,
             wavelengths: crate::lens::hero_wavelengths::DEFAULT_WAVELENGTHS,
+            filter: Filter::default(),
         }
     }
 }
@@ -161,4 +165,6 @@ pub struct TileBatch {
     /// Weighted radiance this tile's samples add to other pixels than their own (several
     /// wavelengths per sample), in ray order.
     pub splats: Vec<crate::film::splat::Splat>,
+    /// With a filter wider than a pixel, what this tile's samples add around their film points.
+    pub spread: crate::film::splat::Spread,
 }

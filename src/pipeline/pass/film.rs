@@ -1,24 +1,30 @@
 //! WriteFilm: the pass's weighted samples added to each tile's sums, which ends the pass.
 
-use bevy_ecs::system::{Query, ResMut};
+use bevy_ecs::system::{Query, Res, ResMut};
 use bevy_ecs::world::Mut;
 
 use super::run_on_tiles;
 use crate::film::FilmTile;
-use crate::film::splat::PixelRect;
+use crate::film::splat::{PixelRect, Spread};
 use crate::lens::hero_wavelengths::SPLAT_RADIUS;
 use crate::pipeline::Stage;
-use crate::pipeline::resources::{PassState, RenderStats, TileBatch};
+use crate::pipeline::resources::{PassState, RenderSettings, RenderStats, TileBatch};
 
 /// WriteFilm: adds the pass's weighted samples to each tile's sums: its own samples in pixel
 /// order, then the splats that land in it from every tile's list, the tiles in image order
 /// (see [`crate::film::splat`]).
 pub fn write_film(
     mut tiles: Query<(&mut FilmTile, &TileBatch)>,
+    settings: Res<RenderSettings>,
     mut pass: ResMut<PassState>,
     mut stats: ResMut<RenderStats>,
 ) {
     let tiles: Vec<(Mut<FilmTile>, &TileBatch)> = tiles.iter_mut().collect();
+    if !settings.filter.is_box() {
+        write_spreads(tiles, &mut stats);
+        pass.pending = false;
+        return;
+    }
     let mut sources: Vec<(PixelRect, &TileBatch)> = tiles
         .iter()
         .filter(|(_, batch)| !batch.splats.is_empty())
@@ -54,4 +60,25 @@ pub fn write_film(
         },
     );
     pass.pending = false;
+}
+
+/// WriteFilm with a filter wider than a pixel: every sum comes from the tiles' spreads, each
+/// tile taking the part of every spread that covers it, the spreads in image order.
+fn write_spreads(tiles: Vec<(Mut<FilmTile>, &TileBatch)>, stats: &mut RenderStats) {
+    let mut spreads: Vec<&Spread> = tiles.iter().map(|(_, batch)| &batch.spread).collect();
+    spreads.sort_by_key(|spread| (spread.y0, spread.x0));
+    run_on_tiles(
+        Stage::WriteFilm,
+        tiles,
+        None,
+        stats,
+        |(mut tile, _): (Mut<FilmTile>, &TileBatch)| {
+            let tile = &mut *tile;
+            let rect = tile.rect();
+            for spread in spreads.iter().filter(|spread| spread.overlaps(&rect)) {
+                spread.add_to(rect, [&mut tile.sum_r, &mut tile.sum_g, &mut tile.sum_b]);
+            }
+            tile.samples += 1;
+        },
+    );
 }

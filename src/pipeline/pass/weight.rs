@@ -1,21 +1,40 @@
 //! Weight: radiance times the lens weight, and in a spectral render what its wavelengths add
 //! to the film.
 
-use bevy_ecs::system::{Query, ResMut};
+use bevy_ecs::system::{Query, Res, ResMut};
 use bevy_ecs::world::Mut;
 
 use super::run_on_tiles;
 use crate::film::FilmTile;
 use crate::film::splat::Splat;
+use crate::lens::hero_wavelengths::MAX_WAVELENGTHS;
 use crate::pipeline::Stage;
-use crate::pipeline::resources::{RenderStats, TileBatch};
+use crate::pipeline::resources::{RenderSettings, RenderStats, TileBatch};
+
+/// One share of a sample: what it adds to the film, and where.
+#[derive(Clone, Copy, Default)]
+struct Share {
+    rgb: [f32; 3],
+    /// Pixel offset from the ray's pixel (the box filter's target).
+    offset: [i8; 2],
+    /// Film point relative to the ray's pixel's corner, pixels (see `CameraRays::film_position`).
+    position: [f32; 2],
+}
 
 /// Weight: multiplies radiance by the lens weight (and in a spectral render turns it into what
-/// its wavelengths add to the film, see [`crate::spectral`]: to the ray's own pixel, and with
-/// several wavelengths per sample to the tile's splats for the pixels the others land in);
-/// non-finite samples never reach the film.
-pub fn weight(mut tiles: Query<(&FilmTile, &mut TileBatch)>, mut stats: ResMut<RenderStats>) {
+/// its wavelengths add to the film, see [`crate::spectral`]). With the box filter a share goes
+/// to the ray's own pixel, or with several wavelengths per sample to the tile's splats for the
+/// pixel it lands in; with a wider filter every share spreads into the tile's
+/// [`Spread`](crate::film::splat::Spread). A sample with any non-finite share never reaches
+/// the film.
+pub fn weight(
+    mut tiles: Query<(&FilmTile, &mut TileBatch)>,
+    settings: Res<RenderSettings>,
+    mut stats: ResMut<RenderStats>,
+) {
     let film = crate::spectral::spectral_film();
+    let filter = settings.filter;
+    let size = [settings.width, settings.height];
     let rejected: u64 = run_on_tiles(
         Stage::Weight,
         tiles.iter_mut(),
@@ -26,55 +45,77 @@ pub fn weight(mut tiles: Query<(&FilmTile, &mut TileBatch)>, mut stats: ResMut<R
                 camera,
                 radiance,
                 splats,
+                spread,
                 ..
             } = &mut *batch;
             splats.clear();
+            if !filter.is_box() {
+                spread.reset(tile.rect());
+            }
             let mut rejected = 0;
             let n = camera.weight.len();
             // Spectral: `count` wavelengths per ray, wavelength-major (see CameraRays).
             let count = camera.wavelength.len() / n.max(1);
+            let mut shares = [Share::default(); MAX_WAVELENGTHS as usize];
             for i in 0..n {
                 let w = camera.weight[i];
-                let (r, g, b) = (radiance.r[i] * w, radiance.g[i] * w, radiance.b[i] * w);
-                let ray_splats = splats.len();
-                let [r, g, b] = if count == 0 {
-                    [r, g, b]
-                } else {
-                    let mut own = [0.0f32; 3];
-                    for k in 0..count {
-                        let j = k * n + i;
-                        let factor = camera.wavelength_weight[j];
-                        if factor == 0.0 {
-                            continue;
-                        }
-                        let add = film.film_rgb(camera.wavelength[j], factor, [r, g, b]);
-                        match camera.wavelength_offset.get(j) {
-                            Some(&[dx, dy]) if [dx, dy] != [0, 0] => {
-                                // Ray i is the tile's pixel i (FilmTile::pixels order).
-                                let x = tile.x0 + (i as u32 % tile.width);
-                                let y = tile.y0 + (i as u32 / tile.width);
-                                splats.push(Splat {
-                                    x: x.wrapping_add_signed(i32::from(dx)),
-                                    y: y.wrapping_add_signed(i32::from(dy)),
-                                    rgb: add,
-                                });
-                            }
-                            _ => own = [own[0] + add[0], own[1] + add[1], own[2] + add[2]],
+                let rgb = [radiance.r[i] * w, radiance.g[i] * w, radiance.b[i] * w];
+                let mut made = 0;
+                if count == 0 {
+                    shares[0] = Share {
+                        rgb,
+                        offset: [0, 0],
+                        position: camera.film_position[i],
+                    };
+                    made = 1;
+                }
+                for k in 0..count {
+                    let j = k * n + i;
+                    let factor = camera.wavelength_weight[j];
+                    if factor == 0.0 {
+                        continue;
+                    }
+                    shares[made] = Share {
+                        rgb: film.film_rgb(camera.wavelength[j], factor, rgb),
+                        offset: camera.wavelength_offset.get(j).copied().unwrap_or([0, 0]),
+                        position: camera.film_position[if count > 1 { j } else { i }],
+                    };
+                    made += 1;
+                }
+                let shares = &shares[..made];
+                let finite = shares.iter().all(|s| s.rgb.iter().all(|v| v.is_finite()));
+                rejected += u64::from(!finite);
+                // Ray i is the tile's pixel i (FilmTile::pixels order).
+                let (x, y) = (
+                    tile.x0 + (i as u32 % tile.width),
+                    tile.y0 + (i as u32 / tile.width),
+                );
+                let mut own = [0.0f32; 3];
+                if finite && filter.is_box() && count == 0 {
+                    own = rgb;
+                } else if finite && filter.is_box() {
+                    for share in shares {
+                        if share.offset == [0, 0] {
+                            own = [
+                                own[0] + share.rgb[0],
+                                own[1] + share.rgb[1],
+                                own[2] + share.rgb[2],
+                            ];
+                        } else {
+                            splats.push(Splat {
+                                x: x.wrapping_add_signed(i32::from(share.offset[0])),
+                                y: y.wrapping_add_signed(i32::from(share.offset[1])),
+                                rgb: share.rgb,
+                            });
                         }
                     }
-                    own
-                };
-                let finite = [r, g, b].iter().all(|v| v.is_finite())
-                    && splats[ray_splats..]
-                        .iter()
-                        .all(|s| s.rgb.iter().all(|v| v.is_finite()));
-                rejected += u64::from(!finite);
-                if !finite {
-                    splats.truncate(ray_splats);
+                } else if finite {
+                    for share in shares {
+                        let at = [x as f32 + share.position[0], y as f32 + share.position[1]];
+                        spread.add(filter, at, size, share.rgb);
+                    }
                 }
-                radiance.r[i] = if finite { r } else { 0.0 };
-                radiance.g[i] = if finite { g } else { 0.0 };
-                radiance.b[i] = if finite { b } else { 0.0 };
+                [radiance.r[i], radiance.g[i], radiance.b[i]] = own;
             }
             rejected
         },

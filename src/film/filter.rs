@@ -1,0 +1,195 @@
+//! The film's reconstruction filter: how one share of a sample spreads over the pixels around
+//! the film point it lands on.
+//!
+//! Pixel (i, j) of the image estimates
+//!
+//! ```text
+//! I(i, j) = ∫ dA(x)  f(x, i, j) · E(x)        Σ_{i, j} f(x, i, j) = 1 for every film point x
+//! ```
+//!
+//! with E the film's irradiance (per wavelength and channel, see [`crate::lens::hero_wavelengths`]).
+//! Film points are drawn uniformly, one per pixel and pass, so a share of weighted radiance
+//! landing at x adds f(x, i, j) times itself to pixel (i, j): unbiased for I, and the weights of
+//! every share sum to one, so no energy is gained or lost. f is separable, f = f_x · f_y, and each
+//! axis's weights are the filter's profile at the pixel centres within its radius, normalised to
+//! sum to one over the pixels that exist (so the frame's edge keeps every share too).
+//!
+//! - **box**: the pixel x lies in, weight 1 (the classic estimator; sharpest, and a share that
+//!   lands across a pixel edge moves all of its colour there).
+//! - **tent** (default): 1 − |d|/r with r = 1.5 pixels, d the distance from x to a pixel centre.
+//!   With several wavelengths per sample the wavelengths of one sample land a fraction of a
+//!   pixel apart (the lens's own colour at pixel scale); a tent shares each of them among the
+//!   same few pixels in nearly the same proportions, so a grey surface stays grey where a box
+//!   would colour each pixel by the part of the spectrum that happened to land in it
+//!   (BENCHMARKS.md, "Colour grain": the grey floor's chroma 0.150 → 0.059 at 64 spp).
+//! - **gaussian**: exp(−d²/2σ²) − exp(−r²/2σ²), σ = 0.5, r = 1.5 pixels (pbrt-v4's default).
+//!
+//! Positions are quantised to 1/256 pixel before the weights are taken, so the GPU, which
+//! passes them between its kernels as small integers, weights every share exactly as the CPU.
+
+use serde::{Deserialize, Serialize};
+
+/// Film positions are multiples of this many pixels (see the module docs).
+pub const POSITION_STEP: f32 = 1.0 / 256.0;
+
+/// Radius (pixels) of the tent and Gaussian filters.
+pub const FILTER_RADIUS: f32 = 1.5;
+
+/// Standard deviation (pixels) of the Gaussian filter.
+pub const GAUSSIAN_SIGMA: f32 = 0.5;
+
+/// Pixels a share's weights reach along one axis: the pixel its film point lies in and one on
+/// each side (a radius of 1.5 reaches at most the centres one pixel away).
+pub const TAPS: usize = 3;
+
+/// The reconstruction filter (see the module docs).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Filter {
+    Box,
+    #[default]
+    Tent,
+    Gaussian,
+}
+
+impl Filter {
+    pub const ALL: [Filter; 3] = [Filter::Box, Filter::Tent, Filter::Gaussian];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Filter::Box => "box",
+            Filter::Tent => "tent",
+            Filter::Gaussian => "gaussian",
+        }
+    }
+
+    pub fn from_name(name: &str) -> Option<Filter> {
+        Filter::ALL.into_iter().find(|f| f.name() == name)
+    }
+
+    /// Whether a share reaches only the pixel it lands in.
+    pub fn is_box(self) -> bool {
+        self == Filter::Box
+    }
+
+    /// The filter's profile at distance `d` (pixels) from a pixel centre, before normalising.
+    #[inline(always)]
+    fn profile(self, d: f32) -> f32 {
+        match self {
+            Filter::Box => f32::from(u8::from(d.abs() <= 0.5)),
+            Filter::Tent => (1.0 - d.abs() / FILTER_RADIUS).max(0.0),
+            Filter::Gaussian => {
+                let g = |d: f32| (-d * d / (2.0 * GAUSSIAN_SIGMA * GAUSSIAN_SIGMA)).exp();
+                (g(d) - g(FILTER_RADIUS)).max(0.0)
+            }
+        }
+    }
+
+    /// One axis of the weights of a share at `position` (pixels from the left or top edge of
+    /// the frame, quantised, inside it): the first pixel and the weights of it and the next
+    /// [`TAPS`] − 1, summing to one over the pixels inside `0..extent`.
+    #[inline(always)]
+    pub fn taps(self, position: f32, extent: u32) -> (i32, [f32; TAPS]) {
+        let own = position.floor() as i32;
+        if self.is_box() {
+            return (own.clamp(0, extent as i32 - 1), [1.0, 0.0, 0.0]);
+        }
+        let first = own - 1;
+        let mut weights = [0.0f32; TAPS];
+        let mut sum = 0.0;
+        for (k, w) in weights.iter_mut().enumerate() {
+            let pixel = first + k as i32;
+            if pixel >= 0 && pixel < extent as i32 {
+                *w = self.profile(position - (pixel as f32 + 0.5));
+                sum += *w;
+            }
+        }
+        // The pixel the point lies in is always inside and within the radius, so sum > 0.
+        let scale = 1.0 / sum;
+        (first, weights.map(|w| w * scale))
+    }
+}
+
+/// `position` (pixels) on the 1/256-pixel grid the filter's weights are taken at.
+#[inline(always)]
+pub fn quantise(position: f32) -> f32 {
+    (position * 256.0).round() * POSITION_STEP
+}
+
+impl std::fmt::Display for Filter {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_share_keeps_its_energy_at_every_position_and_edge() {
+        for filter in Filter::ALL {
+            for extent in [1u32, 2, 3, 16] {
+                for step in 0..(extent * 256) {
+                    let p = step as f32 * POSITION_STEP;
+                    let (first, w) = filter.taps(p, extent);
+                    let sum: f32 = w.iter().sum();
+                    assert!(
+                        (sum - 1.0).abs() < 1e-6,
+                        "{filter} at {p} of {extent}: {w:?}"
+                    );
+                    for (k, &w) in w.iter().enumerate() {
+                        let pixel = first + k as i32;
+                        assert!(w >= 0.0);
+                        assert!(
+                            w == 0.0 || (0..extent as i32).contains(&pixel),
+                            "{filter} {p}"
+                        );
+                    }
+                    // The pixel the point lies in always gets the most.
+                    let own = p.floor().min(extent as f32 - 1.0) as i32;
+                    let own_weight = w[(own - first) as usize];
+                    assert!(
+                        w.iter().all(|&v| v <= own_weight + 1e-6),
+                        "{filter} {p}: {w:?}"
+                    );
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn the_filters_are_the_profiles_they_are_named_for() {
+        // A point on a pixel centre, far from the edges: the centre and its two neighbours.
+        let (first, w) = Filter::Tent.taps(8.5, 16);
+        assert_eq!(first, 7);
+        // 1 − 1/1.5 = 1/3 beside a centre weight of 1, normalised by 5/3.
+        for (got, want) in w.iter().zip([0.2, 0.6, 0.2]) {
+            assert!((got - want).abs() < 1e-6, "{w:?}");
+        }
+        // Halfway between centres: two pixels, equal, and the third beyond the radius.
+        let (first, w) = Filter::Gaussian.taps(9.0, 16);
+        assert_eq!(first, 8);
+        assert!((w[0] - 0.5).abs() < 1e-6 && (w[1] - 0.5).abs() < 1e-6 && w[2] == 0.0);
+        let g = |d: f32| (-2.0 * d * d).exp() - (-2.0f32 * 2.25).exp();
+        let (_, w) = Filter::Gaussian.taps(8.5, 16);
+        let expect = g(1.0) / (g(0.0) + 2.0 * g(1.0));
+        assert!((w[0] - expect).abs() < 1e-6 && (w[2] - expect).abs() < 1e-6);
+        assert_eq!(Filter::Box.taps(8.99, 16), (8, [1.0, 0.0, 0.0]));
+        // At the frame's edge the pixel beyond is dropped and the rest take its share.
+        let (first, w) = Filter::Tent.taps(0.5, 16);
+        assert_eq!(first, -1);
+        assert!(w[0] == 0.0 && (w[1] - 0.75).abs() < 1e-6 && (w[2] - 0.25).abs() < 1e-6);
+    }
+
+    #[test]
+    fn positions_are_quantised_to_the_grid_the_gpu_passes() {
+        assert_eq!(quantise(0.3), 77.0 / 256.0);
+        assert_eq!(quantise(-1.0009), -1.0);
+        assert_eq!(quantise(2.999), 3.0);
+        for name in ["box", "tent", "gaussian"] {
+            assert_eq!(Filter::from_name(name).map(Filter::name), Some(name));
+        }
+        assert_eq!(Filter::from_name("mitchell"), None);
+    }
+}
