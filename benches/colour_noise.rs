@@ -2,14 +2,15 @@
 //!
 //! The default scene (the course's dof-dragons) through the four course lenses at 256², each
 //! rendered by the `realcam` binary: a converged reference per estimator family (spectral and
-//! RGB, 4096 spp), then at 64 spp the RGB render and the spectral one with 1, 2, 4 and 8
-//! wavelengths per sample (`--wavelengths`). Per render: its wall time (`--stats`), the
+//! RGB, 4096 spp), then at 64 spp the RGB render and the spectral one with 1 and 4
+//! wavelengths per sample (`--wavelengths`), each with the tent filter (the default) and the box
+//! (`--filter`; the references with the same filter). Per render: its wall time (`--stats`), the
 //! luminance RMS error against its family's reference and the chroma RMS error (opponent
 //! axes (R−G)/√2 and (R+G−2B)/√6 of linear sRGB), both relative to the reference's mean
 //! luminance; and the equal-time luminance ratio against RGB, (e / e_rgb)·√(t / t_rgb) (errors
 //! fall as 1/√spp). Then the issue's floor figure: the default render (512², 64 spp,
-//! dgauss.50mm), mean chroma (max−min)/max over rows 330–420, columns 150–350.
-//! Prints tables (no timing asserts): `cargo bench --bench colour_noise` (about 10 minutes on 2
+//! dgauss.50mm), mean chroma (max−min)/max over rows 330–420, columns 150–350, per filter.
+//! Prints tables (no timing asserts): `cargo bench --bench colour_noise` (about 15 minutes on 2
 //! cores; `-- --reference-spp N` for a quicker, noisier run).
 
 use std::path::{Path, PathBuf};
@@ -24,7 +25,9 @@ const LENSES: [&str; 4] = [
     "fisheye.10mm",
 ];
 /// Spectral estimators: wavelengths per sample.
-const WAVELENGTHS: [u32; 4] = [1, 2, 4, 8];
+const WAVELENGTHS: [u32; 2] = [1, 4];
+/// Film filters: the default, and the box (the estimator before the filter).
+const FILTERS: [&str; 2] = ["tent", "box"];
 
 /// A linear render and its wall time.
 struct Render {
@@ -115,62 +118,71 @@ fn main() {
          errors relative to mean luminance; equal-time ratio = (e / e_rgb)·√(t / t_rgb)"
     );
     println!(
-        "{:<16} {:<14} {:>8} {:>10} {:>10} {:>16}",
-        "lens", "estimator", "time s", "lum RMSE", "chroma RMSE", "lum equal-time"
+        "{:<16} {:<9} {:<14} {:>8} {:>10} {:>10} {:>16}",
+        "lens", "filter", "estimator", "time s", "lum RMSE", "chroma RMSE", "lum equal-time"
     );
     for lens in LENSES {
-        let base = |spp: u32| {
-            strings(&[
-                "--lens",
-                lens,
-                "--width",
-                &SIZE.to_string(),
-                "--height",
-                &SIZE.to_string(),
-                "--spp",
-                &spp.to_string(),
-                "--seed",
-                "3",
-            ])
-        };
-        let with = |spp: u32, extra: &[&str]| [base(spp), strings(extra)].concat();
-        let rgb_reference = render(&dir, &with(reference_spp, &["--dispersion", "off"]));
-        let spectral_reference = render(&dir, &with(reference_spp, &["--wavelengths", "4"]));
-        let rgb = render(&dir, &with(SPP, &["--dispersion", "off"]));
-        let (rgb_lum, rgb_chroma) = errors(&rgb.pixels, &rgb_reference.pixels);
-        println!(
-            "{lens:<16} {:<14} {:>8.2} {:>10.4} {:>10.4} {:>16}",
-            "rgb", rgb.seconds, rgb_lum, rgb_chroma, "1.00"
-        );
-        for n in WAVELENGTHS {
-            let spectral = render(&dir, &with(SPP, &["--wavelengths", &n.to_string()]));
-            let (lum, chroma) = errors(&spectral.pixels, &spectral_reference.pixels);
-            let equal_time = lum / rgb_lum * (spectral.seconds / rgb.seconds).sqrt();
+        for filter in FILTERS {
+            let base = |spp: u32| {
+                strings(&[
+                    "--lens",
+                    lens,
+                    "--width",
+                    &SIZE.to_string(),
+                    "--height",
+                    &SIZE.to_string(),
+                    "--spp",
+                    &spp.to_string(),
+                    "--seed",
+                    "3",
+                    "--filter",
+                    filter,
+                ])
+            };
+            let with = |spp: u32, extra: &[&str]| [base(spp), strings(extra)].concat();
+            let rgb_reference = render(&dir, &with(reference_spp, &["--dispersion", "off"]));
+            let spectral_reference = render(&dir, &with(reference_spp, &["--wavelengths", "4"]));
+            let rgb = render(&dir, &with(SPP, &["--dispersion", "off"]));
+            let (rgb_lum, rgb_chroma) = errors(&rgb.pixels, &rgb_reference.pixels);
             println!(
-                "{lens:<16} {:<14} {:>8.2} {:>10.4} {:>10.4} {:>16.2}",
-                format!("spectral ×{n}"),
-                spectral.seconds,
-                lum,
-                chroma,
-                equal_time
+                "{lens:<16} {filter:<9} {:<14} {:>8.2} {:>10.4} {:>10.4} {:>16}",
+                "rgb", rgb.seconds, rgb_lum, rgb_chroma, "1.00"
             );
+            for n in WAVELENGTHS {
+                let spectral = render(&dir, &with(SPP, &["--wavelengths", &n.to_string()]));
+                let (lum, chroma) = errors(&spectral.pixels, &spectral_reference.pixels);
+                let equal_time = lum / rgb_lum * (spectral.seconds / rgb.seconds).sqrt();
+                println!(
+                    "{lens:<16} {filter:<9} {:<14} {:>8.2} {:>10.4} {:>10.4} {:>16.2}",
+                    format!("spectral ×{n}"),
+                    spectral.seconds,
+                    lum,
+                    chroma,
+                    equal_time
+                );
+            }
         }
     }
     println!("\nthe default render's grey floor (512², 64 spp, dgauss.50mm): mean (max−min)/max");
-    let rgb = render(&dir, &strings(&["--dispersion", "off"]));
-    println!(
-        "{:<14} {:>8.4}  ({:.2} s)",
-        "rgb",
-        floor_chroma(&rgb.pixels),
-        rgb.seconds
-    );
-    for n in WAVELENGTHS {
-        let spectral = render(&dir, &strings(&["--wavelengths", &n.to_string()]));
+    for filter in ["box", "tent", "gaussian"] {
+        let rgb = render(&dir, &strings(&["--dispersion", "off", "--filter", filter]));
         println!(
-            "{:<14} {:>8.4}  ({:.2} s)",
-            format!("spectral ×{n}"),
-            floor_chroma(&spectral.pixels),
-            spectral.seconds
+            "{filter:<9} {:<14} {:>8.4}  ({:.2} s)",
+            "rgb",
+            floor_chroma(&rgb.pixels),
+            rgb.seconds
         );
+        for n in [1, 4, 8] {
+            let spectral = render(
+                &dir,
+                &strings(&["--wavelengths", &n.to_string(), "--filter", filter]),
+            );
+            println!(
+                "{filter:<9} {:<14} {:>8.4}  ({:.2} s)",
+                format!("spectral ×{n}"),
+                floor_chroma(&spectral.pixels),
+                spectral.seconds
+            );
+        }
     }
 }

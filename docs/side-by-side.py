@@ -3,8 +3,9 @@
 Usage: python3 docs/side-by-side.py REALCAM_BINARY FIGURE OUT.png, FIGURE one of:
 
   colour-grain    docs/colour-grain.png: the default render's floor (512², 64 spp,
-                  dgauss.50mm; a crop enlarged 2×) with one wavelength per sample, with the
-                  default four, and with --dispersion off.
+                  dgauss.50mm; a crop enlarged 2×) with one wavelength per sample and the
+                  box filter (the estimator before issue 25), four wavelengths and the box,
+                  the default (four, tent filter), and --dispersion off.
   lateral-colour  docs/lateral-colour.png: the lower left of the default scene through
                   fisheye.10mm (--film-diagonal 30, 480×320, 64 spp; a crop enlarged 3×) with
                   --dispersion off and on.
@@ -22,8 +23,9 @@ FIGURES = {
         "crop": (150, 250, 350, 420),  # left, top, right, bottom
         "scale": 2,
         "panels": [
-            ("--wavelengths 1", ["--wavelengths", "1"]),
-            ("default (4 wavelengths)", []),
+            ("--wavelengths 1 --filter box", ["--wavelengths", "1", "--filter", "box"]),
+            ("--filter box (4 wavelengths)", ["--filter", "box"]),
+            ("default (4 wavelengths, tent)", []),
             ("--dispersion off", ["--dispersion", "off"]),
         ],
     },

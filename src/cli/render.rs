@@ -169,7 +169,7 @@ pub struct RenderArgs {
     /// lens's colour lands a fraction of a pixel apart, stay together and grey stays grey;
     /// `gaussian` (σ 0.5, radius 1.5 pixels, pbrt-v4's) is a little sharper and grainier;
     /// `box` gives each sample to the one pixel it lands in (sharpest, most colour grain).
-    #[arg(long, value_name = "tent|gaussian|box", default_value = "tent", value_parser = parse_filter)]
+    #[arg(long, value_name = "tent|gaussian|box", default_value = "tent", allow_hyphen_values = true, value_parser = parse_filter)]
     pub filter: Filter,
     /// Focus on what pixel X,Y sees ((0,0): the top-left pixel): a probe ray through the real
     /// lens finds the point, and the film distance that brings its real-ray image into

@@ -375,6 +375,7 @@ fn dot(a: [f32; 3], b: [f32; 3]) -> f32 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::film::filter::POSITION_STEP;
     use crate::lens::camera::{CameraRays, LensCamera};
     use crate::lens::movements::FilmMovements;
     use crate::lens::pupil::PupilSampling;
@@ -451,6 +452,7 @@ mod tests {
                     [out.wavelength_weight.clone(), out.wavelength_weight.clone()].concat();
                 let mut weight = out.weight.clone();
                 let mut offset = vec![[0i8; 2]; 2 * n];
+                let mut position = vec![[0f32; 2]; 2 * n];
                 let hero = HeroRays {
                     rays: &rays,
                     px: &px,
@@ -461,6 +463,7 @@ mod tests {
                     weight: &mut weight,
                     coefficient: &mut coefficient,
                     offset: &mut offset,
+                    position: &mut position,
                 };
                 backward.combine(hero, combined, &mut BackwardScratch::default());
                 for i in (0..n).filter(|&i| out.rays.alive[i]) {
@@ -468,7 +471,14 @@ mod tests {
                     // Each technique gets half: W₀ / 2 times the wavelength's 1/p.
                     let half = out.weight[i] * out.wavelength_weight[i] / 2.0;
                     let close = |c: f32| (c / half - 1.0).abs() < 1e-3;
-                    if offset[n + i] == [0, 0] && close(coefficient[i]) && close(coefficient[n + i])
+                    // Back on the hero's own film point, to the film filter's grid step.
+                    let [hx, hy] = out.film_position[i];
+                    let [bx, by] = position[n + i];
+                    let home = (bx - hx).abs() <= POSITION_STEP && (by - hy).abs() <= POSITION_STEP;
+                    if offset[n + i] == [0, 0]
+                        && home
+                        && close(coefficient[i])
+                        && close(coefficient[n + i])
                     {
                         agree += 1;
                     }

@@ -441,6 +441,7 @@ impl Session {
                 }),
             ),
             ("wavelengths", json!(spec.wavelengths)),
+            ("filter", json!(spec.filter.name())),
             (
                 "flare",
                 json!(match spec.flare {

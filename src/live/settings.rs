@@ -16,7 +16,7 @@ pub type SpecParser = Arc<dyn Fn(&[String]) -> Result<JobSpec, String> + Send + 
 
 /// Options a live session changes without reloading the scene or rebuilding its BVH, by their
 /// names in the API (`realcam render`'s long options without dashes, `-` as `_`).
-pub const LIVE_OPTIONS: [&str; 25] = [
+pub const LIVE_OPTIONS: [&str; 26] = [
     "lens",
     "focus_distance",
     "film_distance",
@@ -32,6 +32,7 @@ pub const LIVE_OPTIONS: [&str; 25] = [
     "pupil_sampling",
     "dispersion",
     "wavelengths",
+    "filter",
     "coating",
     "flare",
     "zoom_position",
@@ -58,11 +59,12 @@ const WHOLE: [&str; 8] = [
 /// Settings that take two numbers (`[x, y]` in JSON, `X,Y` on the command line).
 const PAIRS: [&str; 2] = ["shift", "tilt"];
 /// Settings that take words.
-const WORDS: [&str; 6] = [
+const WORDS: [&str; 7] = [
     "lens",
     "focus_mode",
     "pupil_sampling",
     "dispersion",
+    "filter",
     "coating",
     "flare",
 ];

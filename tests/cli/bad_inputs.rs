@@ -550,6 +550,12 @@ fn impossible_flags_are_refused_before_rendering() {
         ),
         (&["--wavelengths", "four"], 2, "--wavelengths"),
         (
+            &["--filter", "mitchell"],
+            2,
+            "unknown filter 'mitchell': use tent, gaussian or box",
+        ),
+        (&["--filter", "-1"], 2, "unknown filter '-1'"),
+        (
             &["--coating", "mgf2"],
             2,
             "unknown coating 'mgf2': use none, single, multi or ideal",

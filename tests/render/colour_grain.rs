@@ -6,6 +6,7 @@ use crate::support;
 
 use glam::Vec3;
 use realcam::film::Image;
+use realcam::film::filter::Filter;
 use realcam::lens::aperture::ApertureSetting;
 use realcam::lens::coating::CoatingModel;
 use realcam::lens::elements::{CoatingChoice, FocusSetting};
@@ -48,6 +49,7 @@ struct Shot {
     movements: FilmMovements,
     environment: Environment,
     wavelengths: u32,
+    filter: Filter,
     seed: u64,
     spp: u32,
 }
@@ -70,6 +72,7 @@ fn render(shot: &Shot) -> Image {
         max_depth: 2,
         tile_size: 8,
         wavelengths: shot.wavelengths,
+        filter: shot.filter,
     });
     let lens = renderer.add_lens(
         &prescription,
@@ -153,30 +156,35 @@ fn assert_same_expectation(one: &[[(f64, f64); 3]], several: &[[(f64, f64); 3]],
 #[test]
 fn several_wavelengths_per_sample_keep_the_single_wavelength_image() {
     let scene: &'static [u8] = Box::leak(emitters_on_a_dark_wall().into_boxed_slice());
+    // Each film filter: the box (a share goes to the pixel it lands in) and the wider ones
+    // (it spreads around its film point, the default).
     let cases = [
-        ("fisheye.10mm", FilmMovements::NONE),
-        ("telephoto.250mm", FilmMovements::NONE),
+        ("fisheye.10mm", FilmMovements::NONE, Filter::Tent),
+        ("telephoto.250mm", FilmMovements::NONE, Filter::Box),
+        ("telephoto.250mm", FilmMovements::NONE, Filter::Gaussian),
         (
             "wide.22mm",
             FilmMovements {
                 shift_mm: [3.0, -2.0],
                 tilt_deg: [5.0, 3.0],
             },
+            Filter::Tent,
         ),
     ];
-    for (lens, movements) in cases {
+    for (lens, movements, filter) in cases {
         let shot = |wavelengths| Shot {
             scene,
             lens,
             movements,
             environment: Environment::Uniform(Vec3::splat(0.2)),
             wavelengths,
+            filter,
             seed: 0,
             spp: 16,
         };
         let one = block_means(&shot(1), 24);
         let several = block_means(&shot(4), 24);
-        assert_same_expectation(&one, &several, lens);
+        assert_same_expectation(&one, &several, &format!("{lens}, {filter} filter"));
     }
 }
 
@@ -197,6 +205,7 @@ fn a_white_furnace_stays_white_with_several_wavelengths() {
         movements: FilmMovements::NONE,
         environment: Environment::Uniform(Vec3::ONE),
         wavelengths,
+        filter: Filter::Tent,
         seed: 0,
         spp: 16,
     };
@@ -229,5 +238,51 @@ fn a_white_furnace_stays_white_with_several_wavelengths() {
             spread(several[b]),
             spread(one[b])
         );
+    }
+}
+
+/// The film filter moves light between pixels and never makes or loses any: the same seed
+/// renders the same samples whatever the filter, and the image's total is the same to
+/// rounding, at the frame's edges too (a share's weights are normalised over the pixels that
+/// exist), with one wavelength per sample and with several (whose shares land up to two pixels
+/// from their sample's). The tent and Gaussian images differ from the box's where the light
+/// does, and only there.
+#[test]
+fn every_filter_keeps_each_samples_light() {
+    let scene: &'static [u8] = Box::leak(emitters_on_a_dark_wall().into_boxed_slice());
+    for (lens, wavelengths) in [
+        ("fisheye.10mm", 4),
+        ("wide.22mm", 1),
+        ("telephoto.250mm", 4),
+    ] {
+        let shot = |filter| Shot {
+            scene,
+            lens,
+            movements: FilmMovements::NONE,
+            environment: Environment::Uniform(Vec3::splat(0.2)),
+            wavelengths,
+            filter,
+            seed: 3,
+            spp: 4,
+        };
+        let total = |image: &Image| -> [f64; 3] {
+            std::array::from_fn(|c| image.sums.iter().map(|s| f64::from(s[c])).sum())
+        };
+        let boxed = render(&shot(Filter::Box));
+        let want = total(&boxed);
+        for filter in [Filter::Tent, Filter::Gaussian] {
+            let spread = render(&shot(filter));
+            let got = total(&spread);
+            for c in 0..3 {
+                assert!(
+                    (got[c] - want[c]).abs() <= 2e-5 * want[c].abs(),
+                    "{lens}, {filter}: channel {c} totals {} against the box's {}",
+                    got[c],
+                    want[c]
+                );
+            }
+            assert_ne!(spread.sums, boxed.sums, "{lens}, {filter}: nothing spread");
+            assert!(spread.sums.iter().flatten().all(|v| v.is_finite()));
+        }
     }
 }

@@ -194,6 +194,16 @@ fn changes_are_live_and_reload_nothing() {
     );
     // A nearer object images farther behind the lens.
     assert!(near_mm > far_mm, "{near_mm} ≤ {far_mm}");
+    // The film's filter is live too, the tent by default.
+    assert_eq!(far["filter"], "tent");
+    let boxed = served
+        .post("/api/settings", &json!({"filter": "box"}))
+        .json();
+    assert_eq!(boxed["filter"], "box");
+    assert!(
+        boxed["command"].as_str().unwrap().contains("--filter box"),
+        "{boxed}"
+    );
     let done = served.wait_until_done();
     assert_eq!(done["lens"], "wide.22mm");
     let after = served.get("/api/image.png").body;
@@ -202,7 +212,7 @@ fn changes_are_live_and_reload_nothing() {
     let stats = served.get("/api/stats").json();
     assert_eq!(stats["bvh_builds"], 1, "{stats}");
     assert_eq!(stats["scene_loads"], 1, "{stats}");
-    assert_eq!(stats["settings_changes"], 3, "{stats}");
+    assert_eq!(stats["settings_changes"], 4, "{stats}");
 }
 
 #[test]
@@ -253,6 +263,7 @@ fn bad_requests_get_an_error_and_the_render_goes_on() {
         (br#"{"f_number": 4, "aperture": 3}"#, "not both"),
         (br#"{"lens": "no-such-lens"}"#, "no-such-lens"),
         (br#"{"focus_mode": "sharpest"}"#, "sharpest"),
+        (br#"{"filter": "mitchell"}"#, "unknown filter 'mitchell'"),
     ] {
         let reply = served.request("POST", "/api/settings", &[], body);
         let text = String::from_utf8_lossy(body);

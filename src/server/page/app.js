@@ -45,7 +45,7 @@ function show(newState, reset = false) {
     shown($(name + "_x"), x);
     shown($(name + "_y"), y);
   }
-  for (const name of ["focus_mode", "dispersion", "flare"]) {
+  for (const name of ["focus_mode", "dispersion", "filter", "flare"]) {
     if (state[name]) $(name).value = state[name];
   }
   if (state.wavelengths) $("wavelengths").value = String(state.wavelengths);
@@ -174,7 +174,7 @@ async function start() {
     $(name + "_x").addEventListener("change", changed);
     $(name + "_y").addEventListener("change", changed);
   }
-  for (const name of ["focus_mode", "dispersion", "flare"]) {
+  for (const name of ["focus_mode", "dispersion", "filter", "flare"]) {
     $(name).addEventListener("change", (e) => change("/api/settings", { [name]: e.target.value }));
   }
   $("wavelengths").addEventListener("change", (e) => change("/api/settings", { wavelengths: Number(e.target.value) }));
