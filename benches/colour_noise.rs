@@ -10,7 +10,7 @@
 //! luminance; and the equal-time luminance ratio against RGB, (e / e_rgb)·√(t / t_rgb) (errors
 //! fall as 1/√spp). Then the floor figure: the default render (512², 64 spp,
 //! dgauss.50mm), mean chroma (max−min)/max over rows 330–420, columns 150–350, per filter.
-//! Prints tables (no timing asserts): `cargo bench --bench colour_noise` (about 15 minutes on 2
+//! Prints tables (no timing asserts): `cargo bench --bench colour_noise` (about 20 minutes on 2
 //! cores; `-- --reference-spp N` for a quicker, noisier run).
 
 use std::path::{Path, PathBuf};
