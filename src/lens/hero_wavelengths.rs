@@ -461,6 +461,7 @@ mod tests {
                     weight: &mut weight,
                     coefficient: &mut coefficient,
                     offset: &mut offset,
+                    position: &mut vec![[0.0; 2]; 2 * n],
                 };
                 backward.combine(hero, combined, &mut BackwardScratch::default());
                 for i in (0..n).filter(|&i| out.rays.alive[i]) {

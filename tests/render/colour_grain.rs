@@ -6,6 +6,7 @@ use crate::support;
 
 use glam::Vec3;
 use realcam::film::Image;
+use realcam::film::filter::Filter;
 use realcam::lens::aperture::ApertureSetting;
 use realcam::lens::coating::CoatingModel;
 use realcam::lens::elements::{CoatingChoice, FocusSetting};
@@ -70,6 +71,7 @@ fn render(shot: &Shot) -> Image {
         max_depth: 2,
         tile_size: 8,
         wavelengths: shot.wavelengths,
+        filter: Filter::Box,
     });
     let lens = renderer.add_lens(
         &prescription,

@@ -11,6 +11,7 @@ use std::path::{Path, PathBuf};
 
 use glam::{Mat4, Vec3};
 use realcam::film::Image;
+use realcam::film::filter::Filter;
 use realcam::lens::LensSystem;
 use realcam::lens::aperture::ApertureSetting;
 use realcam::lens::camera::FilmGeometry;
@@ -82,6 +83,7 @@ impl Shot<'_> {
             max_depth: 2,
             tile_size: 16,
             wavelengths: self.wavelengths,
+            filter: Filter::Box,
         });
         let lens = renderer.add_lens(
             &load_lens("dgauss.50mm", None).unwrap(),
