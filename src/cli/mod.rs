@@ -145,6 +145,7 @@ mod tests {
             TypeId::of::<crate::cli::render::Switch>(),
             TypeId::of::<crate::pipeline::RenderDevice>(),
             TypeId::of::<crate::lens::coating::CoatingModel>(),
+            TypeId::of::<crate::film::filter::Filter>(),
             TypeId::of::<std::net::IpAddr>(),
         ];
         arg.get_action().takes_values()

@@ -8,8 +8,9 @@
 /// The pass kernel's entry points (pass.wgsl): they call every stage's functions.
 pub const PASS_WGSL: &str = include_str!("shaders/pass.wgsl");
 
-/// The second kernel of a several-sample dispatch: each pixel adds its samples from the
-/// scratch buffer to its sums, in index order. It reads only the pass's own bindings.
+/// The second kernel of a several-sample dispatch (or of every dispatch with a filter wider
+/// than a pixel): each pixel adds its samples from the scratch buffer to its sums, in index
+/// order. It reads only the pass's own bindings.
 const ACCUMULATE_WGSL: &str = include_str!("shaders/accumulate.wgsl");
 
 /// The film's bindings and the pass parameters, which both kernels' sources declare.
@@ -42,6 +43,7 @@ use std::collections::VecDeque;
 
 use super::compute::{Access, Bindings, kernel_with, read_buffer, storage_buffer, zeroed_buffer};
 use super::context::{GpuContext, GpuUnavailable};
+use crate::film::filter::{Filter, POSITION_STEP, TAPS};
 use crate::film::samples::SampleSequence;
 use crate::shade::ShadeStats;
 
@@ -55,7 +57,8 @@ struct PassParams {
     step: u32,
     count: u32,
     wavelengths: u32,
-    _pad: [u32; 2],
+    filtered: u32,
+    _pad: u32,
 }
 
 /// What the passes since the last [`GpuFilm::read`] counted.
@@ -99,6 +102,9 @@ pub struct GpuFilm {
     /// Wavelengths per sample: with more than one, each sample leaves that many shares for
     /// the pixels they land in (`render_wavelengths`, `accumulate_splats`).
     pub wavelengths: u32,
+    /// How each share spreads over the pixels around its film point: with any filter but the
+    /// box, every dispatch ends in `accumulate_filtered`.
+    pub filter: Filter,
     params: wgpu::Buffer,
     film: wgpu::Buffer,
     counters: wgpu::Buffer,
@@ -106,6 +112,8 @@ pub struct GpuFilm {
     /// shares, `[k][pixel][wavelength]`), between the two kernels of a dispatch of several
     /// samples (one element when a dispatch renders one sample per pixel into the film).
     _scratch: wgpu::Buffer,
+    /// The filter's weights per axis (see [`filter_taps`]).
+    _filter_taps: wgpu::Buffer,
     bindings: Bindings,
     kernels: Option<Kernels>,
     /// Passes submitted and perhaps not yet done, oldest first.
@@ -116,13 +124,49 @@ pub struct GpuFilm {
 /// dispatch (`render_pass`); or, for several samples, one per pixel and sample in parallel
 /// (`render_samples`, into the scratch buffer) and then one per pixel adding them to its sums
 /// in index order (`accumulate`): the same f32 additions, in the same order, as single passes,
-/// with enough invocations to fill a large GPU at any image size.
+/// with enough invocations to fill a large GPU at any image size. With a filter wider than a
+/// pixel a share reaches the pixels around it, which only a gather can add without atomics in
+/// a fixed order: every dispatch then renders into the scratch buffer and ends in
+/// `accumulate_filtered`.
 struct Kernels {
     render_pass: wgpu::ComputePipeline,
     render_samples: wgpu::ComputePipeline,
     accumulate: wgpu::ComputePipeline,
     render_wavelengths: wgpu::ComputePipeline,
     accumulate_splats: wgpu::ComputePipeline,
+    accumulate_filtered: wgpu::ComputePipeline,
+}
+
+/// The `filter`'s weights along one axis as [`Filter::taps`] gives them, for accumulate.wgsl's
+/// `pass_filter_tap`: per pattern of which of the three pixels a share reaches lie inside the
+/// frame (bit k: pixel k of them), per step of the share's position within the pixel it lands
+/// in, the three weights (and a zero). A share's weights depend on nothing else (its position
+/// on the grid less those pixel centres is exact in f32), so each row is taken at a position
+/// on a frame just large enough to give its pattern; patterns no share has (no pixel inside,
+/// or a gap) stay zero. Empty for the box, whose kernels need none.
+fn filter_taps(filter: Filter) -> Vec<[f32; 4]> {
+    let steps = (1.0 / POSITION_STEP) as usize;
+    let mut table = Vec::new();
+    if filter.is_box() {
+        return table;
+    }
+    table.resize((1 << TAPS) * steps, [0.0; 4]);
+    // The pixel a share lands in (`own`) on a frame of `extent` pixels: every pattern a share
+    // can meet, the last (own == extent) on the far edge of the frame.
+    for extent in 1..=TAPS as i32 {
+        for own in 0..=extent {
+            let inside = (0..TAPS as i32)
+                .filter(|k| (0..extent).contains(&(own - 1 + k)))
+                .fold(0, |bits, k| bits | (1 << k));
+            for step in 0..steps {
+                let position = own as f32 + step as f32 * POSITION_STEP;
+                let (first, [a, b, c]) = filter.taps(position, extent as u32);
+                debug_assert_eq!(first, own - 1);
+                table[inside * steps + step] = [a, b, c, 0.0];
+            }
+        }
+    }
+    table
 }
 
 /// Samples one dispatch renders, pixels × samples per pixel: enough to fill a large GPU many
@@ -153,18 +197,20 @@ impl GpuFilm {
     }
 
     /// A cleared film of `width` × `height` pixels whose samples carry `wavelengths`
-    /// wavelengths each; refused in words when its buffers exceed what this GPU can bind.
+    /// wavelengths each, spread by `filter`; refused in words when its buffers exceed what this
+    /// GPU can bind.
     pub fn new(
         context: &GpuContext,
         width: u32,
         height: u32,
         wavelengths: u32,
+        filter: Filter,
     ) -> Result<GpuFilm, GpuUnavailable> {
         let pixels = width as u64 * height as u64;
         let per_pixel = Self::samples_per_pixel_with(pixels, wavelengths);
         let scratch_len = if wavelengths > 1 {
             pixels * u64::from(per_pixel) * u64::from(wavelengths)
-        } else if per_pixel > 1 {
+        } else if per_pixel > 1 || !filter.is_box() {
             pixels * u64::from(per_pixel)
         } else {
             1
@@ -197,6 +243,7 @@ impl GpuFilm {
         let film = zeroed_buffer::<[f32; 4]>(context, "film sums", pixels as usize);
         let counters = storage_buffer(context, "pass counters", &[0u32; COUNTER_WORDS]);
         let scratch = zeroed_buffer::<[f32; 4]>(context, "sample scratch", scratch_len as usize);
+        let filter_taps = storage_buffer(context, "filter taps", &filter_taps(filter));
         let bindings = Bindings::new(
             context,
             "pass",
@@ -205,16 +252,19 @@ impl GpuFilm {
                 (&film, Access::ReadWrite),
                 (&counters, Access::ReadWrite),
                 (&scratch, Access::ReadWrite),
+                (&filter_taps, Access::ReadOnly),
             ],
         );
         Ok(GpuFilm {
             width,
             height,
             wavelengths,
+            filter,
             params,
             film,
             counters,
             _scratch: scratch,
+            _filter_taps: filter_taps,
             bindings,
             kernels: None,
             in_flight: VecDeque::new(),
@@ -260,6 +310,11 @@ impl GpuFilm {
             accumulate: compile("accumulate", &accumulate, "accumulate")?,
             render_wavelengths: compile("render wavelengths", &source, "render_wavelengths")?,
             accumulate_splats: compile("accumulate splats", &accumulate, "accumulate_splats")?,
+            accumulate_filtered: compile(
+                "accumulate filtered",
+                &accumulate,
+                "accumulate_filtered",
+            )?,
         };
         // A driver may compile a pipeline only when it first runs: one dispatch of each on an
         // empty film (every invocation outside it, nothing written) keeps that in set-up, out
@@ -280,6 +335,7 @@ impl GpuFilm {
             (&kernels.accumulate, [1, 1, 1]),
             (&kernels.render_wavelengths, [1, 1, 1]),
             (&kernels.accumulate_splats, [1, 1, 1]),
+            (&kernels.accumulate_filtered, [1, 1, 1]),
         ];
         let submission = super::compute::submit_steps(context, &steps, &groups)?;
         super::compute::wait_for(context, submission)?;
@@ -323,7 +379,8 @@ impl GpuFilm {
             step: samples.step,
             count: samples.count,
             wavelengths: self.wavelengths,
-            _pad: [0; 2],
+            filtered: u32::from(!self.filter.is_box()),
+            _pad: 0,
         };
         context
             .queue
@@ -339,20 +396,30 @@ impl GpuFilm {
             self.height.div_ceil(WORKGROUP_SIDE),
         ];
         let pixels = self.width * self.height;
+        let gather = [pixels.div_ceil(64), 1, 1];
+        let filtered = !self.filter.is_box();
         let steps: Vec<(&wgpu::ComputePipeline, [u32; 3])> = if self.wavelengths > 1 {
             vec![
                 (
                     &kernels.render_wavelengths,
                     [tiles[0], tiles[1], samples.count],
                 ),
-                (&kernels.accumulate_splats, [pixels.div_ceil(64), 1, 1]),
+                if filtered {
+                    (&kernels.accumulate_filtered, gather)
+                } else {
+                    (&kernels.accumulate_splats, gather)
+                },
             ]
-        } else if samples.count == 1 {
+        } else if samples.count == 1 && !filtered {
             vec![(&kernels.render_pass, [tiles[0], tiles[1], 1])]
         } else {
             vec![
                 (&kernels.render_samples, [tiles[0], tiles[1], samples.count]),
-                (&kernels.accumulate, [pixels.div_ceil(64), 1, 1]),
+                if filtered {
+                    (&kernels.accumulate_filtered, gather)
+                } else {
+                    (&kernels.accumulate, gather)
+                },
             ]
         };
         let submission = super::compute::submit_steps(context, &steps, &groups)?;
@@ -384,5 +451,182 @@ impl GpuFilm {
             sums.into_iter().map(|[r, g, b, _]| [r, g, b]).collect(),
             PassCounts::of(&counters),
         ))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::gpu::compute::{dispatch, kernel_with};
+    use crate::lens::hero_wavelengths::SPLAT_RADIUS;
+    use crate::sampling::Rng;
+
+    /// accumulate.wgsl's position codes: (qy + B)·2B + (qx + B), in steps.
+    fn position_code([qx, qy]: [i32; 2]) -> f32 {
+        const BIAS: i32 = 1024;
+        ((qy + BIAS) * 2 * BIAS + (qx + BIAS)) as f32
+    }
+
+    /// A share's film position along one axis of `extent` pixels from pixel `pixel`, in steps:
+    /// the film jitter (in [0, 1]) or a companion wavelength's landing point (within the splat
+    /// radius, on the frame), often on the edges where rounding and the frame's end meet.
+    fn position_steps(rng: &mut Rng, pixel: i32, extent: i32, companion: bool) -> i32 {
+        let steps = (1.0 / POSITION_STEP) as i32;
+        let (lo, hi) = if companion {
+            let r = SPLAT_RADIUS;
+            (
+                (-r).max(-pixel) * steps,
+                (r + 1).min(extent - pixel) * steps,
+            )
+        } else {
+            (0, steps)
+        };
+        match rng.next_u32() % 4 {
+            0 => lo,
+            1 => hi,
+            _ => (lo as f32 + rng.next_f32() * (hi - lo) as f32).round() as i32,
+        }
+    }
+
+    /// accumulate_filtered against the CPU's filter: shares at positions all over their range
+    /// (the frame's edges, a companion on the far edge of its last pixel, frames one and two
+    /// pixels wide) spread as Filter::taps weights them, sample after sample onto the sums.
+    #[test]
+    fn the_filtered_gather_spreads_shares_as_the_cpu_filter_does() {
+        let Some(context) = GpuContext::for_tests() else {
+            return;
+        };
+        let empty = Bindings::new(&context, "empty", &[]);
+        let mut rng = Rng::new(7, 3);
+        for filter in [Filter::Tent, Filter::Gaussian] {
+            for (width, height, wavelengths) in [(9, 7, 1), (8, 6, 4), (1, 2, 3), (2, 1, 1)] {
+                let mut film = GpuFilm::new(&context, width, height, wavelengths, filter).unwrap();
+                let layouts = [
+                    &empty.layout,
+                    &empty.layout,
+                    &empty.layout,
+                    &film.bindings.layout,
+                ];
+                let kernel = kernel_with(
+                    &context,
+                    "accumulate filtered",
+                    &accumulate_source(),
+                    "accumulate_filtered",
+                    &layouts,
+                )
+                .unwrap();
+                let (w, h) = (width as i32, height as i32);
+                let pixels = (width * height) as usize;
+                let count = wavelengths.max(1) as usize;
+                let samples = 3;
+                let mut shares = vec![[0.0f32; 4]; samples * pixels * count];
+                let start: Vec<[f32; 3]> = (0..pixels)
+                    .map(|_| [rng.next_f32(), rng.next_f32(), rng.next_f32()])
+                    .collect();
+                let mut expected: Vec<[f64; 3]> = start.iter().map(|s| s.map(f64::from)).collect();
+                let mut scale = vec![0.0f64; pixels];
+                for (index, share) in shares.iter_mut().enumerate() {
+                    let pixel = (index / count) % pixels;
+                    let companion = index % count > 0;
+                    let (x, y) = (
+                        (pixel % width as usize) as i32,
+                        (pixel / width as usize) as i32,
+                    );
+                    if rng.next_u32().is_multiple_of(8) {
+                        *share = [0.0, 0.0, 0.0, -1.0];
+                        continue;
+                    }
+                    let q = [
+                        position_steps(&mut rng, x, w, companion),
+                        position_steps(&mut rng, y, h, companion),
+                    ];
+                    let rgb = [rng.next_f32(), rng.next_f32(), 2.0 * rng.next_f32()];
+                    *share = [rgb[0], rgb[1], rgb[2], position_code(q)];
+                    let at = [
+                        x as f32 + q[0] as f32 * POSITION_STEP,
+                        y as f32 + q[1] as f32 * POSITION_STEP,
+                    ];
+                    let (first_x, wx) = filter.taps(at[0], width);
+                    let (first_y, wy) = filter.taps(at[1], height);
+                    for (ky, &wy) in wy.iter().enumerate() {
+                        for (kx, &wx) in wx.iter().enumerate() {
+                            let weight = wx * wy;
+                            if weight == 0.0 {
+                                continue;
+                            }
+                            let (tx, ty) = (first_x + kx as i32, first_y + ky as i32);
+                            assert!((0..w).contains(&tx) && (0..h).contains(&ty));
+                            let target = (ty * w + tx) as usize;
+                            for c in 0..3 {
+                                expected[target][c] += f64::from(rgb[c] * weight);
+                                scale[target] += f64::from(rgb[c]);
+                            }
+                        }
+                    }
+                }
+                film.load(&context, &start);
+                context
+                    .queue
+                    .write_buffer(&film._scratch, 0, bytemuck::cast_slice(&shares));
+                let params = PassParams {
+                    width,
+                    height,
+                    sample: 0,
+                    step: 1,
+                    count: samples as u32,
+                    wavelengths,
+                    filtered: 1,
+                    _pad: 0,
+                };
+                context
+                    .queue
+                    .write_buffer(&film.params, 0, bytemuck::bytes_of(&params));
+                let groups = [
+                    &empty.group,
+                    &empty.group,
+                    &empty.group,
+                    &film.bindings.group,
+                ];
+                let workgroups = [(pixels as u32).div_ceil(64), 1, 1];
+                dispatch(&context, &kernel, &groups, workgroups).unwrap();
+                let (sums, _) = film.read(&context).unwrap();
+                for (pixel, (got, want)) in sums.iter().zip(&expected).enumerate() {
+                    for c in 0..3 {
+                        assert!(
+                            (f64::from(got[c]) - want[c]).abs() <= 1e-6 * (1.0 + scale[pixel]),
+                            "{filter} on {width}×{height} with {wavelengths} wavelengths, \
+                             pixel {pixel}: {got:?} vs {want:?}"
+                        );
+                    }
+                }
+            }
+        }
+    }
+
+    /// The table gives Filter::taps's weights for every position a share can have, near the
+    /// frame's edges and far from them.
+    #[test]
+    fn the_filter_table_is_filter_taps() {
+        assert!(filter_taps(Filter::Box).is_empty());
+        let steps = (1.0 / POSITION_STEP) as usize;
+        for filter in [Filter::Tent, Filter::Gaussian] {
+            // accumulate_filtered looks for shares no further than this allows: a pixel whose
+            // centre lies a whole radius from a share's point takes none of it.
+            assert_eq!(filter.taps(1.0, 3).1[2], 0.0, "{filter}");
+            let table = filter_taps(filter);
+            for extent in (1..12).chain([16_384]) {
+                let end = extent as usize * steps;
+                let ats = (0..=end.min(4 * steps)).chain(end.saturating_sub(4 * steps)..=end);
+                for at in ats {
+                    let position = at as f32 * POSITION_STEP;
+                    let (first, weights) = filter.taps(position, extent);
+                    let inside = (0..3)
+                        .filter(|&k| (0..extent as i32).contains(&(first + k)))
+                        .fold(0, |bits, k| bits | (1 << k));
+                    let row = table[inside * steps + at % steps];
+                    assert_eq!(row[..3], weights, "{filter} at {position} of {extent}");
+                }
+            }
+        }
     }
 }

@@ -18,6 +18,7 @@ use bytemuck::{Pod, Zeroable};
 
 use super::compute::{Access, Bindings, storage_buffer, uniform_buffer};
 use super::context::{GpuContext, GpuUnavailable};
+use crate::film::filter::POSITION_STEP;
 use crate::glass::FRAUNHOFER_D_NM;
 use crate::lens::camera::{FilmTilt, GHOST_BLOCK, LensCamera, camera_seeds};
 use crate::lens::ghost::GHOST_EVERY;
@@ -49,10 +50,12 @@ pub fn lens_source() -> String {
 
 /// WGSL constants the kernels share with the CPU code, written from its own: how far a
 /// companion wavelength's share may land, how many wavelengths a sample may carry, and where
-/// a backward trace starts (see [`crate::lens::hero_wavelengths`]).
+/// a backward trace starts (see [`crate::lens::hero_wavelengths`]); the steps per pixel of the
+/// film filter's grid (see [`crate::film::filter`]).
 pub fn shared_constants() -> String {
     format!(
         "const SPLAT_RADIUS: i32 = {SPLAT_RADIUS};\n\
+         const FILM_POSITION_STEPS: i32 = {steps};\n\
          const MAX_WAVELENGTHS: u32 = {MAX_WAVELENGTHS}u;\n\
          const BACKWARD_START_MM: f32 = {BACKWARD_START_MM:?};\n\
          const REFLECTANCE_COSINE_STEPS: u32 = {COSINE_STEPS}u;\n\
@@ -61,6 +64,7 @@ pub fn shared_constants() -> String {
          const GHOST_EVERY: u32 = {GHOST_EVERY}u;\n\
          const GHOST_BLOCK_X: u32 = {bx}u;\n\
          const GHOST_BLOCK_Y: u32 = {by}u;\n",
+        steps = (1.0 / POSITION_STEP) as i32,
         bx = GHOST_BLOCK[0],
         by = GHOST_BLOCK[1],
         step = WAVELENGTH_STEP_NM as f32,
@@ -454,7 +458,7 @@ struct TestParams { width: u32, height: u32, sample: u32, count: u32 }
 @group(3) @binding(1) var<storage, read_write> test_out: array<f32>;
 @group(3) @binding(2) var<storage, read_write> test_bits: array<u32>;
 
-const TEST_RAY_FLOATS: u32 = 9u;
+const TEST_RAY_FLOATS: u32 = 11u;
 
 @compute @workgroup_size(64)
 fn test_camera_rays(@builtin(global_invocation_id) id: vec3u) {
@@ -471,22 +475,27 @@ fn test_camera_rays(@builtin(global_invocation_id) id: vec3u) {
     test_out[o + 6u] = ray.weight;
     test_out[o + 7u] = ray.wavelength;
     test_out[o + 8u] = ray.wavelength_weight;
+    test_out[o + 9u] = f32(ray.film_position.x);
+    test_out[o + 10u] = f32(ray.film_position.y);
 }
 
-// Per pixel: the weight, then per wavelength (4) λ, factor and the offset of its pixel.
+// Per pixel: the weight, then per wavelength (4) λ, factor, the offset of its pixel and its
+// film position (filter steps).
 @compute @workgroup_size(64)
 fn test_camera_wavelengths(@builtin(global_invocation_id) id: vec3u) {
     let i = id.x;
     if i >= test_params.width * test_params.height { return; }
     var wavelengths: CameraWavelengths;
     let ray = camera_ray_with(i % test_params.width, i / test_params.width, test_params.sample, &wavelengths);
-    let o = i * 17u;
+    let o = i * 25u;
     test_out[o] = ray.weight;
     for (var k = 0u; k < 4u; k++) {
-        test_out[o + 1u + 4u * k] = wavelengths.nm[k];
-        test_out[o + 2u + 4u * k] = wavelengths.factor[k];
-        test_out[o + 3u + 4u * k] = f32(wavelengths.offset[k].x);
-        test_out[o + 4u + 4u * k] = f32(wavelengths.offset[k].y);
+        test_out[o + 1u + 6u * k] = wavelengths.nm[k];
+        test_out[o + 2u + 6u * k] = wavelengths.factor[k];
+        test_out[o + 3u + 6u * k] = f32(wavelengths.offset[k].x);
+        test_out[o + 4u + 6u * k] = f32(wavelengths.offset[k].y);
+        test_out[o + 5u + 6u * k] = f32(wavelengths.position[k].x);
+        test_out[o + 6u + 6u * k] = f32(wavelengths.position[k].y);
     }
 }
 
@@ -611,6 +620,11 @@ fn test_spectral(@builtin(global_invocation_id) id: vec3u) {
         (gpu - cpu).abs() <= 1e-6 * cpu
     }
 
+    /// A film position (pixels) in steps of the filter's grid, as the GPU passes it.
+    fn in_steps(position: [f32; 2]) -> [f32; 2] {
+        position.map(|p| p / crate::film::filter::POSITION_STEP)
+    }
+
     /// Every pixel of the lens's film at a few sample indices, on both devices; returns the
     /// number of rays that pass.
     fn compare_with_cpu(context: &GpuContext, lens: &TestLens, seed: u64) -> usize {
@@ -639,16 +653,23 @@ fn test_spectral(@builtin(global_invocation_id) id: vec3u) {
                 sample,
                 count: 0,
             };
-            let (gpu, _) = run_test_kernel(context, gpu_lens, "test_camera_rays", params, 9 * n, 1);
+            let (gpu, _) =
+                run_test_kernel(context, gpu_lens, "test_camera_rays", params, 11 * n, 1);
             let pixels = (0..height).flat_map(|y| (0..width).map(move |x| (x, y)));
             camera.generate(pixels, sample, seed, &mut cpu);
             for i in 0..n {
                 total += 1;
-                let g = &gpu[9 * i..9 * i + 9];
+                let g = &gpu[11 * i..11 * i + 11];
                 let context = format!(
                     "pixel ({}, {}) sample {sample}",
                     i as u32 % width,
                     i as u32 / width
+                );
+                // The film jitter, from the same Sobol bits, on the filter's grid: exact.
+                assert_eq!(
+                    [g[9], g[10]],
+                    in_steps(cpu.film_position[i]),
+                    "{context}: film position"
                 );
                 if lens.spectral {
                     let (nm, inverse_pdf) = (cpu.wavelength[i], cpu.wavelength_weight[i]);
@@ -711,8 +732,14 @@ fn test_spectral(@builtin(global_invocation_id) id: vec3u) {
     }
 
     /// Four wavelengths per sample: the hero's companions, traced back on the GPU, land in the
-    /// pixels the CPU finds, with the same film factors (the balance heuristic over them);
-    /// returns the samples whose hero passed.
+    /// pixels the CPU finds, at the same film positions on the filter's grid, with the same
+    /// film factors (the balance heuristic over them); returns the samples whose hero passed.
+    ///
+    /// The hero's position (the jitter) is exact. A companion's is where its backward trace
+    /// lands, through the same f32 operations as on the CPU, which lavapipe (not fusing) does
+    /// bit for bit; a GPU that fuses multiply-adds moves the point by a few ulps, and one within
+    /// that of a half step rounds to the neighbouring step: within one step, and exact but for
+    /// a few per thousand.
     fn compare_wavelengths_with_cpu(context: &GpuContext, lens: &TestLens, seed: u64) -> usize {
         let camera = LensCamera {
             wavelengths: 4,
@@ -725,6 +752,8 @@ fn test_spectral(@builtin(global_invocation_id) id: vec3u) {
         let n = (width * height) as usize;
         let mut cpu = CameraRays::default();
         let (mut passed, mut borderline, mut total, mut worst) = (0, 0, 0, 0.0f32);
+        // Counted companions, and those a step off the CPU's position.
+        let (mut companions, mut a_step_off) = (0, 0);
         for sample in [0, 3, 40] {
             let params = TestParams {
                 width,
@@ -737,13 +766,13 @@ fn test_spectral(@builtin(global_invocation_id) id: vec3u) {
                 &gpu_lens,
                 "test_camera_wavelengths",
                 params,
-                17 * n,
+                25 * n,
                 1,
             );
             let pixels = (0..height).flat_map(|y| (0..width).map(move |x| (x, y)));
             camera.generate(pixels, sample, seed, &mut cpu);
             for i in 0..n {
-                let g = &gpu[17 * i..17 * i + 17];
+                let g = &gpu[25 * i..25 * i + 25];
                 if (g[0] > 0.0) != (cpu.weight[i] > 0.0) {
                     borderline += 1;
                     total += 1;
@@ -758,7 +787,7 @@ fn test_spectral(@builtin(global_invocation_id) id: vec3u) {
                     let j = k * n + i;
                     let (nm, factor) = (cpu.wavelength[j], cpu.wavelength_weight[j]);
                     let offset = cpu.wavelength_offset[j];
-                    let share = &g[1 + 4 * k..5 + 4 * k];
+                    let share = &g[1 + 6 * k..7 + 6 * k];
                     let context = format!("pixel {i} sample {sample} wavelength {k}");
                     assert!(
                         (share[0] - nm).abs() < 0.05,
@@ -780,15 +809,37 @@ fn test_spectral(@builtin(global_invocation_id) id: vec3u) {
                             "{context}: factor {} vs {factor}",
                             share[1]
                         );
+                        let cpu_position = in_steps(cpu.film_position[j]);
+                        let apart = [share[4], share[5]]
+                            .iter()
+                            .zip(cpu_position)
+                            .map(|(g, c)| (g - c).abs())
+                            .fold(0.0f32, f32::max);
+                        assert!(
+                            apart == 0.0 || (k > 0 && apart == 1.0),
+                            "{context}: film position {:?} vs {cpu_position:?} (steps)",
+                            &share[4..6]
+                        );
+                        if k > 0 {
+                            companions += 1;
+                            a_step_off += usize::from(apart != 0.0);
+                        }
                     }
                 }
             }
         }
         assert!(
+            a_step_off * 1000 <= BORDERLINE_PER_MILLE * companions,
+            "{a_step_off} of {companions} companions' film positions a step off the CPU's"
+        );
+        assert!(
             borderline * 1000 <= BORDERLINE_PER_MILLE * total,
             "{borderline} of {total} shares differ in where they count"
         );
-        eprintln!("{passed} samples, {borderline} borderline; factors within {worst:e}");
+        eprintln!(
+            "{passed} samples, {borderline} borderline; factors within {worst:e}; \
+             {a_step_off} of {companions} companions' positions a step off"
+        );
         passed
     }
 

@@ -216,12 +216,11 @@ fn render_pass_on_gpu(
     let (width, height) = (settings.width, settings.height);
     let data = &mut *film;
     let wavelengths = lens.wavelengths();
-    if data
-        .film
-        .as_ref()
-        .is_none_or(|f| (f.width, f.height, f.wavelengths) != (width, height, wavelengths))
-    {
-        match GpuFilm::new(context, width, height, wavelengths) {
+    if data.film.as_ref().is_none_or(|f| {
+        (f.width, f.height, f.wavelengths, f.filter)
+            != (width, height, wavelengths, settings.filter)
+    }) {
+        match GpuFilm::new(context, width, height, wavelengths, settings.filter) {
             Ok(made) => data.film = Some(made),
             Err(why) => {
                 commands.insert_resource(PipelineFault(format!("GPU: {why}")));

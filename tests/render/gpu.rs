@@ -144,12 +144,19 @@ fn the_default_scene_renders_alike_on_both_devices_spectral_and_not() {
     }
     let dir = tempfile::tempdir().unwrap();
     // The default coating, then bare glass (its losses are ten times larger: a device that
-    // skipped them would be 40 % too bright).
-    for (seed, dispersion, coating) in [
-        ("1", "on", "single"),
-        ("2", "on", "none"),
-        ("3", "off", "single"),
-        ("4", "off", "none"),
+    // skipped them would be 40 % too bright); the default filter (tent), then the others, each
+    // with several wavelengths per sample (a share per wavelength) and with RGB (one per
+    // sample), and one wavelength per sample.
+    for (seed, dispersion, coating, filter, wavelengths) in [
+        ("1", "on", "single", "tent", "4"),
+        ("2", "on", "none", "tent", "4"),
+        ("3", "off", "single", "tent", "4"),
+        ("4", "off", "none", "tent", "4"),
+        ("5", "on", "single", "gaussian", "4"),
+        ("6", "off", "single", "gaussian", "4"),
+        ("7", "on", "single", "box", "4"),
+        ("8", "off", "single", "box", "4"),
+        ("9", "on", "single", "tent", "1"),
     ] {
         let films = render_on_both(
             dir.path(),
@@ -167,11 +174,18 @@ fn the_default_scene_renders_alike_on_both_devices_spectral_and_not() {
                 dispersion,
                 "--coating",
                 coating,
+                "--filter",
+                filter,
+                "--wavelengths",
+                wavelengths,
             ],
         );
         assert_alike(
             &films,
-            &format!("default scene, seed {seed}, dispersion {dispersion}, coating {coating}"),
+            &format!(
+                "default scene, seed {seed}, dispersion {dispersion}, coating {coating}, \
+                 filter {filter}, {wavelengths} wavelengths per sample"
+            ),
         );
     }
 }

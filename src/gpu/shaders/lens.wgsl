@@ -119,6 +119,9 @@ struct CameraRay {
     wavelength_weight: f32,
     // The pixel's key in the enclosing (unshifted) film: what the shading streams are keyed by.
     pixel_key: u32,
+    // The film jitter: where the ray leaves the film relative to its pixel's top-left corner,
+    // in steps of the film filter's grid (CameraRays::film_position, times FILM_POSITION_STEPS).
+    film_position: vec2i,
 }
 
 const LENS_SPHERE: u32 = 0u;
@@ -567,12 +570,26 @@ fn lens_pupil_point(x: f32, y: f32, u: f32, v: f32) -> LensPupilPoint {
 }
 
 // A sample's wavelengths beyond the hero (lens/hero_wavelengths.rs): each one's λ (nm), its
-// factor T/(p(λ)·Σ 1/W) for the film (0: it does not count), and the offset from the sample's
-// pixel to the pixel its contribution goes to. Index 0 is the hero.
+// factor T/(p(λ)·Σ 1/W) for the film (0: it does not count), the offset from the sample's
+// pixel to the pixel its contribution goes to, and where it lands relative to that pixel's
+// top-left corner on the film filter's grid (lens_film_steps; the hero's: the film jitter).
+// Index 0 is the hero.
 struct CameraWavelengths {
     nm: array<f32, MAX_WAVELENGTHS>,
     factor: array<f32, MAX_WAVELENGTHS>,
     offset: array<vec2i, MAX_WAVELENGTHS>,
+    position: array<vec2i, MAX_WAVELENGTHS>,
+}
+
+// film::filter::quantise in steps: round(p · FILM_POSITION_STEPS) per axis, rounding halves
+// away from zero as Rust's round does (WGSL's round takes them to even, and a landing point a
+// few hundred pixels from the frame's corner lies exactly halfway between two steps about once
+// in a hundred: its f32 has only a few bits below the step).
+fn lens_film_steps(p: vec2f) -> vec2i {
+    let scaled = p * f32(FILM_POSITION_STEPS);
+    let whole = trunc(scaled);
+    let up = abs(scaled - whole) >= vec2f(0.5);
+    return vec2i(whole + select(vec2f(0.0), sign(scaled), up));
 }
 
 // PupilSampler::drawn_weight: the camera weight the sampler gives the ray from film point
@@ -629,10 +646,12 @@ fn lens_drawn_weight_over(film: vec2f, depth: f32, rear: vec2f, rear_element: bo
 }
 
 // Where a backward-traced ray (on the rear surface, heading for the film) lands
-// (BackwardTrace::landing): its pixel and the inverse of the camera weight it would have been
-// drawn with there; valid only on the frame and where the pupil sampler draws.
+// (BackwardTrace::landing): its pixel, the continuous pixel position (pixels from the frame's
+// top-left corner) and the inverse of the camera weight it would have been drawn with there;
+// valid only on the frame and where the pupil sampler draws.
 struct LensLanding {
     pixel: vec2i,
+    position: vec2f,
     inverse_weight: f32,
     valid: bool,
 }
@@ -666,7 +685,7 @@ fn lens_landing(ray: LensRay) -> LensLanding {
     }
     let qx = plane.x / lens_constants.film_scale.x + lens_constants.film_centre.x - lens_constants.film_origin.x;
     let qy = plane.y / lens_constants.film_scale.y + lens_constants.film_centre.y - lens_constants.film_origin.y;
-    var landing = LensLanding(vec2i(0, 0), 0.0, false);
+    var landing = LensLanding(vec2i(0, 0), vec2f(0.0), 0.0, false);
     let on_frame = qx >= 0.0 && qy >= 0.0 && qx < f32(lens_constants.film_width)
         && qy < f32(lens_constants.film_height);
     if !on_frame {
@@ -677,6 +696,7 @@ fn lens_landing(ray: LensRay) -> LensLanding {
     let rear = vec2f(o.x + t * d.x, o.y + t * d.y);
     let w = lens_drawn_weight(lens_xy, depth, rear);
     landing.pixel = vec2i(i32(qx), i32(qy));
+    landing.position = vec2f(qx, qy);
     landing.inverse_weight = 1.0 / w;
     landing.valid = w > 0.0 && w <= LENS_F32_MAX;
     return landing;
@@ -695,6 +715,7 @@ fn lens_companions(ray: LensRay, pixel: vec2i, wave_u: f32, hero_weight: f32,
     let count = lens_constants.wavelengths;
     var inverse: array<f32, MAX_WAVELENGTHS>;
     var landed: array<vec2i, MAX_WAVELENGTHS>;
+    var landed_at: array<vec2f, MAX_WAVELENGTHS>;
     var valid: array<bool, MAX_WAVELENGTHS>;
     var transmission: array<f32, MAX_WAVELENGTHS>;
     valid[0] = ray.alive && hero_weight > 0.0;
@@ -722,6 +743,7 @@ fn lens_companions(ray: LensRay, pixel: vec2i, wave_u: f32, hero_weight: f32,
                 let landing = lens_landing(back);
                 valid[k] = landing.valid;
                 landed[k] = landing.pixel;
+                landed_at[k] = landing.position;
                 inverse[k] = landing.inverse_weight;
                 transmission[k] = t;
             }
@@ -737,6 +759,9 @@ fn lens_companions(ray: LensRay, pixel: vec2i, wave_u: f32, hero_weight: f32,
             }
             (*out).factor[k] = (*out).factor[k] * (transmission[k] / inverse_sum);
             (*out).offset[k] = landed[k] - pixel;
+            if k > 0u {
+                (*out).position[k] = lens_film_steps(landed_at[k] - vec2f(pixel));
+            }
         } else {
             (*out).factor[k] = 0.0;
             (*out).offset[k] = vec2i(0, 0);
@@ -910,6 +935,8 @@ fn camera_ray_with(pixel_x: u32, pixel_y: u32, sample: u32,
     let film_key = hash32(pixel ^ lens_constants.film_seed);
     let film_u = owen_sobol(sample, 0u, film_key);
     let film_v = owen_sobol(sample, 1u, film_key);
+    let jitter = lens_film_steps(vec2f(film_u, film_v));
+    (*wavelengths).position[0] = jitter;
     var pupil_u: f32;
     var pupil_v: f32;
     var nm = 0.0;
@@ -978,7 +1005,7 @@ fn camera_ray_with(pixel_x: u32, pixel_y: u32, sample: u32,
             (*wavelengths).offset[k] = vec2i(0, 0);
         }
         (*wavelengths).offset[0] = vec2i(0, 0);
-        return lens_to_world(ray, weight, nm, wavelength_weight, pixel);
+        return lens_to_world(ray, weight, nm, wavelength_weight, pixel, jitter);
     }
 
     // The pupil point and the camera weight (PupilSampler::sample_with / sample_tilted).
@@ -1016,13 +1043,13 @@ fn camera_ray_with(pixel_x: u32, pixel_y: u32, sample: u32,
         // The ordinary samples are the other GHOST_EVERY − 1 in GHOST_EVERY.
         weight *= f32(GHOST_EVERY) / f32(GHOST_EVERY - 1u);
     }
-    return lens_to_world(ray, weight, nm, wavelength_weight, pixel);
+    return lens_to_world(ray, weight, nm, wavelength_weight, pixel, jitter);
 }
 
 // A lens-frame camera ray in the world frame (LensCamera::move_to_world): lens frame (mm) ->
 // camera frame (m) -> world; zero weight when it was blocked.
 fn lens_to_world(ray: LensRay, lens_weight: f32, nm: f32, wavelength_weight: f32,
-                 pixel: u32) -> CameraRay {
+                 pixel: u32, jitter: vec2i) -> CameraRay {
     var weight = lens_weight;
     let m = lens_constants.world_from_camera;
     let p = vec3f(ray.origin.x * 1e-3, ray.origin.y * 1e-3, (ray.origin.z - lens_constants.film_z) * 1e-3);
@@ -1040,5 +1067,5 @@ fn lens_to_world(ray: LensRay, lens_weight: f32, nm: f32, wavelength_weight: f32
     if !ray.alive {
         weight = 0.0;
     }
-    return CameraRay(origin, direction, weight, nm, wavelength_weight, pixel);
+    return CameraRay(origin, direction, weight, nm, wavelength_weight, pixel, jitter);
 }

@@ -31,21 +31,23 @@ fn pass_weighted_radiance(ray: CameraRay, sample: u32) -> vec3f {
     return path_radiance(ray.origin, ray.direction, hit, &rng) * ray.weight;
 }
 
-// One sample of pixel (x, y): its weighted, finite film contribution.
-fn pass_render_sample(x: u32, y: u32, sample: u32) -> vec3f {
+// One sample of pixel (x, y): its weighted, finite film contribution, and in w the code of
+// its film position (PASS_NO_SPLAT when it adds nothing).
+fn pass_render_sample(x: u32, y: u32, sample: u32) -> vec4f {
     let ray = camera_ray(x, y, sample);
-    var rgb = vec3f(0.0);
+    var share = vec4f(0.0, 0.0, 0.0, PASS_NO_SPLAT);
     if ray.weight > 0.0 {
-        rgb = pass_weighted_radiance(ray, sample);
+        var rgb = pass_weighted_radiance(ray, sample);
         if ray.wavelength > 0.0 {
             rgb = film_rgb(ray.wavelength, ray.wavelength_weight, rgb);
         }
-        if !pass_is_finite(rgb) {
+        if pass_is_finite(rgb) {
+            share = vec4f(rgb, pass_position_code(ray.film_position));
+        } else {
             atomicAdd(&pass_group_counts[PASS_COUNT_REJECTED], 1u);
-            rgb = vec3f(0.0);
         }
     }
-    return rgb;
+    return share;
 }
 
 // What this invocation counted, into the workgroup's counts, then (one invocation per count)
@@ -80,14 +82,16 @@ fn render_pass(
     let inside = id.x < pass_params.width && id.y < pass_params.height;
     if inside {
         let index = id.y * pass_params.width + id.x;
-        let rgb = pass_render_sample(id.x, id.y, pass_params.sample);
-        pass_film[index] = pass_film[index] + vec4f(rgb, 0.0);
+        let share = pass_render_sample(id.x, id.y, pass_params.sample);
+        pass_film[index] = pass_film[index] + vec4f(share.xyz, 0.0);
     }
     pass_add_counts(local, inside);
 }
 
-// A dispatch of several samples per pixel, all in parallel: sample k (the grid's z) of pixel
-// (x, y) into the scratch buffer; accumulate.wgsl then adds them to the film in index order.
+// A dispatch of several samples per pixel (with a filter wider than a pixel, of any number),
+// all in parallel: sample k (the grid's z) of pixel (x, y) into the scratch buffer;
+// accumulate.wgsl then adds them to the film in index order (accumulate), or spreads them
+// around their film positions (accumulate_filtered).
 @compute @workgroup_size(8, 8, 1)
 fn render_samples(
     @builtin(global_invocation_id) id: vec3u,
@@ -97,20 +101,20 @@ fn render_samples(
     if inside {
         let pixels = pass_params.width * pass_params.height;
         let sample = pass_params.sample + id.z * pass_params.step;
-        let rgb = pass_render_sample(id.x, id.y, sample);
-        pass_scratch[id.z * pixels + id.y * pass_params.width + id.x] = vec4f(rgb, 0.0);
+        var share = pass_render_sample(id.x, id.y, sample);
+        if pass_params.filtered == 0u {
+            share.w = 0.0;
+        }
+        pass_scratch[id.z * pixels + id.y * pass_params.width + id.x] = share;
     }
     pass_add_counts(local, inside);
 }
 
-// Splat codes: (dy + R)·(2R + 1) + (dx + R) for an offset (dx, dy) within the splat radius R;
-// a share that does not count gets PASS_NO_SPLAT.
-const PASS_NO_SPLAT: f32 = -1.0;
-
 // Several wavelengths per sample, all samples of the dispatch in parallel: sample k (the grid's
 // z) of pixel (x, y) leaves one share per wavelength in the scratch buffer, each with the code
-// of the pixel it belongs to; accumulate_splats (accumulate.wgsl) gathers them. The Weight
-// stage's rules: a sample with any non-finite share is rejected whole.
+// of the pixel it belongs to (the box filter; accumulate_splats gathers them) or of its film
+// position (a wider filter; accumulate_filtered spreads them). The Weight stage's rules: a
+// sample with any non-finite share is rejected whole.
 @compute @workgroup_size(8, 8, 1)
 fn render_wavelengths(
     @builtin(global_invocation_id) id: vec3u,
@@ -135,8 +139,11 @@ fn render_wavelengths(
                 if wavelengths.factor[k] != 0.0 {
                     let rgb = film_rgb(wavelengths.nm[k], wavelengths.factor[k], radiance);
                     let o = wavelengths.offset[k] + vec2i(SPLAT_RADIUS, SPLAT_RADIUS);
-                    let code = o.y * (2 * SPLAT_RADIUS + 1) + o.x;
-                    shares[k] = vec4f(rgb, f32(code));
+                    var code = f32(o.y * (2 * SPLAT_RADIUS + 1) + o.x);
+                    if pass_params.filtered != 0u {
+                        code = pass_position_code(wavelengths.position[k]);
+                    }
+                    shares[k] = vec4f(rgb, code);
                     finite = finite && pass_is_finite(rgb);
                 }
             }

@@ -1,5 +1,6 @@
 // The pass's film bindings and parameters, shared by pass.wgsl and accumulate.wgsl (compiled
-// separately). Both are compiled after gpu::lens::shared_constants (SPLAT_RADIUS, MAX_WAVELENGTHS).
+// separately). Both are compiled after gpu::lens::shared_constants (SPLAT_RADIUS,
+// MAX_WAVELENGTHS, FILM_POSITION_STEPS).
 
 struct PassParams {
     width: u32,
@@ -11,8 +12,11 @@ struct PassParams {
     // Wavelengths per sample: the shares each sample leaves in the scratch buffer
     // (render_wavelengths).
     wavelengths: u32,
-    _pad1: u32,
-    _pad2: u32,
+    // 1: the film's filter is wider than a pixel, so every share carries its film position
+    // (pass_position_code) for accumulate_filtered; 0: the box, whose shares carry nothing
+    // (one share per sample) or their splat codes.
+    filtered: u32,
+    _pad: u32,
 }
 
 // A storage buffer, not a uniform: lavapipe compiles a kernel variant per distinct uniform
@@ -23,3 +27,29 @@ struct PassParams {
 // Sample k of pixel p at k·pixels + p, between render_samples and accumulate.wgsl; with several
 // wavelengths per sample, its shares from (k·pixels + p)·wavelengths on (render_wavelengths).
 @group(3) @binding(3) var<storage, read_write> pass_scratch: array<vec4f>;
+// The film filter's normalised weights along one axis (gpu::film::filter_taps): per in-frame
+// pattern of the three pixels a share reaches (bit k: pixel k of them lies inside) and per
+// step of the share's position within its pixel, the weights of the three pixels.
+@group(3) @binding(4) var<storage, read> pass_filter_taps: array<vec4f>;
+
+// A share in the scratch buffer says in w where it goes, as a whole number an f32 holds
+// exactly: with the box filter, a splat code (dy + R)·(2R + 1) + (dx + R) for the offset
+// (dx, dy) of its pixel within the splat radius R; with a wider filter, a position code
+// (pass_position_code). A share that does not count gets PASS_NO_SPLAT.
+const PASS_NO_SPLAT: f32 = -1.0;
+
+// Position codes: (qy + B)·2B + (qx + B) for a film position (qx, qy) relative to the share's
+// pixel's corner in filter steps, below 2²²; B = PASS_POSITION_BIAS steps is more than the
+// SPLAT_RADIUS + 1 pixels a share may land from that corner.
+const PASS_POSITION_BIAS: i32 = 1024;
+
+fn pass_position_code(q: vec2i) -> f32 {
+    let biased = q + vec2i(PASS_POSITION_BIAS);
+    return f32(biased.y * (2 * PASS_POSITION_BIAS) + biased.x);
+}
+
+fn pass_position_of(code: f32) -> vec2i {
+    let c = i32(code);
+    let span = 2 * PASS_POSITION_BIAS;
+    return vec2i(c % span, c / span) - vec2i(PASS_POSITION_BIAS);
+}
