@@ -104,7 +104,8 @@ impl Filter {
                 sum += *w;
             }
         }
-        // The pixel the point lies in is always inside and within the radius, so sum > 0.
+        // A point on the frame (its far edge included, where quantising may put it) is within
+        // half a pixel of an inside pixel's centre, so sum > 0.
         let scale = 1.0 / sum;
         (first, weights.map(|w| w * scale))
     }
