@@ -77,37 +77,43 @@ impl Filter {
     fn profile(self, d: f32) -> f32 {
         match self {
             Filter::Box => f32::from(u8::from(d.abs() <= 0.5)),
-            Filter::Tent => (1.0 - d.abs() / FILTER_RADIUS).max(0.0),
+            Filter::Tent => (1.0 - d.abs() * (1.0 / FILTER_RADIUS)).max(0.0),
             Filter::Gaussian => {
-                let g = |d: f32| (-d * d / (2.0 * GAUSSIAN_SIGMA * GAUSSIAN_SIGMA)).exp();
+                let g = |d: f32| (-d * d * (0.5 / (GAUSSIAN_SIGMA * GAUSSIAN_SIGMA))).exp();
                 (g(d) - g(FILTER_RADIUS)).max(0.0)
             }
         }
     }
 
     /// One axis of the weights of a share at `position` (pixels from the left or top edge of
-    /// the frame, quantised, inside it): the first pixel and the weights of it and the next
-    /// [`TAPS`] − 1, summing to one over the pixels inside `0..extent`.
+    /// the frame, quantised, on the frame): the first pixel and the weights of it and the next
+    /// [`TAPS`] − 1, summing to one over the pixels inside `0..extent` (0 for the others).
     #[inline(always)]
     pub fn taps(self, position: f32, extent: u32) -> (i32, [f32; TAPS]) {
-        let own = position.floor() as i32;
+        let floor = position.floor();
+        let own = floor as i32;
         if self.is_box() {
             return (own.clamp(0, extent as i32 - 1), [1.0, 0.0, 0.0]);
         }
-        let first = own - 1;
-        let mut weights = [0.0f32; TAPS];
-        let mut sum = 0.0;
-        for (k, w) in weights.iter_mut().enumerate() {
-            let pixel = first + k as i32;
-            if pixel >= 0 && pixel < extent as i32 {
-                *w = self.profile(position - (pixel as f32 + 0.5));
-                sum += *w;
+        // The point's distances to the centres of pixels own − 1, own and own + 1 (exact:
+        // positions are multiples of 1/256 well inside f32's precision).
+        let within = position - floor;
+        let mut weights = [
+            self.profile(within + 0.5),
+            self.profile(within - 0.5),
+            self.profile(1.5 - within),
+        ];
+        if own < 1 || own + 1 >= extent as i32 {
+            for (k, w) in weights.iter_mut().enumerate() {
+                if !(0..extent as i32).contains(&(own - 1 + k as i32)) {
+                    *w = 0.0;
+                }
             }
         }
         // A point on the frame (its far edge included, where quantising may put it) is within
-        // half a pixel of an inside pixel's centre, so sum > 0.
-        let scale = 1.0 / sum;
-        (first, weights.map(|w| w * scale))
+        // half a pixel of an inside pixel's centre, so the sum is positive.
+        let scale = 1.0 / (weights[0] + weights[1] + weights[2]);
+        (own - 1, weights.map(|w| w * scale))
     }
 }
 

@@ -8,7 +8,7 @@
 //! ran the pass. With a reconstruction filter wider than a pixel every share, the ray's own
 //! included, spreads over the pixels around its film point instead ([`Spread`]).
 
-use super::filter::Filter;
+use super::filter::{Filter, TAPS};
 use crate::lens::hero_wavelengths::SPLAT_RADIUS;
 
 /// One share of a sample's weighted radiance for image pixel (`x`, `y`).
@@ -81,22 +81,19 @@ impl Spread {
     }
 
     /// Adds `rgb` spread by `filter` from image position (`x`, `y`) (pixels, quantised) on a
-    /// frame of `size` pixels.
+    /// frame of `size` pixels. Every tap lies inside the border (a share lands within
+    /// [`SPLAT_RADIUS`] of its pixel), those beyond the frame with weight 0, so the 3 × 3 taps
+    /// are added without a test.
     #[inline(always)]
     pub fn add(&mut self, filter: Filter, [x, y]: [f32; 2], size: [u32; 2], rgb: [f32; 3]) {
         let (first_x, weights_x) = filter.taps(x, size[0]);
         let (first_y, weights_y) = filter.taps(y, size[1]);
+        let column = (first_x - self.x0) as usize;
         for (ky, &wy) in weights_y.iter().enumerate() {
-            if wy == 0.0 {
-                continue;
-            }
-            let row = (first_y + ky as i32 - self.y0) as u32 * self.width;
-            for (kx, &wx) in weights_x.iter().enumerate() {
-                if wx == 0.0 {
-                    continue;
-                }
+            let start = (first_y + ky as i32 - self.y0) as usize * self.width as usize + column;
+            let row = &mut self.sums[start..start + TAPS];
+            for (sum, &wx) in row.iter_mut().zip(&weights_x) {
                 let w = wx * wy;
-                let sum = &mut self.sums[(row + (first_x + kx as i32 - self.x0) as u32) as usize];
                 *sum = [
                     sum[0] + rgb[0] * w,
                     sum[1] + rgb[1] * w,
