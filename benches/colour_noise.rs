@@ -2,7 +2,7 @@
 //!
 //! The default scene (the course's dof-dragons) through the four course lenses at 256², each
 //! rendered by the `realcam` binary: a converged reference per estimator family (spectral and
-//! RGB, 4096 spp), then at 64 spp the RGB render and the spectral one with 1 and 4
+//! RGB, 4096 spp), then at 64 spp the RGB render and the spectral one with 1, 3 and 4
 //! wavelengths per sample (`--wavelengths`), each with the tent filter (the default) and the box
 //! (`--filter`; the references with the same filter). Per render: its wall time (`--stats`), the
 //! luminance RMS error against its family's reference and the chroma RMS error (opponent
@@ -11,7 +11,8 @@
 //! fall as 1/√spp). Then the floor figure: the default render (512², 64 spp,
 //! dgauss.50mm), mean chroma (max−min)/max over rows 330–420, columns 150–350, per filter.
 //! Prints tables (no timing asserts): `cargo bench --bench colour_noise` (about 20 minutes on 2
-//! cores; `-- --reference-spp N` for a quicker, noisier run).
+//! cores; `-- --reference-spp N` for a quicker, noisier run; `-- --filter tent` for one filter's
+//! rows).
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -25,7 +26,7 @@ const LENSES: [&str; 4] = [
     "fisheye.10mm",
 ];
 /// Spectral estimators: wavelengths per sample.
-const WAVELENGTHS: [u32; 2] = [1, 4];
+const WAVELENGTHS: [u32; 3] = [1, 3, 4];
 /// Film filters: the default, and the box (the estimator before the filter).
 const FILTERS: [&str; 2] = ["tent", "box"];
 
@@ -111,6 +112,16 @@ fn main() {
         .position(|a| a == "--reference-spp")
         .and_then(|i| args.get(i + 1))
         .map_or(4096, |v| v.parse().expect("a whole number"));
+    // `-- --filter NAME` (repeatable): only these filters in the per-lens table.
+    let chosen: Vec<&str> = args
+        .windows(2)
+        .filter(|w| w[0] == "--filter")
+        .map(|w| w[1].as_str())
+        .collect();
+    let filters: Vec<&str> = FILTERS
+        .into_iter()
+        .filter(|f| chosen.is_empty() || chosen.contains(f))
+        .collect();
     let dir = tempfile::tempdir().expect("a temporary directory");
     let dir: PathBuf = dir.path().to_path_buf();
     println!(
@@ -122,7 +133,7 @@ fn main() {
         "lens", "filter", "estimator", "time s", "lum RMSE", "chroma RMSE", "lum equal-time"
     );
     for lens in LENSES {
-        for filter in FILTERS {
+        for filter in filters.iter().copied() {
             let base = |spp: u32| {
                 strings(&[
                     "--lens",
@@ -172,7 +183,7 @@ fn main() {
             floor_chroma(&rgb.pixels),
             rgb.seconds
         );
-        for n in [1, 4, 8] {
+        for n in [1, 3, 4, 8] {
             let spectral = render(
                 &dir,
                 &strings(&["--wavelengths", &n.to_string(), "--filter", filter]),

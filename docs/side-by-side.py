@@ -5,7 +5,7 @@ Usage: python3 docs/side-by-side.py REALCAM_BINARY FIGURE OUT.png, FIGURE one of
   colour-grain    docs/colour-grain.png: the default render's floor (512², 64 spp,
                   dgauss.50mm; a crop enlarged 2×) with one wavelength per sample and the
                   box filter (the estimator before issue 25), four wavelengths and the box,
-                  the default (four, tent filter), and --dispersion off.
+                  the default (three, tent filter), and --dispersion off.
   lateral-colour  docs/lateral-colour.png: the lower left of the default scene through
                   fisheye.10mm (--film-diagonal 30, 480×320, 64 spp; a crop enlarged 3×) with
                   --dispersion off and on.
@@ -25,7 +25,7 @@ FIGURES = {
         "panels": [
             ("--wavelengths 1 --filter box", ["--wavelengths", "1", "--filter", "box"]),
             ("--filter box (4 wavelengths)", ["--filter", "box"]),
-            ("default (4 wavelengths, tent)", []),
+            ("default (3 wavelengths, tent)", []),
             ("--dispersion off", ["--dispersion", "off"]),
         ],
     },
