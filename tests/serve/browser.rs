@@ -306,6 +306,7 @@ fn the_page_changes_lens_and_focus_and_shows_the_new_image() {
             focusChanged: afterLens !== afterFocus, clickChanged: afterFocus !== afterClick,
             bladesChanged: afterClick !== afterBlades, shiftChanged: afterBlades !== afterShift,
             wavelengthsShown, wavelengthsChanged: afterShift !== afterWavelengths,
+            filterShown: document.getElementById("filter").value,
             coatingShown, coatingChanged: afterWavelengths !== afterCoating,
             diaphragmShown: document.getElementById("first-order").textContent.includes("5 blades"),
             focus: state.focus_distance, diagram, numbers,
@@ -318,7 +319,12 @@ fn the_page_changes_lens_and_focus_and_shows_the_new_image() {
     assert_eq!(outcome["clickChanged"], true, "{outcome}");
     assert_eq!(outcome["bladesChanged"], true, "{outcome}");
     assert_eq!(outcome["shiftChanged"], true, "{outcome}");
-    assert_eq!(outcome["wavelengthsShown"], "4", "{outcome}");
+    assert_eq!(
+        outcome["wavelengthsShown"],
+        realcam::lens::hero_wavelengths::DEFAULT_WAVELENGTHS.to_string(),
+        "{outcome}"
+    );
+    assert_eq!(outcome["filterShown"], "tent", "{outcome}");
     assert_eq!(outcome["wavelengthsChanged"], true, "{outcome}");
     // The page shows the file's coatings until one is chosen; bare glass loses more light.
     assert_eq!(outcome["coatingShown"], "", "{outcome}");
