@@ -6,12 +6,19 @@
 use super::contact_sheet;
 use crate::memory::{self, gigabytes};
 
-/// Peak memory per image pixel while rendering a frame and writing it: the tiles' sums
-/// (12 B), the pass stages' SoA batches (camera rays, lens weights, hits, radiance: about
-/// 125 B), then the gathered image, its means and the encoded outputs. Rounded up from
-/// measurements (see BENCHMARKS.md, "memory"): 2048² and 4096² renders with PNG and EXR
-/// outputs peak at 160–170 B a pixel over the process's base.
+/// Peak memory per image pixel while rendering a frame and writing it without dispersion:
+/// the tiles' sums (12 B), the pass stages' SoA batches (camera rays, lens weights, hits,
+/// radiance: about 125 B), then the gathered image, its means and the encoded outputs.
+/// Rounded up from measurements (see BENCHMARKS.md, "memory"): 2048² and 4096² renders with
+/// PNG and EXR outputs peak at 160–170 B a pixel over the process's base.
 pub const BYTES_PER_PIXEL: u64 = 200;
+
+/// What a spectral camera adds per pixel: the hero's wavelength, its factor and the film
+/// filter's spread (40 B), and per further wavelength its own arrays and backward trace
+/// (64 B). Rounded up from 2048² renders (`--spp 1 --max-depth 1`, PNG and EXR): 204, 272,
+/// 328 and 605 B a pixel with 1, 2, 3 and 8 wavelengths, against 174 without dispersion.
+const SPECTRAL_BYTES_PER_PIXEL: u64 = 40;
+const BYTES_PER_EXTRA_WAVELENGTH: u64 = 64;
 
 /// The process before any film: scene, BVH of the bundled scene, thread stacks, code.
 const BASE_BYTES: u64 = 64 << 20;
@@ -27,12 +34,26 @@ pub struct RunSize {
     /// Frames in the run (lenses × focus frames × stop frames).
     pub frames: usize,
     pub contact_sheet: bool,
+    /// Wavelengths per camera sample; 0 without dispersion.
+    pub wavelengths: u32,
 }
 
 impl RunSize {
+    /// Peak bytes a pixel of the film takes (see [`BYTES_PER_PIXEL`]).
+    pub fn bytes_per_pixel(&self) -> u64 {
+        match self.wavelengths {
+            0 => BYTES_PER_PIXEL,
+            n => {
+                BYTES_PER_PIXEL
+                    + SPECTRAL_BYTES_PER_PIXEL
+                    + u64::from(n - 1) * BYTES_PER_EXTRA_WAVELENGTH
+            }
+        }
+    }
+
     /// Bytes for the film and outputs of one frame (frames reuse them).
     pub fn film_bytes(&self) -> u64 {
-        BASE_BYTES + self.width as u64 * self.height as u64 * BYTES_PER_PIXEL
+        BASE_BYTES + self.width as u64 * self.height as u64 * self.bytes_per_pixel()
     }
 
     /// Bytes for the contact sheet, if the run makes one.
@@ -52,7 +73,9 @@ impl RunSize {
     pub fn check_within(&self, available: Option<u64>) -> anyhow::Result<()> {
         let mut what = format!(
             "a {}×{} render ({} B a pixel for the film and its outputs",
-            self.width, self.height, BYTES_PER_PIXEL
+            self.width,
+            self.height,
+            self.bytes_per_pixel()
         );
         if self.contact_sheet {
             what += &format!(
@@ -87,6 +110,7 @@ mod tests {
             height: 512,
             frames: 1,
             contact_sheet: false,
+            wavelengths: 0,
         };
         let largest = RunSize {
             width: 16_384,
@@ -105,6 +129,38 @@ mod tests {
                 && message.contains("only 8.6 GB")
                 && message.contains("--width"),
             "{message}"
+        );
+        // A spectral camera's arrays grow with its wavelengths: 3 of them 2.6 GB at 4096².
+        let spectral = RunSize {
+            width: 4096,
+            height: 4096,
+            wavelengths: 3,
+            ..small
+        };
+        assert_eq!(spectral.bytes_per_pixel(), 368);
+        assert_eq!(
+            RunSize {
+                wavelengths: 1,
+                ..spectral
+            }
+            .bytes_per_pixel(),
+            240
+        );
+        let message = spectral
+            .check_within(Some(4 << 30))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            message.contains("368 B a pixel") && message.contains("6.2 GB"),
+            "{message}"
+        );
+        assert!(
+            RunSize {
+                wavelengths: 0,
+                ..spectral
+            }
+            .check_within(Some(4 << 30))
+            .is_ok()
         );
         let sheet = RunSize {
             frames: 10_000,

@@ -224,6 +224,7 @@ impl<'a> Job<'a> {
                 spec.stop_sweep.map(StopSweep::sweep),
             )?,
             contact_sheet: spec.output.contact_sheet.is_some(),
+            wavelengths: spec.camera_wavelengths(),
         }
         .check()?;
         renderer.set_camera(world_from_camera);

@@ -157,6 +157,15 @@ impl OutputSpec {
 }
 
 impl JobSpec {
+    /// Wavelengths each camera sample may carry: with dispersion on, `wavelengths` (a lens
+    /// without glass data renders without, so this is an upper bound); 0 with it off.
+    pub fn camera_wavelengths(&self) -> u32 {
+        match self.dispersion {
+            Dispersion::On => self.wavelengths,
+            Dispersion::Off => 0,
+        }
+    }
+
     /// The image size the spec gives, each side [`DEFAULT_IMAGE_SIDE`] where it gives none.
     pub fn size_or_default(&self) -> (u32, u32) {
         (

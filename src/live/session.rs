@@ -217,6 +217,7 @@ impl Session {
             height,
             frames: 1,
             contact_sheet: false,
+            wavelengths: spec.camera_wavelengths(),
         }
         .check()
         .map_err(|e| e.to_string())?;
