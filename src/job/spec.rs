@@ -157,12 +157,14 @@ impl OutputSpec {
 }
 
 impl JobSpec {
-    /// Wavelengths each camera sample may carry: with dispersion on, `wavelengths` (a lens
-    /// without glass data renders without, so this is an upper bound); 0 with it off.
+    /// Wavelengths per camera sample whose arrays the CPU's pass batches hold (what the
+    /// memory estimate counts): with dispersion on, `wavelengths` (a lens without glass data
+    /// renders without, so this is an upper bound); 0 with it off, and 0 on the GPU, whose
+    /// own buffers are checked against its limits.
     pub fn camera_wavelengths(&self) -> u32 {
-        match self.dispersion {
-            Dispersion::On => self.wavelengths,
-            Dispersion::Off => 0,
+        match (self.dispersion, self.device) {
+            (Dispersion::On, RenderDevice::Cpu) => self.wavelengths,
+            _ => 0,
         }
     }
 
