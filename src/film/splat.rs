@@ -119,12 +119,4 @@ impl Spread {
             }
         }
     }
-
-    /// Whether these sums cover any pixel of `rect`.
-    pub fn overlaps(&self, rect: &PixelRect) -> bool {
-        self.x0 < (rect.x0 + rect.width) as i32
-            && (rect.x0 as i32) < self.x0 + self.width as i32
-            && self.y0 < (rect.y0 + rect.height) as i32
-            && (rect.y0 as i32) < self.y0 + self.height as i32
-    }
 }

@@ -5,7 +5,7 @@ use bevy_ecs::world::Mut;
 
 use super::run_on_tiles;
 use crate::film::FilmTile;
-use crate::film::splat::{PixelRect, Spread};
+use crate::film::splat::{PixelRect, SPREAD_BORDER, Spread};
 use crate::lens::hero_wavelengths::SPLAT_RADIUS;
 use crate::pipeline::Stage;
 use crate::pipeline::resources::{PassState, RenderSettings, RenderStats, TileBatch};
@@ -65,8 +65,11 @@ pub fn write_film(
 /// WriteFilm with a filter wider than a pixel: every sum comes from the tiles' spreads, each
 /// tile taking the part of every spread that covers it, the spreads in image order.
 fn write_spreads(tiles: Vec<(Mut<FilmTile>, &TileBatch)>, stats: &mut RenderStats) {
-    let mut spreads: Vec<&Spread> = tiles.iter().map(|(_, batch)| &batch.spread).collect();
-    spreads.sort_by_key(|spread| (spread.y0, spread.x0));
+    let mut spreads: Vec<(PixelRect, &Spread)> = tiles
+        .iter()
+        .map(|(tile, batch)| (tile.rect(), &batch.spread))
+        .collect();
+    spreads.sort_by_key(|(rect, _)| (rect.y0, rect.x0));
     run_on_tiles(
         Stage::WriteFilm,
         tiles,
@@ -75,7 +78,10 @@ fn write_spreads(tiles: Vec<(Mut<FilmTile>, &TileBatch)>, stats: &mut RenderStat
         |(mut tile, _): (Mut<FilmTile>, &TileBatch)| {
             let tile = &mut *tile;
             let rect = tile.rect();
-            for spread in spreads.iter().filter(|spread| spread.overlaps(&rect)) {
+            let reaching = spreads
+                .iter()
+                .filter(|(source, _)| source.may_reach(&rect, SPREAD_BORDER));
+            for (_, spread) in reaching {
                 spread.add_to(rect, [&mut tile.sum_r, &mut tile.sum_g, &mut tile.sum_b]);
             }
             tile.samples += 1;

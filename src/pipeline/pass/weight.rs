@@ -91,9 +91,7 @@ pub fn weight(
                     tile.y0 + (i as u32 / tile.width),
                 );
                 let mut own = [0.0f32; 3];
-                if finite && filter.is_box() && count == 0 {
-                    own = rgb;
-                } else if finite && filter.is_box() {
+                if finite && filter.is_box() {
                     for share in shares {
                         if share.offset == [0, 0] {
                             own = [
