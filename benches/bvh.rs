@@ -5,7 +5,7 @@
 //! one at a time in the order they were made (`per_ray`), the renderer's batch call
 //! (`batch`, `SceneAccel::intersect_batch` on a one-thread pool), and the rays sorted for
 //! coherence first, sort included (`sorted`). The batch call traces 8-ray packets where the
-//! CPU has AVX2, which pays only when consecutive rays are coherent (see
+//! CPU has AVX2 (over the wide tree), which pays only when consecutive rays are coherent (see
 //! `closest_primary_tiles`); the per-ray traversals gain from sorting through the cache alone.
 //!
 //! `closest_primary_tiles` feeds primary rays the way the renderer does: per 32×32 film tile,
@@ -15,7 +15,8 @@
 //! traversals on the same rays.
 //!
 //! The per-ray benchmarks run every traversal this CPU has (`SceneAccel::intersect_with`):
-//! obvhs's own, the reference, beside the AVX2 one the renderer uses, in the same run so that
+//! obvhs's own, the reference, obvhs's loop with an AVX2 node test (`avx2`), and realcam's own
+//! float 8-wide traversal the renderer uses (`wide`), in the same run so that
 //! their ratio is measured on the same machine state. The other benchmarks use the renderer's
 //! default (the fastest).
 //!

@@ -9,10 +9,14 @@
 //! index ([`Hit::triangle`]). Ray directions are expected to be unit vectors; hit distances are
 //! in metres along them.
 //!
-//! Traversal is obvhs's stack traversal with, where the CPU has AVX2, an 8-wide node test
-//! compiled for it (see `traversal.rs`); obvhs's own code is the portable path and the reference
-//! the fast one reproduces exactly ([`SceneAccel::intersect_with`]). Batches of camera rays go
-//! through the tree eight at a time (module `packet`), with the same hits.
+//! The CPU traverses its own copy of that tree (`wide`): the same nodes and leaves with the
+//! child boxes decoded once to floats, tested eight at a time with a rounding margin, nearest
+//! child first (`wide_traversal`), and batches of camera and bounce rays eight at a time
+//! (module `packet`). obvhs's own traversal of its compressed nodes (and the same loop with an
+//! AVX2 node test, `traversal.rs`) stays as the reference: the wide traversals give its
+//! closest hits, up to which of two triangles at exactly the same distance is reported
+//! ([`SceneAccel::intersect_with`]; the tests in `tests.rs`). The GPU backend uploads the
+//! compressed tree itself.
 
 mod alpha_mask;
 #[cfg(target_arch = "x86_64")]
@@ -21,6 +25,8 @@ pub mod spawn;
 mod surface;
 mod traversal;
 mod triangles;
+mod wide;
+mod wide_traversal;
 
 #[cfg(test)]
 mod tests;
@@ -40,6 +46,7 @@ use crate::batch::{Hit, HitBatch, RayBatch};
 use crate::scene::{Bounds, MaterialLibrary, MeshInstance};
 
 use alpha_mask::AlphaMasks;
+use wide::WideBvh;
 /// The packet traversal's stack type, a placeholder where there is no packet traversal.
 mod packet_stack {
     #[cfg(target_arch = "x86_64")]
@@ -89,11 +96,15 @@ pub struct SceneAccel {
     alpha_masks: AlphaMasks,
     /// World → BVH space scale, an exact power of two (see `triangles::bvh_space_scale`).
     pub(crate) bvh_scale: f32,
+    /// The same tree with float boxes, for the CPU's own traversal (`None` for an empty scene
+    /// or a tree it cannot hold: see [`WideBvh::from_cwbvh`]).
+    wide: Option<WideBvh>,
     bounds: Bounds,
     dropped_triangles: usize,
     build_time: Duration,
-    /// The fastest traversal this CPU runs, detected once at build.
-    fastest: Traversal,
+    /// The faster traversal of obvhs's nodes on this CPU ([`Traversal::fastest_obvhs`]),
+    /// detected once at build: the fallback, and whether the packets' AVX2 code runs.
+    obvhs_traversal: Traversal,
 }
 
 impl SceneAccel {
@@ -154,6 +165,7 @@ impl SceneAccel {
                 .collect();
             (Some(bvh), primitives, records)
         };
+        let wide = bvh.as_ref().and_then(WideBvh::from_cwbvh);
 
         Ok(SceneAccel {
             bvh,
@@ -162,10 +174,11 @@ impl SceneAccel {
             vertices: soup.vertices,
             alpha_masks: AlphaMasks::new(materials),
             bvh_scale,
+            wide,
             bounds: soup.bounds,
             dropped_triangles: soup.dropped,
             build_time: start.elapsed(),
-            fastest: Traversal::detect(),
+            obvhs_traversal: Traversal::fastest_obvhs(),
         })
     }
 
@@ -194,11 +207,23 @@ impl SceneAccel {
 
     /// Closest hit in (t_min, t_max), skipping alpha-masked holes.
     pub fn intersect(&self, origin: Vec3, direction: Vec3, t_max: f32) -> Option<Hit> {
-        self.intersect_with(self.fastest, origin, direction, t_max)
+        self.intersect_with(Traversal::Wide, origin, direction, t_max)
     }
 
-    /// [`SceneAccel::intersect`] through the given traversal (capped at what this CPU runs).
-    /// Every traversal gives the identical answer; this is for comparing them.
+    /// What answers a query asked of `traversal`: itself where it runs here, else the fastest
+    /// that does.
+    #[inline(always)]
+    fn runnable(&self, traversal: Traversal) -> Traversal {
+        match traversal {
+            Traversal::Wide if self.wide.is_some() => Traversal::Wide,
+            Traversal::Obvhs => Traversal::Obvhs,
+            _ => self.obvhs_traversal,
+        }
+    }
+
+    /// [`SceneAccel::intersect`] through the given traversal (or, where it does not run here,
+    /// the fastest that does). Every traversal gives the same answer, to exact ties; this is
+    /// for comparing them.
     pub fn intersect_with(
         &self,
         traversal: Traversal,
@@ -208,6 +233,9 @@ impl SceneAccel {
     ) -> Option<Hit> {
         let bvh = self.bvh.as_ref()?;
         let ray = self.bvh_ray(origin, direction, t_max)?;
+        if self.runnable(traversal) == Traversal::Wide {
+            return self.to_hit(self.wide_closest(ray));
+        }
         let mut closest: Option<(usize, TriangleHit)> = None;
         let test = |ray: &Ray, index| {
             match self.hit_triangle(ray, index) {
@@ -220,16 +248,20 @@ impl SceneAccel {
                 _ => f32::INFINITY,
             }
         };
-        match traversal.min(self.fastest) {
-            Traversal::Obvhs => {
-                bvh.ray_traverse(ray, &mut RayHit::none(), test);
-            }
-            // SAFETY: `self.fastest` is what `Traversal::detect` found on this CPU.
+        match self.runnable(traversal) {
+            // SAFETY: `runnable` picks Avx2 only where `Traversal::fastest_obvhs` found it.
             #[cfg(target_arch = "x86_64")]
             Traversal::Avx2 => unsafe { traversal::ray_traverse_avx2(bvh, ray, test) },
-            #[cfg(not(target_arch = "x86_64"))]
-            _ => unreachable!("Traversal::detect finds only obvhs here"),
+            _ => {
+                bvh.ray_traverse(ray, &mut RayHit::none(), test);
+            }
         }
+        self.to_hit(closest)
+    }
+
+    /// A BVH-space hit as the world-space [`Hit`].
+    #[inline(always)]
+    fn to_hit(&self, closest: Option<(usize, TriangleHit)>) -> Option<Hit> {
         closest.map(|(index, hit)| Hit {
             t: hit.t / self.bvh_scale,
             triangle: index as u32,
@@ -243,10 +275,10 @@ impl SceneAccel {
     /// Stops at the first opaque hit found (like obvhs `ray_traverse_miss`; its
     /// `ray_traverse_anyhit` visits every hit without stopping).
     pub fn occluded(&self, origin: Vec3, direction: Vec3, t_max: f32) -> bool {
-        self.occluded_with(self.fastest, origin, direction, t_max)
+        self.occluded_with(Traversal::Wide, origin, direction, t_max)
     }
 
-    /// [`SceneAccel::occluded`] through the given traversal (capped at what this CPU runs).
+    /// [`SceneAccel::occluded`] through the given traversal (or the fastest that runs here).
     pub fn occluded_with(
         &self,
         traversal: Traversal,
@@ -262,15 +294,15 @@ impl SceneAccel {
             self.hit_triangle(ray, index)
                 .map_or(f32::INFINITY, |hit| hit.t)
         };
-        let missed = match traversal.min(self.fastest) {
-            Traversal::Obvhs => bvh.ray_traverse_miss(ray, test),
-            // SAFETY: `self.fastest` is what `Traversal::detect` found on this CPU.
+        match self.runnable(traversal) {
+            Traversal::Obvhs => !bvh.ray_traverse_miss(ray, test),
+            // SAFETY: `runnable` picks Avx2 only where `Traversal::fastest_obvhs` found it.
             #[cfg(target_arch = "x86_64")]
-            Traversal::Avx2 => unsafe { traversal::ray_traverse_miss_avx2(bvh, ray, test) },
+            Traversal::Avx2 => unsafe { !traversal::ray_traverse_miss_avx2(bvh, ray, test) },
+            Traversal::Wide => self.wide_any_hit(ray),
             #[cfg(not(target_arch = "x86_64"))]
-            _ => unreachable!("Traversal::detect finds only obvhs here"),
-        };
-        !missed
+            Traversal::Avx2 => unreachable!("only x86-64 runs the AVX2 traversal"),
+        }
     }
 
     /// Closest hits of every alive ray of the batch (dead rays get a miss): the same hits
@@ -279,7 +311,8 @@ impl SceneAccel {
     /// Rays are traced in packets of eight consecutive rays where the CPU has AVX2 (see
     /// module `packet`): the renderer's camera rays are neighbouring pixels, coherent enough that a
     /// packet walks nearly the nodes each of its rays would. A packet whose rays disagree in
-    /// direction octant, or with a single alive ray, goes one ray at a time.
+    /// direction octant, or with a single alive ray, goes one ray at a time. Hits are those of
+    /// [`SceneAccel::intersect`], to exact ties.
     pub fn intersect_batch(&self, rays: &RayBatch, hits: &mut HitBatch) {
         const CHUNK: usize = 64;
         hits.resize(rays.len());
@@ -318,8 +351,8 @@ impl SceneAccel {
     ) {
         let n = out.t.len();
         #[cfg(target_arch = "x86_64")]
-        if self.fastest >= Traversal::Avx2
-            && let Some(bvh) = self.bvh.as_ref()
+        if self.obvhs_traversal == Traversal::Avx2
+            && let Some(wide) = self.wide.as_ref()
         {
             let mut packet = packet::PacketRays::default();
             let mut active = 0u32;
@@ -349,10 +382,10 @@ impl SceneAccel {
                         packet.copy_lane(lead, lane);
                     }
                 }
-                // SAFETY: `self.fastest` is what `Traversal::detect` found on this CPU.
+                // SAFETY: `Traversal::fastest_obvhs` found AVX2 on this CPU.
                 let hits = unsafe {
                     packet::intersect_packet_avx2(
-                        bvh,
+                        wide,
                         &self.primitives,
                         &packet,
                         active,
@@ -439,6 +472,34 @@ impl SceneAccel {
             0.0,
             t_max * self.bvh_scale,
         ))
+    }
+
+    /// Closest hit through the wide BVH (`runnable` checked it is there).
+    #[inline(always)]
+    fn wide_closest(&self, ray: Ray) -> Option<(usize, TriangleHit)> {
+        let wide = self.wide.as_ref()?;
+        let is_hole = |index: usize, u, v| self.is_alpha_hole(index as u32, u, v);
+        #[cfg(target_arch = "x86_64")]
+        if self.obvhs_traversal == Traversal::Avx2 {
+            // SAFETY: `Traversal::fastest_obvhs` found AVX2 on this CPU.
+            return unsafe { wide_traversal::closest_avx2(wide, &self.primitives, ray, is_hole) };
+        }
+        wide_traversal::closest(wide, &self.primitives, ray, is_hole)
+    }
+
+    /// Any hit through the wide BVH.
+    #[inline(always)]
+    fn wide_any_hit(&self, ray: Ray) -> bool {
+        let Some(wide) = self.wide.as_ref() else {
+            return false;
+        };
+        let is_hole = |index: usize, u, v| self.is_alpha_hole(index as u32, u, v);
+        #[cfg(target_arch = "x86_64")]
+        if self.obvhs_traversal == Traversal::Avx2 {
+            // SAFETY: `Traversal::fastest_obvhs` found AVX2 on this CPU.
+            return unsafe { wide_traversal::any_hit_avx2(wide, &self.primitives, ray, is_hole) };
+        }
+        wide_traversal::any_hit(wide, &self.primitives, ray, is_hole)
     }
 
     /// The triangle test traversal calls: geometry, then the alpha mask.

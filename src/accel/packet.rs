@@ -1,30 +1,31 @@
-//! Closest-hit traversal of 8-ray packets (AVX2), for coherent rays such as the camera rays of
-//! one film tile.
+//! Closest-hit traversal of 8-ray packets over the [`WideBvh`] (AVX2), for coherent rays such
+//! as the camera rays of one film tile.
 //!
-//! The single-ray AVX2 traversal spends most of a camera ray's instructions loading and
-//! decoding nodes and triangles and in the loop's bookkeeping, not in the box arithmetic. A
-//! packet decodes each node once and tests its children against all eight rays in SIMD (one
-//! lane per ray), tests each leaf triangle against the packet's rays in SIMD, and walks the
-//! tree once for all of them (Wald et al. 2001).
+//! A packet walks the tree once for its eight rays (Wald et al. 2001): at each node it tests
+//! every child box against all eight rays in SIMD (one lane per ray, the box's planes
+//! broadcast), and each leaf triangle against the rays that reached the leaf. Children are
+//! visited nearest first by the nearest of the packet's entry distances. All rays of a packet
+//! share the direction octant (the caller checks), so each axis's entry plane is the same for
+//! all of them.
 //!
-//! Exactness: every ray gets the hit the single-ray traversal gives it, ties included. The
-//! packet walks the tree depth first in obvhs's child order, which depends only on the
-//! direction octant, so all rays of a packet must share it (the caller checks). Each stack
-//! entry keeps every ray's own hit mask of the node's children, computed with that ray's own
-//! `tmax` at the time, exactly as the single-ray traversal keeps its one mask; a ray only
-//! enters children and tests triangles its mask holds. So each ray sees, in the same order,
-//! the same node tests (same arithmetic as `traversal::avx2::intersect_node`) and triangle
-//! tests (same arithmetic as `TrianglePrimitive::intersect`) with the same `tmax`, and ends on
-//! the same hit. Other rays of the packet only add work, never change a ray's answer.
+//! Exactness: each lane's box test is the single-ray traversal's arithmetic
+//! (`wide_traversal::hit_children`: the same operations in the same order), with that ray's
+//! own closest hit so far as `t_max`, and each lane's triangle test is
+//! `TrianglePrimitive::intersect`'s. A ray enters only the boxes its own test accepts and
+//! tests only the triangles of the leaves it enters. The order differs from the single-ray
+//! traversal's (the packet's nearest first, not the ray's), so a ray may enter boxes the
+//! single ray would have culled, never fewer of those that hold its closest hit: each ray gets
+//! the single-ray traversal's closest hit, up to which of two triangles at exactly the same
+//! distance is reported. Other rays of the packet only add work.
 
 use std::arch::x86_64::*;
 
-use obvhs::cwbvh::CwBvh;
-use obvhs::cwbvh::node::CwBvhNode;
 use obvhs::ray::Ray;
 
 use super::traversal::ENTRY_EPSILON;
 use super::triangles::TrianglePrimitive;
+use super::wide::{ChildRef, WIDTH, WideBvh};
+use super::wide_traversal::EXIT_MARGIN;
 
 /// Rays per packet: one per AVX2 `f32` lane.
 pub(super) const LANES: usize = 8;
@@ -73,15 +74,11 @@ impl PacketRays {
     }
 }
 
-/// A node whose children some rays of the packet still have to visit.
+/// A child some rays of the packet (bit i: ray i) still have to visit.
 #[derive(Clone, Copy)]
 pub(super) struct StackEntry {
-    child_base: u32,
-    imask: u32,
-    /// Inner-child priority bits (24..32) not yet visited by any ray.
-    pending: u32,
-    /// Every ray's hit mask of the node, obvhs's layout (see `intersect_node`).
-    masks: __m256i,
+    child: ChildRef,
+    lanes: u8,
 }
 
 /// The packet's rays, one lane each, in BVH space.
@@ -94,13 +91,13 @@ struct Lanes {
 
 /// Closest hits of `rays` (BVH space, `tmin` = 0) for the lanes set in `active` (bit i = ray
 /// i); other lanes report no hit. All active rays must share the direction octant (by
-/// `d < 0` per axis, obvhs's test). `is_hole(triangle, u, v)` is the alpha check, asked only
-/// when `check_holes` and only for geometric hits closer than the ray's closest so far.
+/// `d < 0` per axis). `is_hole(triangle, u, v)` is the alpha check, asked only when
+/// `check_holes` and only for geometric hits closer than the ray's closest so far.
 /// `stack` is scratch space (kept by the caller to spare an allocation per packet).
-/// Callable where the CPU supports AVX2 ([`super::Traversal::detect`] found it).
+/// Callable where the CPU supports AVX2.
 #[target_feature(enable = "avx2,bmi1,bmi2,lzcnt,popcnt")]
 pub(super) fn intersect_packet_avx2(
-    bvh: &CwBvh,
+    bvh: &WideBvh,
     primitives: &[TrianglePrimitive],
     rays: &PacketRays,
     active: u32,
@@ -129,88 +126,115 @@ pub(super) fn intersect_packet_avx2(
         inv_direction: rays.inv_direction.each_ref().map(load),
         tmax: load(&rays.tmax),
     };
-    let negative = rays.direction.map(|d| d[lead] < 0.0);
-    // The octant code of `obvhs::cwbvh::ray_get_octant_inv4` (crate-private).
-    let oct_inv4 = (if negative[0] { 0 } else { 0x0404_0404 })
-        | (if negative[1] { 0 } else { 0x0202_0202 })
-        | (if negative[2] { 0 } else { 0x0101_0101 });
+    let negative = rays.direction.map(|d| usize::from(d[lead] < 0.0));
+    let entry_plane = [negative[0], 2 + negative[1], 4 + negative[2]];
+    let exit_plane = [1 - negative[0], 3 - negative[1], 5 - negative[2]];
 
     let mut triangle = _mm256_set1_epi32(-1);
     let mut hit_u = _mm256_setzero_ps();
     let mut hit_v = _mm256_setzero_ps();
-
     let lane_bits = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
-    let active_lanes = _mm256_cmpeq_epi32(
-        _mm256_and_si256(_mm256_set1_epi32(active as i32), lane_bits),
-        lane_bits,
-    );
+    let lanes_of = |bits: u32| {
+        _mm256_cmpeq_epi32(
+            _mm256_and_si256(_mm256_set1_epi32(bits as i32), lane_bits),
+            lane_bits,
+        )
+    };
+    let epsilon = _mm256_set1_ps(ENTRY_EPSILON);
+    let margin = _mm256_set1_ps(EXIT_MARGIN);
 
     stack.clear();
-    // The root, as obvhs enters it: node 0 for every ray.
-    let mut next = Some((0u32, active_lanes));
-    loop {
-        let (node_index, node_lanes) = match next.take() {
-            Some(visit) => visit,
-            None => {
-                let Some(top) = stack.last_mut() else { break };
-                let bit = 31 - top.pending.leading_zeros();
-                top.pending &= !(1 << bit);
-                let slot = (bit - 24) ^ (oct_inv4 & 0xff);
-                let index = top.child_base + (top.imask & !(u32::MAX << slot)).count_ones();
-                let bit_mask = _mm256_set1_epi32(1 << bit);
-                let lanes_in = _mm256_cmpeq_epi32(_mm256_and_si256(top.masks, bit_mask), bit_mask);
-                if top.pending == 0 {
-                    stack.pop();
+    let mut next = Some(StackEntry {
+        child: ChildRef(0),
+        lanes: active as u8,
+    });
+    while let Some(StackEntry { child, lanes: bits }) = next.take().or_else(|| stack.pop()) {
+        if child.is_leaf() {
+            for index in child.triangles() {
+                let (mut hit, t, u, v) =
+                    primitives[index].intersect8(&lanes, lanes_of(bits.into()));
+                let mut found = _mm256_movemask_ps(_mm256_castsi256_ps(hit)) as u32;
+                if found == 0 {
+                    continue;
                 }
-                (index, lanes_in)
+                if check_holes {
+                    let (u_lane, v_lane) = (to_array(u), to_array(v));
+                    let mut kept = found;
+                    while found != 0 {
+                        let lane = found.trailing_zeros() as usize;
+                        found &= found - 1;
+                        if is_hole(index, u_lane[lane], v_lane[lane]) {
+                            kept &= !(1 << lane);
+                        }
+                    }
+                    hit = lanes_of(kept);
+                }
+                let hit_ps = _mm256_castsi256_ps(hit);
+                lanes.tmax = _mm256_blendv_ps(lanes.tmax, t, hit_ps);
+                hit_u = _mm256_blendv_ps(hit_u, u, hit_ps);
+                hit_v = _mm256_blendv_ps(hit_v, v, hit_ps);
+                triangle = _mm256_blendv_epi8(triangle, _mm256_set1_epi32(index as i32), hit);
             }
-        };
-        let node = &bvh.nodes[node_index as usize];
-        let masks = intersect_node(node, &lanes, negative, oct_inv4, node_lanes);
-
-        let any = or_lanes(masks);
-        let mut primitive_bits = any & 0x00ff_ffff;
-        while primitive_bits != 0 {
-            let bit = 31 - primitive_bits.leading_zeros();
-            primitive_bits &= !(1 << bit);
-            let bit_mask = _mm256_set1_epi32(1 << bit);
-            let tri_lanes = _mm256_cmpeq_epi32(_mm256_and_si256(masks, bit_mask), bit_mask);
-            let index = (node.primitive_base_idx + bit) as usize;
-            let (mut hit, t, u, v) = primitives[index].intersect8(&lanes, tri_lanes);
-            let mut bits = _mm256_movemask_ps(_mm256_castsi256_ps(hit)) as u32;
-            if bits == 0 {
+            continue;
+        }
+        let node = &bvh.nodes[child.node_index()];
+        // Every child against every ray still in this node: each lane's arithmetic is the
+        // single-ray `hit_children`'s, with the child's planes broadcast.
+        let mut sorted = [(0u32, StackEntry { child, lanes: 0 }); WIDTH];
+        let mut count = 0;
+        for slot in 0..WIDTH {
+            if node.children[slot] == ChildRef::EMPTY {
                 continue;
             }
-            if check_holes {
-                let (u_lane, v_lane) = (to_array(u), to_array(v));
-                let mut kept = bits;
-                while bits != 0 {
-                    let lane = bits.trailing_zeros() as usize;
-                    bits &= bits - 1;
-                    if is_hole(index, u_lane[lane], v_lane[lane]) {
-                        kept &= !(1 << lane);
-                    }
-                }
-                hit = _mm256_cmpeq_epi32(
-                    _mm256_and_si256(_mm256_set1_epi32(kept as i32), lane_bits),
-                    lane_bits,
-                );
+            let distance = |plane: usize, axis: usize| {
+                _mm256_mul_ps(
+                    _mm256_sub_ps(_mm256_set1_ps(node.planes[plane][slot]), lanes.origin[axis]),
+                    lanes.inv_direction[axis],
+                )
+            };
+            let entry = _mm256_max_ps(
+                _mm256_max_ps(distance(entry_plane[0], 0), distance(entry_plane[1], 1)),
+                _mm256_max_ps(distance(entry_plane[2], 2), epsilon),
+            );
+            let exit = _mm256_min_ps(
+                _mm256_mul_ps(
+                    _mm256_min_ps(
+                        _mm256_min_ps(distance(exit_plane[0], 0), distance(exit_plane[1], 1)),
+                        distance(exit_plane[2], 2),
+                    ),
+                    margin,
+                ),
+                lanes.tmax,
+            );
+            let hit = _mm256_cmp_ps::<_CMP_LE_OQ>(entry, exit);
+            let hit_bits = _mm256_movemask_ps(hit) as u32 & u32::from(bits);
+            if hit_bits == 0 {
+                continue;
             }
-            let hit_ps = _mm256_castsi256_ps(hit);
-            lanes.tmax = _mm256_blendv_ps(lanes.tmax, t, hit_ps);
-            hit_u = _mm256_blendv_ps(hit_u, u, hit_ps);
-            hit_v = _mm256_blendv_ps(hit_v, v, hit_ps);
-            triangle = _mm256_blendv_epi8(triangle, _mm256_set1_epi32(index as i32), hit);
+            // Order key: the nearest entry among the rays that hit (positive floats order
+            // like their bits).
+            let nearest = min_lane(_mm256_blendv_ps(
+                _mm256_set1_ps(f32::INFINITY),
+                entry,
+                _mm256_castsi256_ps(lanes_of(hit_bits)),
+            ));
+            let visit = StackEntry {
+                child: node.children[slot],
+                lanes: hit_bits as u8,
+            };
+            // Insertion sort, farthest first.
+            let key = nearest.to_bits();
+            let mut at = count;
+            while at > 0 && sorted[at - 1].0 < key {
+                sorted[at] = sorted[at - 1];
+                at -= 1;
+            }
+            sorted[at] = (key, visit);
+            count += 1;
         }
-
-        let pending = any & 0xff00_0000;
-        if pending != 0 {
-            stack.push(StackEntry {
-                child_base: node.child_base_idx,
-                imask: node.imask as u32,
-                pending,
-                masks,
-            });
+        if count > 0 {
+            stack.extend(sorted[..count - 1].iter().map(|&(_, visit)| visit));
+            next = Some(sorted[count - 1].1);
         }
     }
 
@@ -227,6 +251,16 @@ pub(super) fn intersect_packet_avx2(
     hits
 }
 
+/// The smallest of the eight lanes.
+#[target_feature(enable = "avx2")]
+#[inline]
+fn min_lane(x: __m256) -> f32 {
+    let x = _mm_min_ps(_mm256_castps256_ps128(x), _mm256_extractf128_ps::<1>(x));
+    let x = _mm_min_ps(x, _mm_movehl_ps(x, x));
+    let x = _mm_min_ss(x, _mm_shuffle_ps::<0b01>(x, x));
+    _mm_cvtss_f32(x)
+}
+
 #[target_feature(enable = "avx2")]
 #[inline]
 fn to_array(x: __m256) -> [f32; LANES] {
@@ -234,110 +268,6 @@ fn to_array(x: __m256) -> [f32; LANES] {
     // SAFETY: `out` holds 8 floats; unaligned store.
     unsafe { _mm256_storeu_ps(out.as_mut_ptr(), x) };
     out
-}
-
-/// The OR of the eight 32-bit lanes.
-#[target_feature(enable = "avx2")]
-#[inline]
-fn or_lanes(x: __m256i) -> u32 {
-    let x = _mm_or_si128(_mm256_castsi256_si128(x), _mm256_extracti128_si256::<1>(x));
-    let x = _mm_or_si128(x, _mm_unpackhi_epi64(x, x));
-    let x = _mm_or_si128(x, _mm_shuffle_epi32::<0b01>(x));
-    _mm_cvtsi128_si32(x) as u32
-}
-
-/// Every ray's hit mask of `node`'s children, in obvhs's layout (see
-/// `traversal::avx2::intersect_node`, whose per-ray arithmetic this repeats with rays and
-/// children swapped between lanes and loop); zero for lanes not set in `lanes_in`.
-#[target_feature(enable = "avx2,bmi1,bmi2,lzcnt,popcnt")]
-#[inline]
-fn intersect_node(
-    node: &CwBvhNode,
-    rays: &Lanes,
-    negative: [bool; 3],
-    oct_inv4: u32,
-    lanes_in: __m256i,
-) -> __m256i {
-    let extent = node.compute_extent();
-    let p = node.p;
-    let mut scale = [_mm256_setzero_ps(); 3];
-    let mut offset = [_mm256_setzero_ps(); 3];
-    for axis in 0..3 {
-        scale[axis] = _mm256_mul_ps(_mm256_set1_ps(extent[axis]), rays.inv_direction[axis]);
-        offset[axis] = _mm256_mul_ps(
-            _mm256_sub_ps(_mm256_set1_ps(p[axis]), rays.origin[axis]),
-            rays.inv_direction[axis],
-        );
-    }
-    let planes = [
-        (node.child_min_x, node.child_max_x),
-        (node.child_min_y, node.child_max_y),
-        (node.child_min_z, node.child_max_z),
-    ];
-    // Entry and exit plane of every child per axis, as floats, and every child's mask bits:
-    // decoded once for the packet.
-    let widen = |bytes: u64| _mm256_cvtepu8_epi32(_mm_cvtsi64_si128(bytes as i64));
-    let floats = |bytes: [u8; 8]| {
-        let mut out = [0f32; 8];
-        // SAFETY: `out` holds 8 floats; unaligned store.
-        unsafe {
-            _mm256_storeu_ps(
-                out.as_mut_ptr(),
-                _mm256_cvtepi32_ps(widen(u64::from_le_bytes(bytes))),
-            )
-        };
-        out
-    };
-    let mut near = [[0f32; 8]; 3];
-    let mut far = [[0f32; 8]; 3];
-    for axis in 0..3 {
-        let (min, max) = planes[axis];
-        let (n, f) = if negative[axis] {
-            (max, min)
-        } else {
-            (min, max)
-        };
-        near[axis] = floats(n);
-        far[axis] = floats(f);
-    }
-    let (child_bits8, bit_index8) = node.get_child_and_index_bits(oct_inv4);
-    let mut contributions = [0u32; 8];
-    // SAFETY: `contributions` holds 8 u32s; unaligned store.
-    unsafe {
-        _mm256_storeu_si256(
-            contributions.as_mut_ptr().cast(),
-            _mm256_sllv_epi32(widen(child_bits8), widen(bit_index8)),
-        )
-    };
-
-    let epsilon = _mm256_set1_ps(ENTRY_EPSILON);
-    let mut masks = _mm256_setzero_si256();
-    let mut children = child_bits8;
-    while children != 0 {
-        // Empty slots have no child bits and would contribute nothing.
-        let c = (children.trailing_zeros() / 8) as usize;
-        children &= !(0xffu64 << (c * 8));
-        let contribution = contributions[c];
-        let slab = |q: f32, axis: usize| {
-            _mm256_add_ps(_mm256_mul_ps(_mm256_set1_ps(q), scale[axis]), offset[axis])
-        };
-        let t_near = _mm256_max_ps(
-            slab(near[0][c], 0),
-            _mm256_max_ps(slab(near[1][c], 1), slab(near[2][c], 2)),
-        );
-        let t_far = _mm256_min_ps(
-            slab(far[0][c], 0),
-            _mm256_min_ps(slab(far[1][c], 1), slab(far[2][c], 2)),
-        );
-        let t_near = _mm256_max_ps(t_near, epsilon);
-        let t_far = _mm256_min_ps(t_far, rays.tmax);
-        let hit = _mm256_castps_si256(_mm256_cmp_ps::<_CMP_LE_OQ>(t_near, t_far));
-        masks = _mm256_or_si256(
-            masks,
-            _mm256_and_si256(hit, _mm256_set1_epi32(contribution as i32)),
-        );
-    }
-    _mm256_and_si256(masks, lanes_in)
 }
 
 impl TrianglePrimitive {

@@ -1,5 +1,7 @@
-//! CWBVH traversal with an 8-wide node test compiled for AVX2, chosen at run time, beside
-//! obvhs's own traversal (the portable path and the reference).
+//! Which traversal answers ray queries ([`Traversal`]), and obvhs's CWBVH traversal with an
+//! 8-wide node test compiled for AVX2 beside obvhs's own (the reference). The renderer's
+//! traversal is the wide one (`wide_traversal`); these two stay for comparison and as the
+//! fallback for a tree the wide layout cannot hold.
 //!
 //! obvhs's node test (`CwBvhNode::intersect_ray_simd`) is compiled for the build's baseline
 //! (SSE2): it converts the 48 quantised plane bytes of a node to floats one `_mm_set_ps` lane at
@@ -17,39 +19,42 @@ use glam::{UVec2, Vec3A};
 use obvhs::cwbvh::CwBvh;
 use obvhs::ray::Ray;
 
-/// Which traversal code answers ray queries. Ordered by capability: a CPU that runs one runs
-/// every earlier one.
+/// Which traversal code answers ray queries.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
 pub enum Traversal {
-    /// obvhs's own traversal, at the build's baseline instruction set: portable, and the
-    /// reference the others must reproduce.
+    /// obvhs's own traversal of its CWBVH, at the build's baseline instruction set: portable,
+    /// and the reference the others must reproduce.
     Obvhs,
-    /// The 8-wide node test, x86-64 AVX2, plus BMI1/2, LZCNT and POPCNT (CPUs with AVX2 have
-    /// them in practice; checked anyway): without POPCNT the child indexing of the traversal
-    /// loop counts bits in software.
+    /// obvhs's traversal loop with an 8-wide node test for x86-64 AVX2, plus BMI1/2, LZCNT and
+    /// POPCNT (CPUs with AVX2 have them in practice; checked anyway): without POPCNT the child
+    /// indexing of the traversal loop counts bits in software.
     Avx2,
+    /// Our own traversal of the same tree decoded to float boxes, nearest child first
+    /// (`wide_traversal`): portable, compiled for AVX2 where the CPU has it. The renderer's.
+    Wide,
 }
 
 impl Traversal {
-    /// The fastest traversal this CPU runs.
+    /// The traversal the renderer uses: [`Traversal::Wide`] (where a scene's tree cannot be
+    /// decoded for it, `SceneAccel` falls back on [`Traversal::fastest_obvhs`]).
     pub fn detect() -> Traversal {
-        #[cfg(target_arch = "x86_64")]
-        if std::arch::is_x86_feature_detected!("avx2")
-            && std::arch::is_x86_feature_detected!("bmi1")
-            && std::arch::is_x86_feature_detected!("bmi2")
-            && std::arch::is_x86_feature_detected!("lzcnt")
-            && std::arch::is_x86_feature_detected!("popcnt")
-        {
-            return Traversal::Avx2;
+        Traversal::Wide
+    }
+
+    /// The faster of the two traversals of obvhs's own nodes on this CPU.
+    pub fn fastest_obvhs() -> Traversal {
+        if has_avx2() {
+            Traversal::Avx2
+        } else {
+            Traversal::Obvhs
         }
-        Traversal::Obvhs
     }
 
     /// Every traversal this CPU runs, reference first.
     pub fn available() -> Vec<Traversal> {
-        [Traversal::Obvhs, Traversal::Avx2]
+        [Traversal::Obvhs, Traversal::Avx2, Traversal::Wide]
             .into_iter()
-            .filter(|&t| t <= Traversal::detect())
+            .filter(|&t| t != Traversal::Avx2 || has_avx2())
             .collect()
     }
 
@@ -57,8 +62,24 @@ impl Traversal {
         match self {
             Traversal::Obvhs => "obvhs",
             Traversal::Avx2 => "avx2",
+            Traversal::Wide => "wide",
         }
     }
+}
+
+/// Whether this CPU runs the AVX2 code paths (the node tests, the packets, the wide traversal's
+/// AVX2 build).
+pub(super) fn has_avx2() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2")
+        && std::arch::is_x86_feature_detected!("bmi1")
+        && std::arch::is_x86_feature_detected!("bmi2")
+        && std::arch::is_x86_feature_detected!("lzcnt")
+        && std::arch::is_x86_feature_detected!("popcnt")
+    {
+        return true;
+    }
+    false
 }
 
 /// Closest hit: like `CwBvh::ray_traverse`. `test(ray, index)` returns the hit distance of
@@ -146,7 +167,6 @@ impl NearFar {
 /// obvhs's child-box entry clamp (`cwbvh::node::EPSILON`, crate-private): boxes the ray
 /// leaves before this distance are skipped. `triangles::bvh_space_scale` sizes BVH space so
 /// that it is negligible.
-#[cfg(target_arch = "x86_64")]
 pub(super) const ENTRY_EPSILON: f32 = 0.0001;
 
 #[cfg(target_arch = "x86_64")]
