@@ -152,7 +152,7 @@ pub(super) fn intersect_packet_avx2(
         if child.is_leaf() {
             for index in child.triangles() {
                 let (mut hit, t, u, v) =
-                    primitives[index].intersect8(&lanes, lanes_of(bits.into()));
+                    primitives[index].intersect8(&lanes, lanes_of(bits.into()), index, triangle);
                 let mut found = _mm256_movemask_ps(_mm256_castsi256_ps(hit)) as u32;
                 if found == 0 {
                     continue;
@@ -271,13 +271,20 @@ fn to_array(x: __m256) -> [f32; LANES] {
 }
 
 impl TrianglePrimitive {
-    /// [`TrianglePrimitive::intersect`] for eight rays at once, `t_min` = 0 and an exclusive
-    /// `t_max` (the closest hit so far): the same operations in the same order (no FMA), so
-    /// each lane's answer is bit-identical to the scalar test's. Returns the lanes of
-    /// `lanes_in` that hit (all ones), and t, u, v per lane.
+    /// [`TrianglePrimitive::intersect`] for eight rays at once, `t_min` = 0, keeping the hits
+    /// that replace each ray's closest so far (`t_max`, on triangle `closest`, −1 for none) by
+    /// `wide_traversal::nearer`'s rule, this triangle being number `index`: the same
+    /// operations in the same order (no FMA), so each lane's answer is bit-identical to the
+    /// scalar test's. Returns the lanes of `lanes_in` that hit (all ones), and t, u, v per lane.
     #[target_feature(enable = "avx2")]
     #[inline]
-    fn intersect8(&self, rays: &Lanes, lanes_in: __m256i) -> (__m256i, __m256, __m256, __m256) {
+    fn intersect8(
+        &self,
+        rays: &Lanes,
+        lanes_in: __m256i,
+        index: usize,
+        closest: __m256i,
+    ) -> (__m256i, __m256, __m256, __m256) {
         let splat = |v: glam::Vec3A| {
             [
                 _mm256_set1_ps(v.x),
@@ -325,7 +332,19 @@ impl TrianglePrimitive {
         ok = _mm256_and_ps(ok, _mm256_cmp_ps::<_CMP_LE_OQ>(_mm256_add_ps(u, v), one));
         let t = _mm256_mul_ps(dot(edge2, q), inv_det);
         ok = _mm256_and_ps(ok, _mm256_cmp_ps::<_CMP_GE_OQ>(t, zero));
-        ok = _mm256_and_ps(ok, _mm256_cmp_ps::<_CMP_LT_OQ>(t, rays.tmax));
+        // Nearer, or as near on a lower-numbered triangle than a hit found before.
+        let lower = _mm256_andnot_si256(
+            _mm256_cmpeq_epi32(closest, _mm256_set1_epi32(-1)),
+            _mm256_cmpgt_epi32(closest, _mm256_set1_epi32(index as i32)),
+        );
+        let tie = _mm256_and_ps(
+            _mm256_cmp_ps::<_CMP_EQ_OQ>(t, rays.tmax),
+            _mm256_castsi256_ps(lower),
+        );
+        ok = _mm256_and_ps(
+            ok,
+            _mm256_or_ps(_mm256_cmp_ps::<_CMP_LT_OQ>(t, rays.tmax), tie),
+        );
         let hit = _mm256_and_si256(_mm256_castps_si256(ok), lanes_in);
         (hit, t, u, v)
     }

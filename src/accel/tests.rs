@@ -796,8 +796,9 @@ fn traversals_agree_on_random_soup() {
     assert!(hits > 400, "only {hits} hits");
 }
 
-/// `intersect_batch` (packets) gives every ray obvhs's single-ray hit (to exact ties), and
-/// brute force's to rounding. Returns the number of hits.
+/// `intersect_batch` (packets) gives every ray exactly the renderer's single-ray hit (ties
+/// too: both break them by triangle index), obvhs's to exact ties, and brute force's to
+/// rounding. Returns the number of hits.
 fn assert_batch_agrees(accel: &SceneAccel, rays: &RayBatch) -> usize {
     let mut hits = HitBatch::default();
     accel.intersect_batch(rays, &mut hits);
@@ -815,6 +816,11 @@ fn assert_batch_agrees(accel: &SceneAccel, rays: &RayBatch) -> usize {
         assert_same_hit(batch, reference, || {
             format!("ray {i} from {origin:?} along {direction:?}")
         });
+        assert_eq!(
+            batch,
+            accel.intersect(origin, direction, f32::INFINITY),
+            "ray {i}: packet and single ray"
+        );
         if batch.is_none() {
             assert_eq!(hits.t[i], f32::INFINITY);
         }

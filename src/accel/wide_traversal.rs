@@ -213,8 +213,14 @@ fn traverse<const ANY_HIT: bool>(
                 else {
                     continue;
                 };
-                // The triangle test accepts t = t_max; a hit must be strictly nearer.
-                if hit.t < t_max && !is_hole(triangle, hit.u, hit.v) {
+                if nearer(
+                    hit.t,
+                    triangle,
+                    t_max,
+                    closest.map(|(index, _)| index),
+                    ANY_HIT,
+                ) && !is_hole(triangle, hit.u, hit.v)
+                {
                     closest = Some((triangle, hit));
                     if ANY_HIT {
                         return closest;
@@ -250,6 +256,24 @@ fn traverse<const ANY_HIT: bool>(
             }
         }
     }
+}
+
+/// Whether a hit on `triangle` at `t` replaces the closest so far (at `t_max`, on `closest`).
+///
+/// Strictly nearer wins. Of hits at exactly the same distance (a ray through an edge two
+/// triangles share), the lower triangle index wins, whichever was found first: the closest hit
+/// then does not depend on the order leaves are visited in, so single rays and packets agree
+/// bit for bit. (The triangle test accepts `t = t_max` for this.) Any-hit queries, and a first
+/// hit at exactly the query's `t_max`, want strictly nearer.
+#[inline(always)]
+pub(super) fn nearer(
+    t: f32,
+    triangle: usize,
+    t_max: f32,
+    closest: Option<usize>,
+    any_hit: bool,
+) -> bool {
+    t < t_max || (!any_hit && t == t_max && closest.is_some_and(|index| triangle < index))
 }
 
 /// Pushes the hit children (two or more) farthest first, and returns the nearest.
