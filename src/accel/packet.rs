@@ -25,7 +25,7 @@ use obvhs::ray::Ray;
 use super::traversal::ENTRY_EPSILON;
 use super::triangles::TrianglePrimitive;
 use super::wide::{ChildRef, WIDTH, WideBvh};
-use super::wide_traversal::EXIT_MARGIN;
+use super::wide_traversal::{EXIT_MARGIN, insert_farthest_first, set_bits};
 
 /// Rays per packet: one per AVX2 `f32` lane.
 pub(super) const LANES: usize = 8;
@@ -153,16 +153,14 @@ pub(super) fn intersect_packet_avx2(
             for index in child.triangles() {
                 let (mut hit, t, u, v) =
                     primitives[index].intersect8(&lanes, lanes_of(bits.into()), index, triangle);
-                let mut found = _mm256_movemask_ps(_mm256_castsi256_ps(hit)) as u32;
+                let found = _mm256_movemask_ps(_mm256_castsi256_ps(hit)) as u32;
                 if found == 0 {
                     continue;
                 }
                 if check_holes {
                     let (u_lane, v_lane) = (to_array(u), to_array(v));
                     let mut kept = found;
-                    while found != 0 {
-                        let lane = found.trailing_zeros() as usize;
-                        found &= found - 1;
+                    for lane in set_bits(found) {
                         if is_hole(index, u_lane[lane], v_lane[lane]) {
                             kept &= !(1 << lane);
                         }
@@ -222,14 +220,12 @@ pub(super) fn intersect_packet_avx2(
                 child: node.children[slot],
                 lanes: hit_bits as u8,
             };
-            // Insertion sort, farthest first.
-            let key = nearest.to_bits();
-            let mut at = count;
-            while at > 0 && sorted[at - 1].0 < key {
-                sorted[at] = sorted[at - 1];
-                at -= 1;
-            }
-            sorted[at] = (key, visit);
+            insert_farthest_first(
+                &mut sorted,
+                count,
+                (nearest.to_bits(), visit),
+                |&(key, _)| key,
+            );
             count += 1;
         }
         if count > 0 {

@@ -276,6 +276,34 @@ pub(super) fn nearer(
     t < t_max || (!any_hit && t == t_max && closest.is_some_and(|index| triangle < index))
 }
 
+/// The indices of the set bits of `mask`, lowest first.
+#[inline(always)]
+pub(super) fn set_bits(mask: u32) -> impl Iterator<Item = usize> {
+    let mut remaining = mask;
+    std::iter::from_fn(move || {
+        let bit = (remaining != 0).then(|| remaining.trailing_zeros() as usize)?;
+        remaining &= remaining - 1;
+        Some(bit)
+    })
+}
+
+/// Inserts `item` into `sorted[..count]`, which stays in descending `key` order (farthest
+/// first, so the nearest comes last, to be visited next): an insertion sort of eight at most.
+#[inline(always)]
+pub(super) fn insert_farthest_first<T: Copy, K: PartialOrd>(
+    sorted: &mut [T; WIDTH],
+    count: usize,
+    item: T,
+    key: impl Fn(&T) -> K,
+) {
+    let mut at = count;
+    while at > 0 && key(&sorted[at - 1]) < key(&item) {
+        sorted[at] = sorted[at - 1];
+        at -= 1;
+    }
+    sorted[at] = item;
+}
+
 /// Pushes the hit children (two or more) farthest first, and returns the nearest.
 #[inline(always)]
 fn push_nearest_first(
@@ -287,18 +315,9 @@ fn push_nearest_first(
 ) -> ChildRef {
     let mut sorted = [0u64; WIDTH];
     let mut count = 0;
-    let mut remaining = mask;
-    while remaining != 0 {
-        let slot = remaining.trailing_zeros() as usize;
-        remaining &= remaining - 1;
-        // Insertion sort, farthest first: eight keys at most.
+    for slot in set_bits(mask) {
         let key = stack_entry(entry[slot], node.children[slot]);
-        let mut at = count;
-        while at > 0 && sorted[at - 1] < key {
-            sorted[at] = sorted[at - 1];
-            at -= 1;
-        }
-        sorted[at] = key;
+        insert_farthest_first(&mut sorted, count, key, |&key| key);
         count += 1;
     }
     for &key in &sorted[..count - 1] {
@@ -318,10 +337,7 @@ fn push_unsorted(
     pending: &mut usize,
 ) -> ChildRef {
     let first = mask.trailing_zeros() as usize;
-    let mut remaining = mask & (mask - 1);
-    while remaining != 0 {
-        let slot = remaining.trailing_zeros() as usize;
-        remaining &= remaining - 1;
+    for slot in set_bits(mask & (mask - 1)) {
         stack[*pending].write(stack_entry(entry[slot], node.children[slot]));
         *pending += 1;
     }
