@@ -233,7 +233,8 @@ impl SceneAccel {
     ) -> Option<Hit> {
         let bvh = self.bvh.as_ref()?;
         let ray = self.bvh_ray(origin, direction, t_max)?;
-        if self.runnable(traversal) == Traversal::Wide {
+        let traversal = self.runnable(traversal);
+        if traversal == Traversal::Wide {
             return self.to_hit(self.wide_closest(ray));
         }
         let mut closest: Option<(usize, TriangleHit)> = None;
@@ -248,7 +249,7 @@ impl SceneAccel {
                 _ => f32::INFINITY,
             }
         };
-        match self.runnable(traversal) {
+        match traversal {
             // SAFETY: `runnable` picks Avx2 only where `Traversal::fastest_obvhs` found it.
             #[cfg(target_arch = "x86_64")]
             Traversal::Avx2 => unsafe { traversal::ray_traverse_avx2(bvh, ray, test) },

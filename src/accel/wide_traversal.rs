@@ -234,10 +234,9 @@ fn traverse<const ANY_HIT: bool>(
             if mask != 0 {
                 current = if mask.is_power_of_two() {
                     node.children[mask.trailing_zeros() as usize]
-                } else if ANY_HIT {
-                    push_unsorted(node, mask, &entry, &mut stack, &mut pending)
                 } else {
-                    push_nearest_first(node, mask, &entry, &mut stack, &mut pending)
+                    // Any-hit rays stop at the first hit wherever it is: no sort for them.
+                    push_children(node, mask, &entry, !ANY_HIT, &mut stack, &mut pending)
                 };
                 continue;
             }
@@ -304,44 +303,34 @@ pub(super) fn insert_farthest_first<T: Copy, K: PartialOrd>(
     sorted[at] = item;
 }
 
-/// Pushes the hit children (two or more) farthest first, and returns the nearest.
+/// Pushes the hit children (two or more) but one, and returns that one, the child to visit
+/// next: with `nearest_first`, pushed farthest first and the nearest returned; otherwise in
+/// slot order.
 #[inline(always)]
-fn push_nearest_first(
+fn push_children(
     node: &WideNode,
     mask: u32,
     entry: &[f32; WIDTH],
+    nearest_first: bool,
     stack: &mut [MaybeUninit<u64>; STACK_SIZE],
     pending: &mut usize,
 ) -> ChildRef {
-    let mut sorted = [0u64; WIDTH];
+    let mut order = [0u64; WIDTH];
     let mut count = 0;
     for slot in set_bits(mask) {
         let key = stack_entry(entry[slot], node.children[slot]);
-        insert_farthest_first(&mut sorted, count, key, |&key| key);
+        if nearest_first {
+            insert_farthest_first(&mut order, count, key, |&key| key);
+        } else {
+            order[count] = key;
+        }
         count += 1;
     }
-    for &key in &sorted[..count - 1] {
+    for &key in &order[..count - 1] {
         stack[*pending].write(key);
         *pending += 1;
     }
-    ChildRef(sorted[count - 1] as u32)
-}
-
-/// Pushes every hit child but the first, and returns the first.
-#[inline(always)]
-fn push_unsorted(
-    node: &WideNode,
-    mask: u32,
-    entry: &[f32; WIDTH],
-    stack: &mut [MaybeUninit<u64>; STACK_SIZE],
-    pending: &mut usize,
-) -> ChildRef {
-    let first = mask.trailing_zeros() as usize;
-    for slot in set_bits(mask & (mask - 1)) {
-        stack[*pending].write(stack_entry(entry[slot], node.children[slot]));
-        *pending += 1;
-    }
-    node.children[first]
+    ChildRef(order[count - 1] as u32)
 }
 
 #[cfg(target_arch = "x86_64")]
