@@ -27,7 +27,8 @@ use crate::lens::pupil::{PupilSampling, SEGMENTS};
 use crate::lens::reflectance::{COSINE_STEPS, WAVELENGTH_STEP_NM};
 use crate::lens::trace::Travel;
 use crate::lens::trace_batch::{CONIC, POLYNOMIAL, SPHERE, SurfaceConstants};
-use crate::spectral::{LAMBDA_MIN, spectral_film, wavelength_knots};
+use crate::spectral::wavelength_sets::SET_STEPS;
+use crate::spectral::{LAMBDA_MIN, MAX_SET_SIZE, set_knots, spectral_film, wavelength_knots};
 
 /// hash32, Sobol and Owen scrambling, `owen_sobol` (no bindings).
 pub const SAMPLING_WGSL: &str = include_str!("shaders/sampling.wgsl");
@@ -301,14 +302,26 @@ impl LensData {
 fn spectral_tables() -> Vec<u32> {
     let knots = wavelength_knots();
     let film = spectral_film().table();
+    let header = 6;
+    let film_start = knots.len();
+    let set_start = film_start + 6 * film.len();
     let mut words = vec![
         (knots.len() - 1) as u32,
-        knots.len() as u32,
+        film_start as u32,
         film.len() as u32,
         (LAMBDA_MIN as f32).to_bits(),
+        set_start as u32,
+        SET_STEPS as u32,
     ];
     words.extend(knots.iter().map(|v| v.to_bits()));
     words.extend(film.iter().flatten().map(|v| v.to_bits()));
+    for count in 2..=MAX_SET_SIZE {
+        words.extend(set_knots(count).iter().map(|v| v.to_bits()));
+    }
+    debug_assert_eq!(
+        words.len(),
+        header + set_start + (MAX_SET_SIZE as usize - 1) * (SET_STEPS + 1)
+    );
     words
 }
 

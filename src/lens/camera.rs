@@ -36,6 +36,7 @@ use crate::film::filter::quantise;
 use crate::glass::FRAUNHOFER_D_NM;
 use crate::sampling::sobol::owen_sobol;
 use crate::sampling::{Rng, hash32};
+use crate::spectral::{WavelengthSet, draw_wavelength_set};
 
 /// Where the camera stands: the rigid transform from the camera frame (see above) to the world.
 #[derive(Resource, Clone, Copy, Debug, PartialEq)]
@@ -275,7 +276,8 @@ struct Scratch {
     py: Vec<f32>,
     /// Film points' depth behind the rear-vertex plane on a tilted film.
     depth: Vec<f32>,
-    /// The camera sample: film jitter x, y; pupil u, v; wavelength (and an unused partner).
+    /// The camera sample: film jitter x, y; pupil u, v; the wavelength set's uniform number and
+    /// its inverse density (see [`crate::spectral::wavelength_sets`]).
     u: [Vec<f32>; 6],
     /// The companion wavelengths' backward traces.
     backward: BackwardScratch,
@@ -436,14 +438,20 @@ impl LensCamera<'_> {
             Some(table) => {
                 let n = out.rays.len();
                 let count = out.wavelength.len() / n.max(1);
+                let [.., wave_u, set_inverse_density] = &mut out.scratch.u;
+                for (u, inverse_density) in wave_u.iter_mut().zip(set_inverse_density.iter_mut()) {
+                    let set = draw_wavelength_set(*u, count as u32);
+                    (*u, *inverse_density) = (set.u, set.inverse_density);
+                }
                 for k in 0..count {
                     let block = k * n..(k + 1) * n;
-                    for ((nm, weight), &u) in out.wavelength[block.clone()]
+                    for ((nm, weight), (&u, &inverse_density)) in out.wavelength[block.clone()]
                         .iter_mut()
                         .zip(&mut out.wavelength_weight[block])
-                        .zip(&out.scratch.u[4])
+                        .zip(wave_u.iter().zip(set_inverse_density.iter()))
                     {
-                        let sample = wavelength_of_set(u, k as u32, count as u32);
+                        let set = WavelengthSet { u, inverse_density };
+                        let sample = wavelength_of_set(set, k as u32, count as u32);
                         (*nm, *weight) = (sample.nm, sample.inverse_pdf);
                     }
                 }

@@ -29,7 +29,9 @@
 //! **The estimator** (hero wavelength sampling, Wilkie et al. 2014, carried through the lens):
 //! a sample draws the hero λ₀ from `u` ∈ [0, 1) as before, and its companions
 //! λₖ = sample_wavelength((u + k/N) mod 1), k = 1 … N−1, the same set whichever of them is the
-//! hero. It draws x and u for λ₀, traces r forward, and each companion backward to its film
+//! hero. (`u` itself is drawn by the set's luminance, [`crate::spectral::wavelength_sets`], so
+//! that every set adds the same luminance for grey light; that density has period 1/N, is the
+//! same for every member, and multiplies each 1/p(λₖ) below.) It draws x and u for λ₀, traces r forward, and each companion backward to its film
 //! point x_k. Technique k ("λₖ was the hero") would have drawn r with density q_k(r) = 1 / W_k
 //! in dΓ, where W_k = A·G(x_k, u_k) is the camera weight of (x_k, u_k) (A: the area u is drawn
 //! from), provided x_k lies on the frame and u_k where the pupil sampler draws. Wavelength i's
@@ -57,7 +59,7 @@ use super::trace::Travel;
 use super::trace_batch::{Wavelengths, trace_batch_spectral};
 use crate::batch::RayBatch;
 use crate::film::filter::quantise;
-use crate::spectral::{WavelengthSample, sample_wavelength};
+use crate::spectral::{MAX_SET_SIZE, WavelengthSample, WavelengthSet, sample_wavelength};
 
 /// Wavelengths per camera sample a spectral render traces by default (see BENCHMARKS.md,
 /// "Colour grain": the colour noise against the lens-tracing cost). With the film's tent
@@ -66,23 +68,29 @@ use crate::spectral::{WavelengthSample, sample_wavelength};
 pub const DEFAULT_WAVELENGTHS: u32 = 3;
 
 /// The most wavelengths per camera sample (the GPU keeps them in registers).
-pub const MAX_WAVELENGTHS: u32 = 8;
+pub const MAX_WAVELENGTHS: u32 = MAX_SET_SIZE;
 
 /// How far (mm) outside the front surface a backward trace starts along the scene ray, so its
 /// first intersection is a clean root well above the kernel's minimum distance.
 pub(crate) const BACKWARD_START_MM: f32 = 0.01;
 
-/// Wavelength `k` of `count` for a camera sample's uniform number `u`: the hero (k = 0) is
-/// `sample_wavelength(u)`; the others are the same rotation of `u` by k/count in the sampler's
-/// primary space, so the set is one and the same whichever member is the hero.
+/// Wavelength `k` of `count` in a camera sample's `set` (drawn by
+/// [`crate::spectral::draw_wavelength_set`]): the hero (k = 0) is `sample_wavelength(set.u)`;
+/// the others are the same rotation of `set.u` by k/count in the sampler's primary space, so
+/// the set is one and the same whichever member is the hero. Each member's 1/p includes the
+/// set's own inverse density.
 #[inline(always)]
-pub fn wavelength_of_set(u: f32, k: u32, count: u32) -> WavelengthSample {
-    let shifted = u + k as f32 / count as f32;
-    sample_wavelength(if shifted >= 1.0 {
+pub fn wavelength_of_set(set: WavelengthSet, k: u32, count: u32) -> WavelengthSample {
+    let shifted = set.u + k as f32 / count as f32;
+    let sample = sample_wavelength(if shifted >= 1.0 {
         shifted - 1.0
     } else {
         shifted
-    })
+    });
+    WavelengthSample {
+        nm: sample.nm,
+        inverse_pdf: sample.inverse_pdf * set.inverse_density,
+    }
 }
 
 /// How far (pixels, along x or y) from the hero's pixel a companion's contribution may land
@@ -500,16 +508,20 @@ mod tests {
     /// drawn with the sampler's density.
     #[test]
     fn every_member_of_a_set_could_have_been_its_hero() {
+        let uniform = |u| WavelengthSet {
+            u,
+            inverse_density: 1.0,
+        };
         for count in [2, 3, 4, 8] {
             for j in 0..97 {
                 let u = (j as f32 + 0.37) / 97.0;
                 let set: Vec<f32> = (0..count)
-                    .map(|k| wavelength_of_set(u, k, count).nm)
+                    .map(|k| wavelength_of_set(uniform(u), k, count).nm)
                     .collect();
                 for k in 1..count {
                     let other_u = (u + k as f32 / count as f32).fract();
                     let mut other: Vec<f32> = (0..count)
-                        .map(|m| wavelength_of_set(other_u, m, count).nm)
+                        .map(|m| wavelength_of_set(uniform(other_u), m, count).nm)
                         .collect();
                     let mut sorted = set.clone();
                     sorted.sort_by(f32::total_cmp);

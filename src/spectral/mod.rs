@@ -16,10 +16,12 @@
 
 pub mod observer;
 pub mod upsample;
+pub mod wavelength_sets;
 pub mod wavelengths;
 
 pub use observer::{SRGB_FROM_XYZ, XYZ_FROM_SRGB, cmf, d65};
 pub use upsample::{SpectralFilm, spectral_film};
+pub use wavelength_sets::{MAX_SET_SIZE, WavelengthSet, draw_wavelength_set, set_knots};
 pub use wavelengths::{
     LAMBDA_MAX, LAMBDA_MIN, WavelengthSample, sample_wavelength, wavelength_knots, wavelength_pdf,
 };

@@ -710,7 +710,7 @@ fn lens_within_radius(a: vec2i, b: vec2i) -> bool {
 // `hero_weight`, mask transmission `hero_transmission`), traced back and combined with the
 // balance heuristic (BackwardTrace::combine) into `out`; returns the sample's weight (1, or 0
 // when the hero does not count).
-fn lens_companions(ray: LensRay, pixel: vec2i, wave_u: f32, hero_weight: f32,
+fn lens_companions(ray: LensRay, pixel: vec2i, wavelength_set: WavelengthSet, hero_weight: f32,
                    hero_transmission: f32, out: ptr<function, CameraWavelengths>) -> f32 {
     let count = lens_constants.wavelengths;
     var inverse: array<f32, MAX_WAVELENGTHS>;
@@ -723,13 +723,13 @@ fn lens_companions(ray: LensRay, pixel: vec2i, wave_u: f32, hero_weight: f32,
     landed[0] = pixel;
     transmission[0] = hero_transmission;
     for (var k = 1u; k < count; k++) {
-        var shifted = wave_u + f32(k) / f32(count);
+        var shifted = wavelength_set.u + f32(k) / f32(count);
         if shifted >= 1.0 {
             shifted = shifted - 1.0;
         }
         let wavelength = sample_wavelength(shifted);
         (*out).nm[k] = wavelength.nm;
-        (*out).factor[k] = wavelength.inverse_pdf;
+        (*out).factor[k] = wavelength.inverse_pdf * wavelength_set.inverse_density;
         valid[k] = false;
         transmission[k] = 0.0;
         if ray.alive {
@@ -941,15 +941,15 @@ fn camera_ray_with(pixel_x: u32, pixel_y: u32, sample: u32,
     var pupil_v: f32;
     var nm = 0.0;
     var wavelength_weight = 1.0;
-    var wave_u = 0.0;
+    var wavelength_set = WavelengthSet(0.0, 1.0);
     if lens_constants.spectral != 0u {
         let key = hash32(hash32(pixel ^ lens_constants.pupil_seed) ^ LENS_WAVELENGTH_KEY);
         pupil_u = owen_sobol(sample, 0u, key);
         pupil_v = owen_sobol(sample, 1u, key);
-        wave_u = owen_sobol(sample, 2u, key);
-        let wavelength = sample_wavelength(wave_u);
+        wavelength_set = draw_wavelength_set(owen_sobol(sample, 2u, key), lens_constants.wavelengths);
+        let wavelength = sample_wavelength(wavelength_set.u);
         nm = wavelength.nm;
-        wavelength_weight = wavelength.inverse_pdf;
+        wavelength_weight = wavelength.inverse_pdf * wavelength_set.inverse_density;
     } else {
         let key = hash32(film_key ^ lens_constants.pupil_seed);
         pupil_u = owen_sobol(sample, 0u, key);
@@ -1034,7 +1034,7 @@ fn camera_ray_with(pixel_x: u32, pixel_y: u32, sample: u32,
     if lens_constants.spectral != 0u && lens_constants.wavelengths > 1u {
         (*wavelengths).nm[0] = nm;
         (*wavelengths).factor[0] = wavelength_weight;
-        weight = lens_companions(ray, vec2i(i32(pixel_x), i32(pixel_y)), wave_u, weight,
+        weight = lens_companions(ray, vec2i(i32(pixel_x), i32(pixel_y)), wavelength_set, weight,
                                  transmission, wavelengths);
     } else if lens_constants.has_mask != 0u || lens_constants.reflectance_wavelengths != 0u {
         weight *= transmission;

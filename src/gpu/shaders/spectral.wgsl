@@ -2,14 +2,19 @@
 // of spectral::sample_wavelength and spectral::SpectralFilm::film_rgb, reading the CPU's own
 // tables (uploaded once by gpu::lens; they depend on no lens).
 
-// The wavelength sampler's knots and the film's per-nm factors, one buffer:
+// The wavelength sampler's knots, the film's per-nm factors and the wavelength sets' knots, one
+// buffer:
 //   data[0 ..= knot_steps]: λ (nm) at cumulative probability k / knot_steps;
-//   data[film_start + 6 i ..]: a(λ) (3 values) then b(λ) (3 values) at λ = lambda_min + i nm.
+//   data[film_start + 6 i ..]: a(λ) (3 values) then b(λ) (3 values) at λ = lambda_min + i nm;
+//   data[set_start + (count - 2) (set_steps + 1) + j]: for sets of `count` wavelengths, v' at
+//   cumulative probability j / set_steps (spectral::set_knots).
 struct SpectralTables {
     knot_steps: u32,
     film_start: u32,
     film_len: u32,
     lambda_min: f32,
+    set_start: u32,
+    set_steps: u32,
     data: array<f32>,
 }
 
@@ -31,6 +36,32 @@ fn sample_wavelength(u: f32) -> SpectralSample {
     let knot = spectral_tables.data[k];
     let width = spectral_tables.data[k + 1u] - knot;
     return SpectralSample(knot + (x - f32(k)) * width, f32(steps) * width);
+}
+
+// A camera sample's set of `count` wavelengths for uniform `u` (spectral::draw_wavelength_set):
+// the hero's uniform number, warped within its stratum by the set's luminance, and the inverse of
+// the density it was drawn with.
+struct WavelengthSet {
+    u: f32,
+    inverse_density: f32,
+}
+
+fn draw_wavelength_set(u: f32, count: u32) -> WavelengthSet {
+    if count < 2u {
+        return WavelengthSet(u, 1.0);
+    }
+    let steps = spectral_tables.set_steps;
+    let start = spectral_tables.set_start + (count - 2u) * (steps + 1u);
+    let scaled = u * f32(count);
+    let stratum = min(u32(scaled), count - 1u);
+    let v = scaled - f32(stratum);
+    let x = clamp(v * f32(steps), 0.0, f32(steps) - 0.001);
+    let step = min(u32(x), steps - 1u);
+    let knot = spectral_tables.data[start + step];
+    let width = spectral_tables.data[start + step + 1u] - knot;
+    let warped = knot + (x - f32(step)) * width;
+    // 1 - 2^-24: the largest f32 below 1, as the CPU clamps.
+    return WavelengthSet(min((f32(stratum) + warped) / f32(count), 0.99999994), f32(steps) * width);
 }
 
 // Three consecutive values of the film table from `start`.
