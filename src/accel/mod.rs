@@ -138,9 +138,12 @@ impl SceneAccel {
         let (bvh, primitives, records) = if obvhs_triangles.is_empty() {
             (None, Vec::new(), Vec::new())
         } else {
+            // obvhs's `fast_build` (a narrower PLOC search and less reinsertion than
+            // `medium_build`): on the peer scenes the wide traversal is as fast through its trees
+            // (bvh bench, per ray: within ±3 %), and the 1M-triangle build is 7 % shorter.
             let bvh = build_cwbvh_from_tris(
                 &obvhs_triangles,
-                BvhBuildParams::medium_build(),
+                BvhBuildParams::fast_build(),
                 &mut Duration::default(),
             );
             if bvh.primitive_indices.len() != obvhs_triangles.len() {

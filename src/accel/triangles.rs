@@ -152,6 +152,13 @@ pub fn flatten_instances<'a>(
         let has_uvs = mesh.uvs.len() == vertex_count;
         let has_tangents = mesh.tangents.len() == vertex_count && has_normals;
 
+        // Room for the whole mesh at once: growing by doubling would copy and fault in a large
+        // mesh's arrays several times over.
+        soup.vertices.normals.reserve(vertex_count);
+        soup.vertices.uvs.reserve(vertex_count);
+        soup.vertices.tangents.reserve(vertex_count);
+        soup.positions.reserve(mesh.triangles.len());
+        soup.records.reserve(mesh.triangles.len());
         let world_positions: Vec<Vec3> = mesh
             .positions
             .iter()

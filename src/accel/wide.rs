@@ -14,6 +14,7 @@
 
 use obvhs::cwbvh::CwBvh;
 use obvhs::cwbvh::node::CwBvhNode;
+use rayon::prelude::*;
 
 /// Children per node.
 pub const WIDTH: usize = 8;
@@ -102,7 +103,11 @@ impl WideBvh {
         {
             return None;
         }
-        let nodes: Vec<WideNode> = cwbvh.nodes.iter().map(decode_node).collect::<Option<_>>()?;
+        let nodes: Vec<WideNode> = cwbvh
+            .nodes
+            .par_iter()
+            .map(decode_node)
+            .collect::<Option<_>>()?;
         tree_depth(&nodes)?;
         Some(WideBvh { nodes })
     }
