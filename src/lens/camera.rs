@@ -34,7 +34,7 @@ use super::trace_batch::{Isa, Wavelengths, trace_batch, trace_batch_spectral};
 use crate::batch::RayBatch;
 use crate::film::filter::quantise;
 use crate::glass::FRAUNHOFER_D_NM;
-use crate::sampling::sobol::owen_sobol;
+use crate::sampling::sobol::{SobolScratch, owen_sobol_batch};
 use crate::sampling::{Rng, hash32};
 use crate::spectral::{WavelengthSet, draw_wavelength_set};
 
@@ -281,6 +281,9 @@ struct Scratch {
     u: [Vec<f32>; 6],
     /// The companion wavelengths' backward traces.
     backward: BackwardScratch,
+    /// Each pixel's key of the pattern being drawn, and the Sobol batch's buffers.
+    keys: Vec<u32>,
+    sobol: SobolScratch,
     /// Which rays are ghost samples, the uniform number choosing each one's pair, and the
     /// inverse density each one's wavelength was drawn with.
     ghost: Vec<bool>,
@@ -639,20 +642,22 @@ impl LensCamera<'_> {
         let (film_seed, pupil_seed) = camera_seeds(seed);
         // hash32 is a bijection: distinct pixels get distinct keys, and the pupil key is a
         // further hash of the film key, so the patterns of a pixel are unrelated.
-        for (i, &pixel) in scratch.pixel.iter().enumerate() {
-            let film = hash32(pixel ^ film_seed);
-            film_u[i] = owen_sobol(sample, 0, film);
-            film_v[i] = owen_sobol(sample, 1, film);
-            if spectral {
-                let key = hash32(hash32(pixel ^ pupil_seed) ^ WAVELENGTH_KEY);
-                pupil_u[i] = owen_sobol(sample, 0, key);
-                pupil_v[i] = owen_sobol(sample, 1, key);
-                wave_u[i] = owen_sobol(sample, 2, key);
-            } else {
-                let pupil = hash32(film ^ pupil_seed);
-                pupil_u[i] = owen_sobol(sample, 0, pupil);
-                pupil_v[i] = owen_sobol(sample, 1, pupil);
+        let keys = &mut scratch.keys;
+        keys.clear();
+        keys.extend(scratch.pixel.iter().map(|&pixel| hash32(pixel ^ film_seed)));
+        owen_sobol_batch(sample, keys, [film_u, film_v], &mut scratch.sobol);
+        if spectral {
+            keys.clear();
+            keys.extend(
+                (scratch.pixel.iter())
+                    .map(|&pixel| hash32(hash32(pixel ^ pupil_seed) ^ WAVELENGTH_KEY)),
+            );
+            owen_sobol_batch(sample, keys, [pupil_u, pupil_v, wave_u], &mut scratch.sobol);
+        } else {
+            for key in keys.iter_mut() {
+                *key = hash32(*key ^ pupil_seed);
             }
+            owen_sobol_batch(sample, keys, [pupil_u, pupil_v], &mut scratch.sobol);
         }
     }
 
