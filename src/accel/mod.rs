@@ -3,7 +3,7 @@
 //! Built once per scene in the BuildBvh stage; read by Trace (camera rays, in batches) and by
 //! Shade (bounce and shadow rays). World frame, metres (see [`crate::scene`]).
 //!
-//! The BVH is an 8-wide compressed CWBVH built with PLOC (obvhs `medium_build`: no spatial
+//! The BVH is an 8-wide compressed CWBVH built with PLOC (obvhs `fast_build`: no spatial
 //! pre-splits, which would list a triangle in several leaves and break the one-to-one triangle
 //! order). Triangle data is stored in BVH order, so the index obvhs reports *is* the triangle
 //! index ([`Hit::triangle`]). Ray directions are expected to be unit vectors; hit distances are
