@@ -6,10 +6,13 @@ use bevy_ecs::world::Mut;
 
 use super::run_on_tiles;
 use crate::film::FilmTile;
+use crate::film::filter::Filter;
 use crate::film::splat::Splat;
 use crate::lens::hero_wavelengths::MAX_WAVELENGTHS;
+use crate::lens::trace_batch::Isa;
 use crate::pipeline::Stage;
 use crate::pipeline::resources::{RenderSettings, RenderStats, TileBatch};
+use crate::spectral::SpectralFilm;
 
 /// One share of a sample: what it adds to the film, and where.
 #[derive(Clone, Copy, Default)]
@@ -41,84 +44,138 @@ pub fn weight(
         None,
         &mut stats,
         |(tile, mut batch): (&FilmTile, Mut<TileBatch>)| {
-            let TileBatch {
-                camera,
-                radiance,
-                splats,
-                spread,
-                ..
-            } = &mut *batch;
-            splats.clear();
-            if !filter.is_box() {
-                spread.reset(tile.rect());
+            let job = WeighTile {
+                tile,
+                batch: &mut batch,
+                film,
+                filter,
+                size,
+            };
+            // Compiled again for wider vector units, the widest this CPU has chosen, as the
+            // lens kernel is (the same operations, so the same bits).
+            match Isa::detect() {
+                Isa::Baseline => job.run(),
+                // SAFETY (both): `Isa::detect` found the instructions on this CPU.
+                #[cfg(target_arch = "x86_64")]
+                Isa::Avx2 => unsafe { job.run_avx2() },
+                #[cfg(target_arch = "x86_64")]
+                Isa::Avx512 => unsafe { job.run_avx512() },
+                #[cfg(not(target_arch = "x86_64"))]
+                _ => unreachable!("Isa::detect finds only the baseline here"),
             }
-            let mut rejected = 0;
-            let n = camera.weight.len();
-            // Spectral: `count` wavelengths per ray, wavelength-major (see CameraRays).
-            let count = camera.wavelength.len() / n.max(1);
-            let mut shares = [Share::default(); MAX_WAVELENGTHS as usize];
-            for i in 0..n {
-                let w = camera.weight[i];
-                let rgb = [radiance.r[i] * w, radiance.g[i] * w, radiance.b[i] * w];
-                let mut made = 0;
-                if count == 0 {
-                    shares[0] = Share {
-                        rgb,
-                        offset: [0, 0],
-                        position: camera.film_position[i],
-                    };
-                    made = 1;
-                }
-                for k in 0..count {
-                    let j = k * n + i;
-                    let factor = camera.wavelength_weight[j];
-                    if factor == 0.0 {
-                        continue;
-                    }
-                    shares[made] = Share {
-                        rgb: film.film_rgb(camera.wavelength[j], factor, rgb),
-                        offset: camera.wavelength_offset.get(j).copied().unwrap_or([0, 0]),
-                        position: camera.film_position[if count > 1 { j } else { i }],
-                    };
-                    made += 1;
-                }
-                let shares = &shares[..made];
-                let finite = shares.iter().all(|s| s.rgb.iter().all(|v| v.is_finite()));
-                rejected += u64::from(!finite);
-                // Ray i is the tile's pixel i (FilmTile::pixels order).
-                let (x, y) = (
-                    tile.x0 + (i as u32 % tile.width),
-                    tile.y0 + (i as u32 / tile.width),
-                );
-                let mut own = [0.0f32; 3];
-                if finite && filter.is_box() {
-                    for share in shares {
-                        if share.offset == [0, 0] {
-                            own = [
-                                own[0] + share.rgb[0],
-                                own[1] + share.rgb[1],
-                                own[2] + share.rgb[2],
-                            ];
-                        } else {
-                            splats.push(Splat {
-                                x: x.wrapping_add_signed(i32::from(share.offset[0])),
-                                y: y.wrapping_add_signed(i32::from(share.offset[1])),
-                                rgb: share.rgb,
-                            });
-                        }
-                    }
-                } else if finite {
-                    for share in shares {
-                        let at = [x as f32 + share.position[0], y as f32 + share.position[1]];
-                        spread.add(filter, at, size, share.rgb);
-                    }
-                }
-                [radiance.r[i], radiance.g[i], radiance.b[i]] = own;
-            }
-            rejected
         },
     )
     .into_iter()
     .sum();
     stats.rejected_samples += rejected;
+}
+
+/// One tile's Weight step: what [`weight`] runs per tile.
+struct WeighTile<'a> {
+    tile: &'a FilmTile,
+    batch: &'a mut TileBatch,
+    film: &'a SpectralFilm,
+    filter: Filter,
+    size: [u32; 2],
+}
+
+impl WeighTile<'_> {
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn run_avx2(self) -> u64 {
+        self.run()
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f,avx512vl,avx512bw,avx512dq")]
+    fn run_avx512(self) -> u64 {
+        self.run()
+    }
+
+    /// Weighs every ray of the tile; returns how many samples were rejected as non-finite.
+    #[inline(always)]
+    fn run(self) -> u64 {
+        let WeighTile {
+            tile,
+            batch,
+            film,
+            filter,
+            size,
+        } = self;
+        let TileBatch {
+            camera,
+            radiance,
+            splats,
+            spread,
+            ..
+        } = batch;
+        splats.clear();
+        if !filter.is_box() {
+            spread.reset(tile.rect());
+        }
+        let mut rejected = 0;
+        let n = camera.weight.len();
+        // Spectral: `count` wavelengths per ray, wavelength-major (see CameraRays).
+        let count = camera.wavelength.len() / n.max(1);
+        let mut shares = [Share::default(); MAX_WAVELENGTHS as usize];
+        for i in 0..n {
+            let w = camera.weight[i];
+            let rgb = [radiance.r[i] * w, radiance.g[i] * w, radiance.b[i] * w];
+            let mut made = 0;
+            if count == 0 {
+                shares[0] = Share {
+                    rgb,
+                    offset: [0, 0],
+                    position: camera.film_position[i],
+                };
+                made = 1;
+            }
+            for k in 0..count {
+                let j = k * n + i;
+                let factor = camera.wavelength_weight[j];
+                if factor == 0.0 {
+                    continue;
+                }
+                shares[made] = Share {
+                    rgb: film.film_rgb(camera.wavelength[j], factor, rgb),
+                    offset: camera.wavelength_offset.get(j).copied().unwrap_or([0, 0]),
+                    position: camera.film_position[if count > 1 { j } else { i }],
+                };
+                made += 1;
+            }
+            let shares = &shares[..made];
+            let finite = shares.iter().all(|s| s.rgb.iter().all(|v| v.is_finite()));
+            rejected += u64::from(!finite);
+            // Ray i is the tile's pixel i (FilmTile::pixels order).
+            let (x, y) = (
+                tile.x0 + (i as u32 % tile.width),
+                tile.y0 + (i as u32 / tile.width),
+            );
+            let mut own = [0.0f32; 3];
+            if finite && filter.is_box() {
+                for share in shares {
+                    if share.offset == [0, 0] {
+                        own = [
+                            own[0] + share.rgb[0],
+                            own[1] + share.rgb[1],
+                            own[2] + share.rgb[2],
+                        ];
+                    } else {
+                        splats.push(Splat {
+                            x: x.wrapping_add_signed(i32::from(share.offset[0])),
+                            y: y.wrapping_add_signed(i32::from(share.offset[1])),
+                            rgb: share.rgb,
+                        });
+                    }
+                }
+            } else if finite {
+                for share in shares {
+                    let at = [x as f32 + share.position[0], y as f32 + share.position[1]];
+                    spread.add(filter, at, size, share.rgb);
+                }
+            }
+            [radiance.r[i], radiance.g[i], radiance.b[i]] = own;
+        }
+        rejected
+    }
 }
