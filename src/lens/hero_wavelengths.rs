@@ -178,20 +178,35 @@ impl BackwardTrace<'_> {
         let backward = &mut scratch.rays;
         backward.clear();
         backward.resize(m * (count - 1));
+        // Every companion starts as the same ray: the first block is built from the heroes,
+        // the others are copies of it.
+        for (p, &i) in scratch.passed.iter().enumerate() {
+            let (d, o) = (rays.direction(i as usize), rays.origin(i as usize));
+            backward.ox[p] = o[0] + BACKWARD_START_MM * d[0];
+            backward.oy[p] = o[1] + BACKWARD_START_MM * d[1];
+            backward.oz[p] = o[2] + BACKWARD_START_MM * d[2];
+            backward.dx[p] = -d[0];
+            backward.dy[p] = -d[1];
+            backward.dz[p] = -d[2];
+        }
+        for block in 1..count - 1 {
+            for v in [
+                &mut backward.ox,
+                &mut backward.oy,
+                &mut backward.oz,
+                &mut backward.dx,
+                &mut backward.dy,
+                &mut backward.dz,
+            ] {
+                v.copy_within(0..m, block * m);
+            }
+        }
         scratch.nm.clear();
         for k in 1..count {
-            for (p, &i) in scratch.passed.iter().enumerate() {
-                let (i, j) = (i as usize, (k - 1) * m + p);
-                let d = rays.direction(i);
-                let o = rays.origin(i);
-                backward.ox[j] = o[0] + BACKWARD_START_MM * d[0];
-                backward.oy[j] = o[1] + BACKWARD_START_MM * d[1];
-                backward.oz[j] = o[2] + BACKWARD_START_MM * d[2];
-                backward.dx[j] = -d[0];
-                backward.dy[j] = -d[1];
-                backward.dz[j] = -d[2];
-                scratch.nm.push(hero.nm[k * n + i]);
-            }
+            let wavelengths = &hero.nm[k * n..(k + 1) * n];
+            scratch
+                .nm
+                .extend(scratch.passed.iter().map(|&i| wavelengths[i as usize]));
         }
         let wavelengths = Wavelengths {
             table: self.table,
