@@ -648,10 +648,8 @@ impl LensCamera<'_> {
         owen_sobol_batch(sample, keys, [film_u, film_v], &mut scratch.sobol);
         if spectral {
             keys.clear();
-            keys.extend(
-                (scratch.pixel.iter())
-                    .map(|&pixel| hash32(hash32(pixel ^ pupil_seed) ^ WAVELENGTH_KEY)),
-            );
+            let pupil_key = |&pixel: &u32| hash32(hash32(pixel ^ pupil_seed) ^ WAVELENGTH_KEY);
+            keys.extend(scratch.pixel.iter().map(pupil_key));
             owen_sobol_batch(sample, keys, [pupil_u, pupil_v, wave_u], &mut scratch.sobol);
         } else {
             for key in keys.iter_mut() {
