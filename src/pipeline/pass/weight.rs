@@ -51,8 +51,8 @@ pub fn weight(
                 filter,
                 size,
             };
-            // Compiled again for wider vector units, the widest this CPU has chosen, as the
-            // lens kernel is (the same operations, so the same bits).
+            // Compiled again for wider vector units and the widest this CPU has chosen, as
+            // for the lens kernel (the same operations, so the same bits).
             match Isa::detect() {
                 Isa::Baseline => job.run(),
                 // SAFETY (both): `Isa::detect` found the instructions on this CPU.
