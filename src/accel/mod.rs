@@ -481,29 +481,28 @@ impl SceneAccel {
     /// Closest hit through the wide BVH (`runnable` checked it is there).
     #[inline(always)]
     fn wide_closest(&self, ray: Ray) -> Option<(usize, TriangleHit)> {
-        let wide = self.wide.as_ref()?;
-        let is_hole = |index: usize, u, v| self.is_alpha_hole(index as u32, u, v);
-        #[cfg(target_arch = "x86_64")]
-        if self.obvhs_traversal == Traversal::Avx2 {
-            // SAFETY: `Traversal::fastest_obvhs` found AVX2 on this CPU.
-            return unsafe { wide_traversal::closest_avx2(wide, &self.primitives, ray, is_hole) };
-        }
-        wide_traversal::closest(wide, &self.primitives, ray, is_hole)
+        self.wide_first_hit::<false>(ray)
     }
 
     /// Any hit through the wide BVH.
     #[inline(always)]
     fn wide_any_hit(&self, ray: Ray) -> bool {
-        let Some(wide) = self.wide.as_ref() else {
-            return false;
-        };
+        self.wide_first_hit::<true>(ray).is_some()
+    }
+
+    /// [`wide_traversal::first_hit`] with the AVX2 node test where this CPU has it.
+    #[inline(always)]
+    fn wide_first_hit<const ANY_HIT: bool>(&self, ray: Ray) -> Option<(usize, TriangleHit)> {
+        let wide = self.wide.as_ref()?;
         let is_hole = |index: usize, u, v| self.is_alpha_hole(index as u32, u, v);
         #[cfg(target_arch = "x86_64")]
         if self.obvhs_traversal == Traversal::Avx2 {
             // SAFETY: `Traversal::fastest_obvhs` found AVX2 on this CPU.
-            return unsafe { wide_traversal::any_hit_avx2(wide, &self.primitives, ray, is_hole) };
+            return unsafe {
+                wide_traversal::first_hit_avx2::<ANY_HIT>(wide, &self.primitives, ray, is_hole)
+            };
         }
-        wide_traversal::any_hit(wide, &self.primitives, ray, is_hole)
+        wide_traversal::first_hit::<ANY_HIT>(wide, &self.primitives, ray, is_hole)
     }
 
     /// The triangle test traversal calls: geometry, then the alpha mask.

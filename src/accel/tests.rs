@@ -1033,9 +1033,11 @@ fn wide_traversal_portable_equals_avx2() {
         let ray = accel
             .bvh_ray(origin, direction, f32::INFINITY)
             .expect("a ray");
-        let portable = wide_traversal::closest(wide, &accel.primitives, ray, is_hole);
+        let portable = wide_traversal::first_hit::<false>(wide, &accel.primitives, ray, is_hole);
         // SAFETY: checked above that the CPU has AVX2.
-        let avx2 = unsafe { wide_traversal::closest_avx2(wide, &accel.primitives, ray, is_hole) };
+        let avx2 = unsafe {
+            wide_traversal::first_hit_avx2::<false>(wide, &accel.primitives, ray, is_hole)
+        };
         assert_eq!(
             portable.map(|(i, h)| (i, h.t, h.u, h.v)),
             avx2.map(|(i, h)| (i, h.t, h.u, h.v)),
@@ -1045,11 +1047,12 @@ fn wide_traversal_portable_equals_avx2() {
         for t_max in [0.5, 2.0, f32::INFINITY] {
             let ray = accel.bvh_ray(origin, direction, t_max).expect("a ray");
             // SAFETY: as above.
-            let avx2 =
-                unsafe { wide_traversal::any_hit_avx2(wide, &accel.primitives, ray, is_hole) };
+            let avx2 = unsafe {
+                wide_traversal::first_hit_avx2::<true>(wide, &accel.primitives, ray, is_hole)
+            };
             assert_eq!(
-                wide_traversal::any_hit(wide, &accel.primitives, ray, is_hole),
-                avx2
+                wide_traversal::first_hit::<true>(wide, &accel.primitives, ray, is_hole).is_some(),
+                avx2.is_some()
             );
         }
     }

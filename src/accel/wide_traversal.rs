@@ -17,8 +17,8 @@
 //! box starts beyond the closest hit found so far is dropped when popped. Any-hit traversal
 //! skips the sort: it stops at the first hit, wherever it is.
 //!
-//! The loops are written for the compiler to vectorise: [`closest_avx2`] and [`any_hit_avx2`]
-//! compile the same code with AVX2, where each plane of a node is one 8-lane vector.
+//! The loops are written for the compiler to vectorise: [`first_hit_avx2`]
+//! compiles the same code with AVX2, where each plane of a node is one 8-lane vector.
 
 use std::mem::MaybeUninit;
 
@@ -125,39 +125,30 @@ fn entry_distance(entry: u64) -> f32 {
 /// A triangle's hit, BVH order index.
 pub(super) type ClosestHit = Option<(usize, TriangleHit)>;
 
-/// Closest hit in (`ENTRY_EPSILON`, `ray.tmax`]: the triangle test of every triangle of every
-/// box the ray reaches, `is_hole(triangle, u, v)` skipping alpha-masked holes.
+/// With `ANY_HIT` false, the closest hit in (`ENTRY_EPSILON`, `ray.tmax`]: the triangle test
+/// of every triangle of every box the ray reaches, `is_hole(triangle, u, v)` skipping
+/// alpha-masked holes. With `ANY_HIT` true, the first hit found before `ray.tmax` (whether
+/// there is one: shadow rays stop there).
 #[inline(always)]
-pub(super) fn closest(
+pub(super) fn first_hit<const ANY_HIT: bool>(
     bvh: &WideBvh,
     primitives: &[TrianglePrimitive],
     ray: Ray,
     is_hole: impl Fn(usize, f32, f32) -> bool,
 ) -> ClosestHit {
-    traverse::<false>(bvh, primitives, ray, ChildRef::ROOT, is_hole, hit_children)
+    traverse::<ANY_HIT>(bvh, primitives, ray, ChildRef::ROOT, is_hole, hit_children)
 }
 
-/// Whether any triangle is hit before `ray.tmax`; stops at the first.
-#[inline(always)]
-pub(super) fn any_hit(
-    bvh: &WideBvh,
-    primitives: &[TrianglePrimitive],
-    ray: Ray,
-    is_hole: impl Fn(usize, f32, f32) -> bool,
-) -> bool {
-    traverse::<true>(bvh, primitives, ray, ChildRef::ROOT, is_hole, hit_children).is_some()
-}
-
-/// [`closest`] with the AVX2 node test. Callable where the CPU has AVX2.
+/// [`first_hit`] with the AVX2 node test. Callable where the CPU has AVX2.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,bmi1,bmi2,lzcnt,popcnt")]
-pub(super) fn closest_avx2(
+pub(super) fn first_hit_avx2<const ANY_HIT: bool>(
     bvh: &WideBvh,
     primitives: &[TrianglePrimitive],
     ray: Ray,
     is_hole: impl Fn(usize, f32, f32) -> bool,
 ) -> ClosestHit {
-    traverse::<false>(
+    traverse::<ANY_HIT>(
         bvh,
         primitives,
         ray,
@@ -165,26 +156,6 @@ pub(super) fn closest_avx2(
         is_hole,
         |node, slab, t_max| avx2::hit_children(node, slab, t_max),
     )
-}
-
-/// [`any_hit`] with the AVX2 node test. Callable where the CPU has AVX2.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,bmi1,bmi2,lzcnt,popcnt")]
-pub(super) fn any_hit_avx2(
-    bvh: &WideBvh,
-    primitives: &[TrianglePrimitive],
-    ray: Ray,
-    is_hole: impl Fn(usize, f32, f32) -> bool,
-) -> bool {
-    traverse::<true>(
-        bvh,
-        primitives,
-        ray,
-        ChildRef::ROOT,
-        is_hole,
-        |node, slab, t_max| avx2::hit_children(node, slab, t_max),
-    )
-    .is_some()
 }
 
 /// The traversal loop; `ANY_HIT` picks the any-hit flavour (which returns its first hit).
