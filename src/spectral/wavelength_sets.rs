@@ -35,7 +35,7 @@ use std::sync::OnceLock;
 
 use super::observer::XYZ_FROM_SRGB;
 use super::upsample::spectral_film;
-use super::wavelengths::sample_wavelength;
+use super::wavelengths::{between_knots, sample_wavelength};
 
 /// The most wavelengths a camera sample's set may hold.
 pub const MAX_SET_SIZE: u32 = 8;
@@ -67,17 +67,12 @@ pub fn draw_wavelength_set(u: f32, count: u32) -> WavelengthSet {
             inverse_density: 1.0,
         };
     }
-    let knots = set_knots(count);
     let scaled = u * count as f32;
     let stratum = (scaled as u32).min(count - 1);
-    let v = scaled - stratum as f32;
-    let x = (v * SET_STEPS as f32).clamp(0.0, SET_STEPS as f32 - 1e-3);
-    let step = (x as usize).min(SET_STEPS - 1);
-    let width = knots[step + 1] - knots[step];
-    let warped = knots[step] + (x - step as f32) * width;
+    let (warped, inverse_density) = between_knots(set_knots(count), scaled - stratum as f32);
     WavelengthSet {
         u: ((stratum as f32 + warped) / count as f32).min(1.0 - f32::EPSILON / 2.0),
-        inverse_density: SET_STEPS as f32 * width,
+        inverse_density,
     }
 }
 

@@ -104,14 +104,21 @@ pub struct WavelengthSample {
 /// The wavelength for uniform `u` ∈ [0, 1).
 #[inline]
 pub fn sample_wavelength(u: f32) -> WavelengthSample {
-    let knots = &sampler().knots;
-    let x = (u * KNOTS as f32).clamp(0.0, KNOTS as f32 - 1e-3);
-    let k = (x as usize).min(KNOTS - 1);
+    let (nm, inverse_pdf) = between_knots(&sampler().knots, u);
+    WavelengthSample { nm, inverse_pdf }
+}
+
+/// The value for uniform `u` ∈ [0, 1) of a sampler given by `knots` at equal steps of
+/// cumulative probability (linear between them), and the inverse of the density it was drawn
+/// with: the number of steps times the width of the step it falls in.
+#[inline(always)]
+pub(crate) fn between_knots(knots: &[f32], u: f32) -> (f32, f32) {
+    let steps = knots.len() - 1;
+    // The last step's end stays out of reach.
+    let x = (u * steps as f32).clamp(0.0, steps as f32 - 1e-3);
+    let k = (x as usize).min(steps - 1);
     let width = knots[k + 1] - knots[k];
-    WavelengthSample {
-        nm: knots[k] + (x - k as f32) * width,
-        inverse_pdf: KNOTS as f32 * width,
-    }
+    (knots[k] + (x - k as f32) * width, steps as f32 * width)
 }
 
 /// λ (nm) at the cumulative probabilities k/4096, k = 0..=4096: the knots

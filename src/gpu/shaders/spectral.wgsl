@@ -29,13 +29,20 @@ struct SpectralSample {
 // The wavelength for uniform `u` in [0, 1): linear between equal-probability knots, so the
 // density drawn with is constant within each step and every sample knows it exactly.
 fn sample_wavelength(u: f32) -> SpectralSample {
-    let steps = spectral_tables.knot_steps;
-    // 4096 - 1e-3 in f32, as the CPU computes it: the last step's end stays out of reach.
+    let drawn = spectral_between_knots(0u, spectral_tables.knot_steps, u);
+    return SpectralSample(drawn.x, drawn.y);
+}
+
+// The value for uniform `u` in [0, 1) of a sampler whose `steps` + 1 knots, at equal steps of
+// cumulative probability, start at data[start] (linear between them), and the inverse of the
+// density it was drawn with (spectral::between_knots).
+fn spectral_between_knots(start: u32, steps: u32, u: f32) -> vec2f {
+    // steps - 1e-3 in f32, as the CPU computes it: the last step's end stays out of reach.
     let x = clamp(u * f32(steps), 0.0, f32(steps) - 0.001);
     let k = min(u32(x), steps - 1u);
-    let knot = spectral_tables.data[k];
-    let width = spectral_tables.data[k + 1u] - knot;
-    return SpectralSample(knot + (x - f32(k)) * width, f32(steps) * width);
+    let knot = spectral_tables.data[start + k];
+    let width = spectral_tables.data[start + k + 1u] - knot;
+    return vec2f(knot + (x - f32(k)) * width, f32(steps) * width);
 }
 
 // A camera sample's set of `count` wavelengths for uniform `u` (spectral::draw_wavelength_set):
@@ -54,14 +61,9 @@ fn draw_wavelength_set(u: f32, count: u32) -> WavelengthSet {
     let start = spectral_tables.set_start + (count - 2u) * (steps + 1u);
     let scaled = u * f32(count);
     let stratum = min(u32(scaled), count - 1u);
-    let v = scaled - f32(stratum);
-    let x = clamp(v * f32(steps), 0.0, f32(steps) - 0.001);
-    let step = min(u32(x), steps - 1u);
-    let knot = spectral_tables.data[start + step];
-    let width = spectral_tables.data[start + step + 1u] - knot;
-    let warped = knot + (x - f32(step)) * width;
+    let warped = spectral_between_knots(start, steps, scaled - f32(stratum));
     // 1 - 2^-24: the largest f32 below 1, as the CPU clamps.
-    return WavelengthSet(min((f32(stratum) + warped) / f32(count), 0.99999994), f32(steps) * width);
+    return WavelengthSet(min((f32(stratum) + warped.x) / f32(count), 0.99999994), warped.y);
 }
 
 // Three consecutive values of the film table from `start`.
