@@ -18,6 +18,11 @@
 #   3. the CPU path's thread scaling, both scenes: 1 thread and all cores (16), 640² at 16 spp;
 #   4. `realcam bench --device gpu`: the lens-tracing workload on the GPU beside the CPU kernels;
 #   5. the live lab's first image after a change at 1024² on the GPU (live_latency.py);
+#   6. the CPU path's scaling stage by stage: 1, 2, 4, 8 and all cores, both scenes, ${SIZE}² at
+#      $SPP spp (all cores three times), each render's --stats (wall and busy seconds per stage)
+#      kept in scaling.tar;
+#   7. the GPU's cost of the wavelengths a sample carries: `--wavelengths 1`, the default and
+#      `--dispersion off`, both scenes, ${SIZE}² at $SPP spp, three rounds (gpu_wavelengths.tar);
 #   0. (first, when $TESTS names the library's unit-test binary, built here with
 #      `cargo test --release --lib --no-run`) the GPU unit tests against the CPU, on this GPU.
 # STEPS picks which run (default "0 1 2 3 4 5"; step 0 only with $TESTS).
@@ -138,6 +143,86 @@ step "3. the CPU path's thread scaling: 1 and $THREADS_MAX threads, ${SIZE}², $
 for threads in 1 "$THREADS_MAX"; do
   compare --device cpu --threads "$threads" --peers none --size "$SIZE" --spp "$SCALE_SPP" --results "$OUT/results_threads$threads.json"
 done
+fi
+
+# One render with compare.py's peer settings; its --stats to $1 (the remaining arguments are
+# added to the command line).
+render_peer() {
+  local stats=$1 glb=$2; shift 2
+  timeout -k 5 "$GPU_TIMEOUT" "$REALCAM" render "$WORK/$glb.glb" --lens dgauss.50mm --aperture 8 \
+    --film-diagonal 35 --look-from 0,0,4.5 --look-at 0,0,0 --env 1,1,1 --width "$SIZE" \
+    --height "$SIZE" --spp "$SPP" --max-depth 5 --out "/tmp/render.png" --stats "$stats" "$@" \
+    >/dev/null 2>/tmp/render.err || { echo "render failed: $*"; tail -3 /tmp/render.err; }
+}
+
+if want 6; then
+  step "6. the CPU path's scaling stage by stage, ${SIZE}², $SPP spp"
+  rm -rf /tmp/scaling; mkdir -p /tmp/scaling
+  for scene in helmet spheres; do
+    for threads in 1 2 4 8 "$THREADS_MAX" "$THREADS_MAX" "$THREADS_MAX"; do
+      [ "$(left)" -gt 30 ] || { echo "skipped: the time budget is spent"; break 2; }
+      n=$(ls /tmp/scaling | grep -c "^$scene.t$threads\." || true)
+      render_peer "/tmp/scaling/$scene.t$threads.$n.json" "$scene" --threads "$threads"
+    done
+    for threads in 1 "$THREADS_MAX"; do
+      render_peer "/tmp/scaling/$scene.rgb.t$threads.0.json" "$scene" --threads "$threads" --dispersion off
+    done
+  done
+  (cd /tmp/scaling && tar -cf - *.json) > "$OUT/scaling.tar"
+  python3 - /tmp/scaling <<'PY'
+import glob, json, os, sys
+rows = {}
+for path in sorted(glob.glob(os.path.join(sys.argv[1], "*.json"))):
+    name = os.path.basename(path)[:-len(".json")]
+    key = name.rsplit(".", 1)[0]
+    rows.setdefault(key, []).append(json.load(open(path)))
+def pick(runs):  # the median run by pass rate
+    return sorted(runs, key=lambda s: s["samples_per_second"])[len(runs) // 2]
+for key in sorted(rows, key=lambda k: (k.split(".t")[0], int(k.split(".t")[1]))):
+    s = pick(rows[key]); wall = s["stage_seconds"]; busy = s.get("stage_busy_seconds", {})
+    threads = s.get("threads", 0) or 1
+    rates = ", ".join(f"{r['samples_per_second'] / 1e6:.2f}" for r in rows[key])
+    print(f"{key:<16} {s['samples_per_second'] / 1e6:7.2f} M/s (runs {rates}); wall {s['wall_seconds']:.2f} s;"
+          f" load {wall.get('load_scene', 0):.2f} bvh {wall.get('build_bvh', 0):.2f}")
+    for stage in ("generate_rays", "trace", "shade", "weight", "write_film"):
+        if stage in wall and wall[stage] > 0:
+            b = busy.get(stage, 0.0)
+            print(f"    {stage:<14} wall {wall[stage]:7.3f} s  busy {b:7.3f} s  busy/(wall×threads) {b / (wall[stage] * threads):.2f}")
+for scene in ("helmet", "spheres", "helmet.rgb", "spheres.rgb"):
+    one = rows.get(f"{scene}.t1")
+    if not one:
+        continue
+    for key in rows:
+        if key.startswith(scene + ".t") and key != f"{scene}.t1":
+            print(f"scaling {scene}: {key.split('.t')[-1]} threads ÷ 1 = {pick(rows[key])['samples_per_second'] / pick(one)['samples_per_second']:.2f}×")
+PY
+fi
+
+if want 7; then
+  step "7. the GPU's cost of the wavelengths a sample carries, ${SIZE}², $SPP spp"
+  rm -rf /tmp/gpuw; mkdir -p /tmp/gpuw
+  for round in 0 1 2; do
+    for scene in helmet spheres; do
+      [ "$(left)" -gt 20 ] || { echo "skipped: the time budget is spent"; break 2; }
+      render_peer "/tmp/gpuw/$scene.w1.$round.json" "$scene" --device gpu --wavelengths 1
+      render_peer "/tmp/gpuw/$scene.default.$round.json" "$scene" --device gpu
+      render_peer "/tmp/gpuw/$scene.rgb.$round.json" "$scene" --device gpu --dispersion off
+    done
+  done
+  (cd /tmp/gpuw && tar -cf - *.json) > "$OUT/gpu_wavelengths.tar"
+  python3 - /tmp/gpuw <<'PY'
+import glob, json, os, statistics, sys
+rates = {}
+for path in glob.glob(os.path.join(sys.argv[1], "*.json")):
+    key = os.path.basename(path).rsplit(".", 2)[0]
+    rates.setdefault(key, []).append(json.load(open(path))["samples_per_second"] / 1e6)
+for key in sorted(rates):
+    print(f"{key:<18} median {statistics.median(rates[key]):8.1f} M/s  runs {', '.join(f'{r:.1f}' for r in sorted(rates[key]))}")
+for scene in ("helmet", "spheres"):
+    if f"{scene}.w1" in rates and f"{scene}.default" in rates:
+        w1, d = statistics.median(rates[f"{scene}.w1"]), statistics.median(rates[f"{scene}.default"])
+        print(f"{scene}: default ÷ --wavelengths 1 time = {w1 / d:.2f}×")
+PY
 fi
 
 if want 4; then

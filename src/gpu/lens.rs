@@ -617,6 +617,13 @@ fn test_spectral(@builtin(global_invocation_id) id: vec3u) {
     /// Rays blocked on one device and not the other: those grazing an aperture's edge or a
     /// blade, where a last-bit difference decides. At most this many per 1000 rays.
     const BORDERLINE_PER_MILLE: usize = 3;
+    /// Companions whose film position the GPU puts one 1/256-pixel step from the CPU's: the
+    /// position is rounded to the step's grid, so a companion lands a step off with probability
+    /// about 2·E|Δ|/step for a rounding difference Δ before the grid. Fused multiply-adds on an
+    /// H200 (2026-11-27) put 4 of 2,488 and 7 of 2,247 a step off (0.16–0.31 %, so E|Δ| is about
+    /// 1e-3 of a step, far inside the rays' own tolerances); lavapipe, which does not fuse, none.
+    /// No companion may be more than one step off.
+    const COMPANION_STEP_OFF_PER_MILLE: usize = 10;
 
     /// A wavelength sample's λ as the CPU draws it: bit for bit on lavapipe; within two ulps
     /// (at 780 nm) where a GPU fuses the interpolation's multiply-add.
@@ -842,7 +849,7 @@ fn test_spectral(@builtin(global_invocation_id) id: vec3u) {
             }
         }
         assert!(
-            a_step_off * 1000 <= BORDERLINE_PER_MILLE * companions,
+            a_step_off * 1000 <= COMPANION_STEP_OFF_PER_MILLE * companions,
             "{a_step_off} of {companions} companions' film positions a step off the CPU's"
         );
         assert!(

@@ -6,6 +6,20 @@ use super::frame::FrameReport;
 use crate::lens::elements::LensDerivationStats;
 use crate::pipeline::{GpuBackend, RenderStats, Renderer, Stage};
 
+/// Seconds per stage, by the stage's name.
+fn per_stage(times: &[std::time::Duration; 8]) -> Value {
+    Stage::ALL
+        .iter()
+        .map(|s| {
+            (
+                s.name().to_string(),
+                json!(times[*s as usize].as_secs_f64()),
+            )
+        })
+        .collect::<serde_json::Map<_, _>>()
+        .into()
+}
+
 pub(super) fn stats_json(
     renderer: &mut Renderer,
     frames: &[FrameReport],
@@ -13,15 +27,6 @@ pub(super) fn stats_json(
 ) -> Value {
     let stats = renderer.world.resource::<RenderStats>().clone();
     let lens_stats = *renderer.world.resource::<LensDerivationStats>();
-    let stages: serde_json::Map<String, serde_json::Value> = Stage::ALL
-        .iter()
-        .map(|s| {
-            (
-                s.name().to_string(),
-                json!(stats.stage_time[*s as usize].as_secs_f64()),
-            )
-        })
-        .collect();
     let pass_seconds: f64 = Stage::ALL[3..]
         .iter()
         .map(|s| stats.stage_time[*s as usize].as_secs_f64())
@@ -35,7 +40,9 @@ pub(super) fn stats_json(
         "gpu_adapter": adapter,
         "wall_seconds": wall_seconds,
         "gpu_kernel_seconds": stats.gpu_kernel_time.as_secs_f64(),
-        "stage_seconds": stages,
+        "stage_seconds": per_stage(&stats.stage_time),
+        "stage_busy_seconds": per_stage(&stats.stage_busy),
+        "threads": rayon::current_num_threads(),
         "scene_loads": stats.scene_loads,
         "bvh_builds": stats.bvh_builds,
         "triangles": stats.triangles,

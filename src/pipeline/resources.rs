@@ -123,6 +123,12 @@ pub struct PipelineFault(pub String);
 #[derive(Resource, Clone, Debug, Default)]
 pub struct RenderStats {
     pub stage_time: [Duration; 8],
+    /// Per stage, the time spent inside its per-tile work summed over the tiles: set against
+    /// `stage_time` × threads it says how long the workers sat idle (waiting for the stage's
+    /// last tiles) rather than worked. A tile that waits on its own parallel work (the rays'
+    /// traversal and shading split again) may run another tile meanwhile, and both count: the
+    /// sum can exceed `stage_time` × threads by that overlap, a few per cent at 16 threads.
+    pub stage_busy: [Duration; 8],
     pub scene_loads: u64,
     pub bvh_builds: u64,
     pub triangles: u64,
@@ -141,6 +147,10 @@ pub struct RenderStats {
 impl RenderStats {
     pub(super) fn add_time(&mut self, stage: Stage, start: Instant) {
         self.stage_time[stage as usize] += start.elapsed();
+    }
+
+    pub(super) fn add_busy(&mut self, stage: Stage, busy: Duration) {
+        self.stage_busy[stage as usize] += busy;
     }
 
     /// The sample counters since `earlier` (an earlier copy): what one frame did.

@@ -67,6 +67,38 @@ fn several_lenses_share_one_scene_load_and_one_bvh() {
     );
 }
 
+/// `--stats` says how busy each pass stage kept its workers: with one tile (the frame is
+/// smaller than a tile) no tile's time overlaps another's, so never more than the stage's wall
+/// time on every thread, and every pass stage busy for some of it.
+#[test]
+fn stats_give_each_stage_its_busy_time_within_wall_time_times_threads() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut args = vec![
+        "render",
+        "--spp",
+        "2",
+        "--threads",
+        "2",
+        "--stats",
+        "stats.json",
+    ];
+    args.extend(SMALL);
+    ok(&realcam(dir.path(), &args));
+    let stats: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.path().join("stats.json")).unwrap()).unwrap();
+    assert_eq!(stats["threads"], 2);
+    for stage in ["generate_rays", "trace", "shade", "weight", "write_film"] {
+        let wall = stats["stage_seconds"][stage].as_f64().unwrap();
+        let busy = stats["stage_busy_seconds"][stage].as_f64().unwrap();
+        assert!(busy > 0.0, "{stage}: busy {busy} s");
+        // Timers read a little apart: a microsecond per tile and pass of slack.
+        assert!(
+            busy <= 2.0 * wall + 1e-4,
+            "{stage}: busy {busy} s, wall {wall} s"
+        );
+    }
+}
+
 #[test]
 fn each_lens_of_a_run_renders_on_its_own_film_as_it_does_alone() {
     let dir = tempfile::tempdir().unwrap();

@@ -8,7 +8,8 @@ mod shade;
 mod trace;
 mod weight;
 
-use std::time::Instant;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::time::{Duration, Instant};
 
 use bevy_ecs::schedule::common_conditions::not;
 use bevy_ecs::schedule::{IntoScheduleConfigs, Schedule, SystemCondition};
@@ -45,7 +46,8 @@ pub(super) fn pass_pending(pass: Res<PassState>, cancel: Option<Res<PassCancel>>
 }
 
 /// What every pass system does around its per-tile work: runs `work` on each of `tiles` in
-/// parallel (rayon) and adds the wall time to `stage`'s in `stats`. Once `cancel` is raised
+/// parallel (rayon) and adds the wall time to `stage`'s in `stats`, and the time inside `work` summed
+/// over the tiles to its busy time. Once `cancel` is raised
 /// the tiles not yet started are skipped; Weight and WriteFilm pass no flag, since their run
 /// condition already kept the pass for the film, which takes all of a pass or none of it.
 /// Returns the results of the tiles that ran.
@@ -58,10 +60,20 @@ pub(super) fn run_on_tiles<T: Send, R: Send>(
 ) -> Vec<R> {
     let start = Instant::now();
     let tiles: Vec<T> = tiles.into_iter().collect();
+    let busy_nanos = AtomicU64::new(0);
     let results = tiles
         .into_par_iter()
-        .filter_map(|tile| (!PassCancel::raised(cancel)).then(|| work(tile)))
+        .filter_map(|tile| {
+            (!PassCancel::raised(cancel)).then(|| {
+                let tile_start = Instant::now();
+                let result = work(tile);
+                let nanos = tile_start.elapsed().as_nanos() as u64;
+                busy_nanos.fetch_add(nanos, Ordering::Relaxed);
+                result
+            })
+        })
         .collect();
     stats.add_time(stage, start);
+    stats.add_busy(stage, Duration::from_nanos(busy_nanos.into_inner()));
     results
 }
