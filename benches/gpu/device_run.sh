@@ -23,6 +23,8 @@
 #      kept in scaling.tar;
 #   7. the GPU's cost of the wavelengths a sample carries: `--wavelengths 1`, the default and
 #      `--dispersion off`, both scenes, ${SIZE}² at $SPP spp, three rounds (gpu_wavelengths.tar);
+#   8. benches/gpu/variants.py once per file named in $VARIANT_FILES (its arguments, one a line:
+#      variants of the binary side by side, e.g. benches/gpu/probes/), results variants_*.json;
 #   0. (first, when $TESTS names the library's unit-test binary, built here with
 #      `cargo test --release --lib --no-run`) the GPU unit tests against the CPU, on this GPU.
 # STEPS picks which run (default "0 1 2 3 4 5"; step 0 only with $TESTS).
@@ -73,6 +75,7 @@ if compgen -G '.whl/*.whl' >/dev/null; then
     && export PYTHONPATH=/tmp/site${PYTHONPATH:+:$PYTHONPATH} && echo "installed .whl into /tmp/site"
 fi
 nvidia-smi -L 2>&1 || echo "nvidia-smi: not available"
+lscpu 2>/dev/null | grep -E '^(Model name|CPU\(s\)|Thread|Core|Socket|NUMA node\(s\)|L3|CPU max MHz)' || true
 nproc; python3 --version
 if [ ! -x "$REALCAM" ]; then echo "no realcam binary at $REALCAM (set REALCAM)"; exit 2; fi
 sha256sum "$REALCAM"; "$REALCAM" --version
@@ -223,6 +226,15 @@ for scene in ("helmet", "spheres"):
         w1, d = statistics.median(rates[f"{scene}.w1"]), statistics.median(rates[f"{scene}.default"])
         print(f"{scene}: default ÷ --wavelengths 1 time = {w1 / d:.2f}×")
 PY
+fi
+
+if want 8; then
+  for args in ${VARIANT_FILES:-}; do
+    step "8. variants side by side: $args"
+    [ "$(left)" -gt 20 ] || { echo "skipped: the time budget is spent"; break; }
+    timeout -k 5 "$(left)" python3 benches/gpu/variants.py "@$args" --work "$WORK" \
+      --budget "$(( $(left) - 15 ))" --results "$OUT/variants_$(basename "$args" .args).json"
+  done
 fi
 
 if want 4; then

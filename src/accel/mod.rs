@@ -318,6 +318,17 @@ impl SceneAccel {
     /// direction octant, or with a single alive ray, goes one ray at a time. Hits are those of
     /// [`SceneAccel::intersect`], to exact ties.
     pub fn intersect_batch(&self, rays: &RayBatch, hits: &mut HitBatch) {
+        self.intersect_batch_with(rays, hits, BatchParallelism::Spread);
+    }
+
+    /// [`SceneAccel::intersect_batch`], its rays shared among the threads as `parallelism`
+    /// says (the same hits either way).
+    pub fn intersect_batch_with(
+        &self,
+        rays: &RayBatch,
+        hits: &mut HitBatch,
+        parallelism: BatchParallelism,
+    ) {
         const CHUNK: usize = 64;
         hits.resize(rays.len());
         let HitBatch { t, triangle, u, v } = hits;
@@ -329,6 +340,7 @@ impl SceneAccel {
             .zip(u.par_chunks_mut(CHUNK))
             .zip(v.par_chunks_mut(CHUNK))
             .enumerate()
+            .with_min_len(parallelism.min_task_len(1))
             .for_each_init(Vec::new, |stack, (chunk, (((t, triangle), u), v))| {
                 for p in (0..t.len()).step_by(PACKET_RAYS) {
                     let end = (p + PACKET_RAYS).min(t.len());
@@ -511,6 +523,27 @@ impl SceneAccel {
         let hit =
             self.primitives[index].intersect(ray.origin, ray.direction, ray.tmin, ray.tmax)?;
         (!self.is_alpha_hole(index as u32, hit.u, hit.v)).then_some(hit)
+    }
+}
+
+/// How a batch's rays are shared among the worker threads: spread over them in tasks, or all
+/// handled by the thread that holds the batch. The renderer's stages work on many batches at
+/// once, one per film tile; where those alone keep every thread busy, splitting each batch
+/// again only adds tasks to schedule and moves rays between cores.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum BatchParallelism {
+    #[default]
+    Spread,
+    OneThread,
+}
+
+impl BatchParallelism {
+    /// The least number of items one task takes: `per_task` when spread, else all of them.
+    pub fn min_task_len(self, per_task: usize) -> usize {
+        match self {
+            BatchParallelism::Spread => per_task,
+            BatchParallelism::OneThread => usize::MAX,
+        }
     }
 }
 

@@ -28,7 +28,7 @@ pub(crate) mod tests;
 use glam::Vec3;
 use rayon::prelude::*;
 
-use crate::accel::SceneAccel;
+use crate::accel::{BatchParallelism, SceneAccel};
 use crate::batch::{Hit, HitBatch, RayBatch};
 use crate::sampling::Rng;
 use crate::scene::MaterialLibrary;
@@ -125,6 +125,8 @@ pub struct Shader<'a> {
     /// Number of bounces: 0 = emitters and environment only, 1 = direct lighting, …
     pub max_depth: u32,
     pub seed: u64,
+    /// How a batch's paths are shared among the threads (the same radiance either way).
+    pub parallelism: BatchParallelism,
 }
 
 impl Shader<'_> {
@@ -158,7 +160,7 @@ impl Shader<'_> {
         // The paths still going, in the order their rays are traced.
         let mut live: Vec<PathSlot> = (0..n)
             .into_par_iter()
-            .with_min_len(64)
+            .with_min_len(self.parallelism.min_task_len(64))
             .filter_map(|i| {
                 if !rays.alive[i] {
                     return None;
@@ -196,7 +198,7 @@ impl Shader<'_> {
             // Each task counts into its own stats, summed (integers: in any order alike).
             *stats += live
                 .par_iter_mut()
-                .with_min_len(64)
+                .with_min_len(self.parallelism.min_task_len(64))
                 .fold(ShadeStats::default, |mut counts, slot| {
                     let step = self.advance(
                         &mut slot.path,
@@ -221,7 +223,7 @@ impl Shader<'_> {
                 slot.next.is_some()
             });
             stats.rays_traced += live.len() as u64;
-            bounce.trace(self.accel, &mut live);
+            bounce.trace(self.accel, &mut live, self.parallelism);
         }
     }
 }
@@ -254,7 +256,7 @@ impl BounceRays {
     /// The rays are grouped by direction octant, stably (a counting sort), so that within an
     /// octant they stay in pixel order: the 8-ray packets then hold one octant's rays from
     /// neighbouring pixels.
-    fn trace(&mut self, accel: &SceneAccel, live: &mut [PathSlot]) {
+    fn trace(&mut self, accel: &SceneAccel, live: &mut [PathSlot], parallelism: BatchParallelism) {
         let octant = |slot: &PathSlot| {
             let d = slot.path.direction;
             (d.x < 0.0) as usize | ((d.y < 0.0) as usize) << 1 | ((d.z < 0.0) as usize) << 2
@@ -281,7 +283,7 @@ impl BounceRays {
             (rays.ox[j], rays.oy[j], rays.oz[j]) = (origin.x, origin.y, origin.z);
             (rays.dx[j], rays.dy[j], rays.dz[j]) = (direction.x, direction.y, direction.z);
         }
-        accel.intersect_batch(rays, &mut self.hits);
+        accel.intersect_batch_with(rays, &mut self.hits, parallelism);
         for (j, &k) in self.order.iter().enumerate() {
             live[k as usize].hit = self.hits.hit(j);
         }

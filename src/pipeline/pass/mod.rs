@@ -19,6 +19,7 @@ use rayon::prelude::*;
 use super::Stage;
 use super::gpu::on_gpu;
 use super::resources::{PassCancel, PassState, RenderStats};
+use crate::accel::BatchParallelism;
 
 pub use film::write_film;
 pub use rays::generate_rays;
@@ -43,6 +44,21 @@ pub(super) fn add_systems(schedule: &mut Schedule) {
 /// A pass is requested and not abandoned: a cancelled pass never reaches Weight or WriteFilm.
 pub(super) fn pass_pending(pass: Res<PassState>, cancel: Option<Res<PassCancel>>) -> bool {
     pass.pending && !PassCancel::raised(cancel.as_deref())
+}
+
+/// With at least this many tiles per worker thread, the tiles alone keep every thread busy
+/// to the end of a stage, and each tile's rays stay on one thread (Trace, Shade): splitting
+/// them again made the 640² peer frames 5 % slower on 16 cores (BENCHMARKS.md, "Scaling").
+const TILES_PER_THREAD: usize = 4;
+
+/// How Trace and Shade share a tile's rays among the threads, for a pass of `tiles` tiles:
+/// spread over them only when the tiles are too few to keep every thread busy (a small frame).
+pub(super) fn tile_parallelism(tiles: usize) -> BatchParallelism {
+    if tiles >= TILES_PER_THREAD * rayon::current_num_threads() {
+        BatchParallelism::OneThread
+    } else {
+        BatchParallelism::Spread
+    }
 }
 
 /// What every pass system does around its per-tile work: runs `work` on each of `tiles` in

@@ -3,7 +3,7 @@
 use bevy_ecs::system::{Query, Res, ResMut};
 use bevy_ecs::world::Mut;
 
-use super::run_on_tiles;
+use super::{run_on_tiles, tile_parallelism};
 use crate::accel::SceneAccel;
 use crate::pipeline::Stage;
 use crate::pipeline::resources::{
@@ -36,6 +36,7 @@ pub fn shade(
         environment: &environment.0,
         max_depth: settings.max_depth,
         seed: settings.seed,
+        parallelism: tile_parallelism(tiles.iter().len()),
     };
     let shading: ShadeStats = run_on_tiles(
         Stage::Shade,

@@ -3,7 +3,7 @@
 use bevy_ecs::system::{Query, Res, ResMut};
 use bevy_ecs::world::Mut;
 
-use super::run_on_tiles;
+use super::{run_on_tiles, tile_parallelism};
 use crate::accel::SceneAccel;
 use crate::pipeline::Stage;
 use crate::pipeline::resources::{PassCancel, RenderStats, TileBatch};
@@ -16,6 +16,7 @@ pub fn trace_rays(
     mut stats: ResMut<RenderStats>,
 ) {
     let Some(accel) = accel else { return };
+    let parallelism = tile_parallelism(tiles.iter().len());
     let traced: u64 = run_on_tiles(
         Stage::Trace,
         tiles.iter_mut(),
@@ -23,7 +24,7 @@ pub fn trace_rays(
         &mut stats,
         |mut batch: Mut<TileBatch>| {
             let batch = &mut *batch;
-            accel.intersect_batch(&batch.camera.rays, &mut batch.hits);
+            accel.intersect_batch_with(&batch.camera.rays, &mut batch.hits, parallelism);
             batch.camera.rays.alive_count() as u64
         },
     )

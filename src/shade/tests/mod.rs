@@ -13,7 +13,7 @@ use glam::{Mat4, Vec3};
 
 use super::integrator::Strategy;
 use super::{Environment, EnvironmentSampling, LightSet, ShadeStats, Shader};
-use crate::accel::SceneAccel;
+use crate::accel::{BatchParallelism, SceneAccel};
 use crate::sampling::Rng;
 use crate::scene::{Material, MaterialLibrary, Mesh, MeshInstance, PunctualLight};
 
@@ -94,6 +94,7 @@ impl TestScene {
             environment: &self.environment,
             max_depth,
             seed,
+            parallelism: BatchParallelism::Spread,
         }
     }
 }

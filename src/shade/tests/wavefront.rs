@@ -3,6 +3,7 @@
 use glam::Vec3;
 
 use super::*;
+use crate::accel::BatchParallelism;
 use crate::batch::{HitBatch, RayBatch};
 use crate::scene::PunctualLight;
 use crate::shade::{RadianceBatch, SHADE_STREAM_KEY, ShadeStats};
@@ -29,8 +30,16 @@ fn wavefront_shading_is_the_reference_path_tracer_bit_for_bit() {
         &[light],
         Environment::Uniform(Vec3::new(0.4, 0.6, 1.0)),
     );
-    for max_depth in [1, 5, u32::MAX] {
-        let shader = scene.shader(max_depth, 11);
+    // Each tile's rays spread over the threads or kept on one: the same bits.
+    let modes = [BatchParallelism::Spread, BatchParallelism::OneThread];
+    for (max_depth, parallelism) in [1, 5, u32::MAX]
+        .into_iter()
+        .flat_map(|d| modes.map(|m| (d, m)))
+    {
+        let shader = Shader {
+            parallelism,
+            ..scene.shader(max_depth, 11)
+        };
         let mut rng = Rng::new(3, 4);
         let mut rays = RayBatch::default();
         for pixel in 0..700 {
@@ -47,7 +56,9 @@ fn wavefront_shading_is_the_reference_path_tracer_bit_for_bit() {
         rays.alive[5] = false;
         rays.alive[6] = false;
         let mut hits = HitBatch::default();
-        scene.accel.intersect_batch(&rays, &mut hits);
+        scene
+            .accel
+            .intersect_batch_with(&rays, &mut hits, parallelism);
         let (mut out, mut stats) = (RadianceBatch::default(), ShadeStats::default());
         shader.shade_batch(&rays, &hits, &mut out, &mut stats);
 
@@ -76,11 +87,11 @@ fn wavefront_shading_is_the_reference_path_tracer_bit_for_bit() {
             assert_eq!(
                 got.to_array().map(f32::to_bits),
                 expected.to_array().map(f32::to_bits),
-                "ray {i}, depth {max_depth}: {got} vs {expected}"
+                "ray {i}, depth {max_depth}, {parallelism:?}: {got} vs {expected}"
             );
         }
         // The same work and the same outcomes, counted path by path.
-        assert_eq!(stats, reference, "depth {max_depth}");
+        assert_eq!(stats, reference, "depth {max_depth}, {parallelism:?}");
         assert!(stats.camera_rays_escaped > 0 && stats.bounce_rays_escaped > 0);
         assert!(stats.light_samples > 0 && stats.light_samples_reached > 0);
         assert!(out.g.iter().any(|&g| g > 0.0));
