@@ -51,6 +51,27 @@ impl RayBatch {
         self.ox.is_empty()
     }
 
+    /// Room for `additional` more rays in every array, so that growing to that many
+    /// allocates nothing.
+    pub fn reserve(&mut self, additional: usize) {
+        for v in [
+            &mut self.ox,
+            &mut self.oy,
+            &mut self.oz,
+            &mut self.dx,
+            &mut self.dy,
+            &mut self.dz,
+            &mut self.tr,
+            &mut self.tg,
+            &mut self.tb,
+        ] {
+            v.reserve(additional);
+        }
+        self.pixel.reserve(additional);
+        self.sample.reserve(additional);
+        self.alive.reserve(additional);
+    }
+
     pub fn clear(&mut self) {
         for v in [
             &mut self.ox,
@@ -146,6 +167,14 @@ pub struct HitBatch {
 
 impl HitBatch {
     pub const MISS: u32 = u32::MAX;
+
+    /// Room for `additional` more hits, so that growing to that many allocates nothing.
+    pub fn reserve(&mut self, additional: usize) {
+        self.t.reserve(additional);
+        self.triangle.reserve(additional);
+        self.u.reserve(additional);
+        self.v.reserve(additional);
+    }
 
     pub fn resize(&mut self, n: usize) {
         self.t.clear();

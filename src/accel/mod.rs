@@ -332,27 +332,41 @@ impl SceneAccel {
         const CHUNK: usize = 64;
         hits.resize(rays.len());
         let HitBatch { t, triangle, u, v } = hits;
-        // Packets never straddle tasks (the chunk length is a multiple of the packet size),
-        // so the packets, and the hits, do not depend on how rayon splits the batch. Each task
-        // writes its rays' hits in place: no per-call list of hits to allocate and copy.
-        t.par_chunks_mut(CHUNK)
-            .zip(triangle.par_chunks_mut(CHUNK))
-            .zip(u.par_chunks_mut(CHUNK))
-            .zip(v.par_chunks_mut(CHUNK))
-            .enumerate()
-            .with_min_len(parallelism.min_task_len(1))
-            .for_each_init(Vec::new, |stack, (chunk, (((t, triangle), u), v))| {
-                for p in (0..t.len()).step_by(PACKET_RAYS) {
-                    let end = (p + PACKET_RAYS).min(t.len());
-                    let out = HitSlices {
-                        t: &mut t[p..end],
-                        triangle: &mut triangle[p..end],
-                        u: &mut u[p..end],
-                        v: &mut v[p..end],
-                    };
-                    self.intersect_packet(rays, chunk * CHUNK + p, out, stack);
-                }
-            });
+        // Rays first.. of the batch, packet by packet, their hits written in place.
+        let trace_packets = |stack: &mut Vec<packet_stack::Entry>,
+                             first: usize,
+                             t: &mut [f32],
+                             triangle: &mut [u32],
+                             u: &mut [f32],
+                             v: &mut [f32]| {
+            for p in (0..t.len()).step_by(PACKET_RAYS) {
+                let end = (p + PACKET_RAYS).min(t.len());
+                let out = HitSlices {
+                    t: &mut t[p..end],
+                    triangle: &mut triangle[p..end],
+                    u: &mut u[p..end],
+                    v: &mut v[p..end],
+                };
+                self.intersect_packet(rays, first + p, out, stack);
+            }
+        };
+        match parallelism {
+            // The thread's own stack, kept from call to call: nothing allocated per batch.
+            BatchParallelism::OneThread => {
+                PACKET_STACK.with_borrow_mut(|stack| trace_packets(stack, 0, t, triangle, u, v))
+            }
+            // Packets never straddle tasks (the chunk length is a multiple of the packet
+            // size), so the packets, and the hits, are those of one thread.
+            BatchParallelism::Spread => t
+                .par_chunks_mut(CHUNK)
+                .zip(triangle.par_chunks_mut(CHUNK))
+                .zip(u.par_chunks_mut(CHUNK))
+                .zip(v.par_chunks_mut(CHUNK))
+                .enumerate()
+                .for_each_init(Vec::new, |stack, (chunk, (((t, triangle), u), v))| {
+                    trace_packets(stack, chunk * CHUNK, t, triangle, u, v)
+                }),
+        }
     }
 
     /// Closest hits of rays `first..first + out.len()` (at most eight) of the batch, written
@@ -545,6 +559,12 @@ impl BatchParallelism {
             BatchParallelism::OneThread => usize::MAX,
         }
     }
+}
+
+thread_local! {
+    /// The packet traversal's stack for batches traced on one thread.
+    static PACKET_STACK: std::cell::RefCell<Vec<packet_stack::Entry>> =
+        const { std::cell::RefCell::new(Vec::new()) };
 }
 
 /// Rays per packet of [`SceneAccel::intersect_batch`] (the AVX2 packet width, also where

@@ -140,6 +140,28 @@ pub(crate) struct BackwardScratch {
     inverse_weight: Vec<f32>,
 }
 
+impl BackwardScratch {
+    /// Empties every array, with room for `heroes` heroes and `backward` backward rays: how
+    /// many heroes pass varies from pass to pass, and an array grown to each new largest
+    /// count would reallocate now and then for many passes.
+    fn clear_with_room(&mut self, heroes: usize, backward: usize) {
+        self.rays.clear();
+        self.rays.reserve(backward);
+        self.passed.clear();
+        self.passed.reserve(heroes);
+        for v in [&mut self.nm, &mut self.inverse_weight] {
+            v.clear();
+            v.reserve(backward);
+        }
+        for v in [&mut self.landed_x, &mut self.landed_y] {
+            v.clear();
+            v.reserve(backward);
+        }
+        self.landed_at.clear();
+        self.landed_at.reserve(backward);
+    }
+}
+
 /// Per ray and wavelength, what [`BackwardTrace::combine`] makes: the film's factor
 /// (`coefficient`, see [`super::camera::CameraRays::wavelength_weight`]) and the pixel offset
 /// its contribution goes to.
@@ -168,15 +190,14 @@ impl BackwardTrace<'_> {
         let n = hero.rays.len();
         let count = hero.nm.len() / n.max(1);
         let rays = hero.rays;
+        scratch.clear_with_room(n, n * (count - 1));
         // Only the heroes that passed are traced back: `passed` lists them, and backward ray
         // (k − 1)·m + p is hero passed[p] at wavelength k.
-        scratch.passed.clear();
         scratch
             .passed
             .extend((0..n as u32).filter(|&i| rays.alive[i as usize]));
         let m = scratch.passed.len();
         let backward = &mut scratch.rays;
-        backward.clear();
         backward.resize(m * (count - 1));
         // Every companion starts as the same ray: the first block is built from the heroes,
         // the others are copies of it.
@@ -201,7 +222,6 @@ impl BackwardTrace<'_> {
                 v.copy_within(0..m, block * m);
             }
         }
-        scratch.nm.clear();
         for k in 1..count {
             let wavelengths = &hero.nm[k * n..(k + 1) * n];
             scratch

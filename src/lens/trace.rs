@@ -19,6 +19,18 @@ pub enum Travel {
     FilmToScene,
 }
 
+impl Travel {
+    /// The surface (front = 0) a ray travelling this way meets at `step` (0 = the first it
+    /// meets) of a lens of `count` surfaces; the same map takes a surface to its step.
+    #[inline(always)]
+    pub fn surface_of_step(self, step: usize, count: usize) -> usize {
+        match self {
+            Travel::SceneToFilm => step,
+            Travel::FilmToScene => count - 1 - step,
+        }
+    }
+}
+
 /// Why a ray stopped inside the lens.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
 #[serde(rename_all = "lowercase")]

@@ -16,6 +16,8 @@
 //! DeriveLens; `pass`: the five pass stages); `resources` holds what they share and
 //! `renderer` the [`Renderer`] that drives them.
 
+#[cfg(test)]
+mod allocations;
 mod device;
 mod gpu;
 mod pass;

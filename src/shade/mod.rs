@@ -150,7 +150,25 @@ impl Shader<'_> {
         out: &mut RadianceBatch,
         stats: &mut ShadeStats,
     ) {
+        self.shade_batch_in(rays, hits, out, stats, &mut ShadeScratch::default());
+    }
+
+    /// [`Shader::shade_batch`] with its working memory in `scratch`, kept from one call to the
+    /// next (the renderer keeps one per tile): a pass then allocates nothing to shade.
+    pub fn shade_batch_in(
+        &self,
+        rays: &RayBatch,
+        hits: &HitBatch,
+        out: &mut RadianceBatch,
+        stats: &mut ShadeStats,
+        scratch: &mut ShadeScratch,
+    ) {
+        let ShadeScratch { live, bounce } = scratch;
         let n = rays.len();
+        // Room for every ray's path: how many start varies from pass to pass.
+        live.clear();
+        live.reserve(n);
+        bounce.clear_with_room(n);
         out.r.clear();
         out.r.resize(n, 0.0);
         out.g.clear();
@@ -158,40 +176,37 @@ impl Shader<'_> {
         out.b.clear();
         out.b.resize(n, 0.0);
         // The paths still going, in the order their rays are traced.
-        let mut live: Vec<PathSlot> = (0..n)
-            .into_par_iter()
-            .with_min_len(self.parallelism.min_task_len(64))
-            .filter_map(|i| {
-                if !rays.alive[i] {
-                    return None;
-                }
-                let origin = Vec3::from(rays.origin(i));
-                let path = Path::start(origin, Vec3::from(rays.direction(i)))?;
-                let (hit, rays_traced) = if i < hits.len() {
-                    (hits.hit(i), 0)
-                } else {
-                    (
-                        self.accel.intersect(origin, path.direction, f32::INFINITY),
-                        1,
-                    )
-                };
-                Some(PathSlot {
-                    index: i as u32,
-                    path,
-                    rng: Rng::for_sample(
-                        self.seed ^ SHADE_STREAM_KEY,
-                        rays.pixel[i],
-                        rays.sample[i],
-                    ),
-                    hit,
-                    next: None,
-                    rays_traced,
-                })
+        let start = |i: usize| {
+            if !rays.alive[i] {
+                return None;
+            }
+            let origin = Vec3::from(rays.origin(i));
+            let path = Path::start(origin, Vec3::from(rays.direction(i)))?;
+            let (hit, rays_traced) = if i < hits.len() {
+                (hits.hit(i), 0)
+            } else {
+                (
+                    self.accel.intersect(origin, path.direction, f32::INFINITY),
+                    1,
+                )
+            };
+            Some(PathSlot {
+                index: i as u32,
+                path,
+                rng: Rng::for_sample(self.seed ^ SHADE_STREAM_KEY, rays.pixel[i], rays.sample[i]),
+                hit,
+                next: None,
+                rays_traced,
             })
-            .collect();
+        };
+        match self.parallelism {
+            BatchParallelism::OneThread => live.extend((0..n).filter_map(start)),
+            BatchParallelism::Spread => {
+                live.par_extend((0..n).into_par_iter().with_min_len(64).filter_map(start))
+            }
+        }
 
         stats.rays_traced += live.iter().map(|slot| slot.rays_traced).sum::<u64>();
-        let mut bounce = BounceRays::default();
         while !live.is_empty() {
             // Deep paths leave few live ones per step; tasks of fewer than 64 paths cost
             // more to split than they save (default scene, depth 8: 6 % slower at 16).
@@ -223,8 +238,29 @@ impl Shader<'_> {
                 slot.next.is_some()
             });
             stats.rays_traced += live.len() as u64;
-            bounce.trace(self.accel, &mut live, self.parallelism);
+            bounce.trace(self.accel, live, self.parallelism);
         }
+    }
+}
+
+/// What [`Shader::shade_batch_in`] works in: the live paths and the bounce rays of a step,
+/// kept between calls so that their vectors keep their capacity.
+#[derive(Default)]
+pub struct ShadeScratch {
+    live: Vec<PathSlot>,
+    bounce: BounceRays,
+}
+
+impl Clone for ShadeScratch {
+    /// A fresh scratch: nothing in it outlives a call.
+    fn clone(&self) -> Self {
+        ShadeScratch::default()
+    }
+}
+
+impl std::fmt::Debug for ShadeScratch {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("ShadeScratch").finish_non_exhaustive()
     }
 }
 
@@ -252,6 +288,16 @@ struct BounceRays {
 }
 
 impl BounceRays {
+    /// Empties the arrays, with room for `paths` bounce rays.
+    fn clear_with_room(&mut self, paths: usize) {
+        self.order.clear();
+        self.order.reserve(paths);
+        self.rays.clear();
+        self.rays.reserve(paths);
+        self.hits.resize(0);
+        self.hits.reserve(paths);
+    }
+
     /// Traces the next ray of every path in `live` (all have one) and hands each its hit.
     /// The rays are grouped by direction octant, stably (a counting sort), so that within an
     /// octant they stay in pixel order: the 8-ray packets then hold one octant's rays from

@@ -9,12 +9,13 @@
 use super::{BLOCK, Isa};
 use crate::glass::FRAUNHOFER_D_NM;
 use crate::lens::reflectance::{COSINE_STEPS, SurfaceReflectance};
+use crate::lens::trace::Travel;
 
 /// What the kernels need to apply the losses.
 pub(super) struct Losses<'a> {
     pub table: &'a SurfaceReflectance,
-    /// The surface (front = 0) met at each step of the travel.
-    pub surface_of_step: Vec<usize>,
+    /// The direction of travel, so the surface (front = 0) met at each step.
+    pub travel: Travel,
     /// Each ray's wavelength (a spectral batch), or `None`: every ray at the lens's own
     /// indices, n_d, so its losses are those at the d line.
     pub nm: Option<&'a [f32]>,
@@ -62,7 +63,11 @@ impl Losses<'_> {
     ) {
         let n = survived.len();
         let intervals = self.table.wavelength_entries() - 1;
-        let surface = self.surface_of_step[step] * intervals * COSINE_STEPS;
+        let surface = self
+            .travel
+            .surface_of_step(step, self.table.surface_count())
+            * intervals
+            * COSINE_STEPS;
         let lanes = LossLanes {
             cells: &self.table.cells()[surface..surface + intervals * COSINE_STEPS],
             cosines: &cosines[..n],

@@ -188,51 +188,75 @@ fn run(
     }
     let n = surfaces.len();
     let isa = isa.min(Isa::detect());
-    let plan = Plan {
-        surfaces: SurfaceConstants::in_travel_order(surfaces, travel),
-        spectral: wavelengths.map(|w| (w, travel)),
-        clip: surfaces.stop_clip.as_deref().map(|clip| {
-            let step = match travel {
-                Travel::SceneToFilm => clip.surface,
-                Travel::FilmToScene => n - 1 - clip.surface,
-            };
-            (step, clip)
-        }),
-        losses: surfaces.reflectance.as_deref().map(|table| Losses {
-            table,
-            surface_of_step: (0..n)
-                .map(|step| match travel {
-                    Travel::SceneToFilm => step,
-                    Travel::FilmToScene => n - 1 - step,
-                })
-                .collect(),
-            nm: wavelengths.map(|w| w.nm),
-            isa,
-        }),
-    };
-    match isa {
-        Isa::Baseline => run_kernel(kernel, &plan, rays),
-        // SAFETY (both): `Isa::detect` found the instructions on this CPU.
-        #[cfg(target_arch = "x86_64")]
-        Isa::Avx2 => unsafe { run_kernel_avx2(kernel, &plan, rays) },
-        #[cfg(target_arch = "x86_64")]
-        Isa::Avx512 => unsafe { run_kernel_avx512(kernel, &plan, rays) },
-        #[cfg(not(target_arch = "x86_64"))]
-        _ => unreachable!("Isa::detect finds only the baseline here"),
-    }
+    KERNEL_SCRATCH.with_borrow_mut(|scratch| {
+        let KernelScratch {
+            surfaces: in_travel_order,
+            etas,
+        } = scratch;
+        in_travel_order.clear();
+        in_travel_order.extend(SurfaceConstants::in_travel_order(surfaces, travel));
+        let plan = Plan {
+            surfaces: in_travel_order,
+            spectral: wavelengths.map(|w| (w, travel)),
+            clip: surfaces
+                .stop_clip
+                .as_deref()
+                .map(|clip| (travel.surface_of_step(clip.surface, n), clip)),
+            losses: surfaces.reflectance.as_deref().map(|table| Losses {
+                table,
+                travel,
+                nm: wavelengths.map(|w| w.nm),
+                isa,
+            }),
+        };
+        match isa {
+            Isa::Baseline => run_kernel(kernel, &plan, rays, etas),
+            // SAFETY (both): `Isa::detect` found the instructions on this CPU.
+            #[cfg(target_arch = "x86_64")]
+            Isa::Avx2 => unsafe { run_kernel_avx2(kernel, &plan, rays, etas) },
+            #[cfg(target_arch = "x86_64")]
+            Isa::Avx512 => unsafe { run_kernel_avx512(kernel, &plan, rays, etas) },
+            #[cfg(not(target_arch = "x86_64"))]
+            _ => unreachable!("Isa::detect finds only the baseline here"),
+        }
+    })
+}
+
+/// What [`run`] works in, kept per thread from call to call (a pass traces a batch per tile,
+/// several times): the surfaces in travel order and a spectral block's index ratios.
+#[derive(Default)]
+struct KernelScratch {
+    surfaces: Vec<SurfaceConstants<f32>>,
+    etas: Vec<f32>,
+}
+
+thread_local! {
+    static KERNEL_SCRATCH: std::cell::RefCell<KernelScratch> =
+        std::cell::RefCell::new(KernelScratch::default());
 }
 
 /// What the kernels run: the surfaces in the order of travel, for a spectral batch the rays'
 /// wavelengths, the diaphragm with the step (in travel order) of the stop it sits at, and the
 /// surfaces' losses.
 struct Plan<'a> {
-    surfaces: Vec<SurfaceConstants<f32>>,
+    surfaces: &'a [SurfaceConstants<f32>],
     spectral: Option<(Wavelengths<'a>, Travel)>,
     clip: Option<(usize, &'a StopClip)>,
     losses: Option<Losses<'a>>,
 }
 
 impl Plan<'_> {
+    /// Makes `etas` the length [`Plan::block_etas`] fills: a block's index ratios at every
+    /// surface for a spectral batch, nothing otherwise.
+    fn size_etas(&self, etas: &mut Vec<f32>) {
+        let len = if self.spectral.is_some() {
+            self.surfaces.len() * BLOCK
+        } else {
+            0
+        };
+        etas.resize(len, 0.0);
+    }
+
     /// For a spectral batch, fills `etas` with every lane's index ratio at every surface of the
     /// block `start..start + n` (surface-major, [`BLOCK`] lanes per surface); returns whether it
     /// did.
@@ -311,10 +335,10 @@ fn advance_to_front(surfaces: &SurfaceArrays<f32>, rays: &mut RayBatch) {
 }
 
 #[inline(always)]
-fn run_kernel(kernel: Kernel, plan: &Plan, rays: &mut RayBatch) {
+fn run_kernel(kernel: Kernel, plan: &Plan, rays: &mut RayBatch, etas: &mut Vec<f32>) {
     match kernel {
-        Kernel::Simd => trace_simd(plan, rays),
-        Kernel::AutoVectorised => trace_plain(plan, rays),
+        Kernel::Simd => trace_simd(plan, rays, etas),
+        Kernel::AutoVectorised => trace_plain(plan, rays, etas),
     }
 }
 
@@ -323,13 +347,13 @@ fn run_kernel(kernel: Kernel, plan: &Plan, rays: &mut RayBatch) {
 /// build targets AVX.)
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-fn run_kernel_avx2(kernel: Kernel, plan: &Plan, rays: &mut RayBatch) {
-    run_kernel(kernel, plan, rays)
+fn run_kernel_avx2(kernel: Kernel, plan: &Plan, rays: &mut RayBatch, etas: &mut Vec<f32>) {
+    run_kernel(kernel, plan, rays, etas)
 }
 
 /// The kernels compiled again for AVX-512: the plain loop vectorises 16 lanes wide.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f,avx512vl,avx512bw,avx512dq")]
-fn run_kernel_avx512(kernel: Kernel, plan: &Plan, rays: &mut RayBatch) {
-    run_kernel(kernel, plan, rays)
+fn run_kernel_avx512(kernel: Kernel, plan: &Plan, rays: &mut RayBatch, etas: &mut Vec<f32>) {
+    run_kernel(kernel, plan, rays, etas)
 }

@@ -13,23 +13,16 @@ use crate::batch::RayBatch;
 
 /// The auto-vectorised kernel: in place on the batch's arrays, block by block.
 #[inline(always)]
-pub(super) fn trace_plain(plan: &Plan, rays: &mut RayBatch) {
+pub(super) fn trace_plain(plan: &Plan, rays: &mut RayBatch, etas: &mut Vec<f32>) {
     let len = rays.len();
-    let mut etas = vec![
-        0.0f32;
-        if plan.spectral.is_some() {
-            plan.surfaces.len() * BLOCK
-        } else {
-            0
-        }
-    ];
+    plan.size_etas(etas);
     let mut cosines = [0.0f32; BLOCK];
     let mut scratch = LossScratch::new();
     let mut start = 0;
     while start < len {
         let end = (start + BLOCK).min(len);
         let n = end - start;
-        let spectral = plan.block_etas(start, n, &mut etas);
+        let spectral = plan.block_etas(start, n, etas);
         if let Some(losses) = &plan.losses {
             losses.block_positions(start, n, &mut scratch);
         }

@@ -54,50 +54,51 @@ pub struct SurfaceConstants<L> {
 
 impl SurfaceConstants<f32> {
     /// The surfaces in the order rays meet them travelling `travel`.
-    pub fn in_travel_order(surfaces: &SurfaceArrays<f32>, travel: Travel) -> Vec<Self> {
+    pub fn in_travel_order(
+        surfaces: &SurfaceArrays<f32>,
+        travel: Travel,
+    ) -> impl Iterator<Item = Self> + '_ {
         let n = surfaces.len();
-        (0..n)
-            .map(|step| {
-                let (i, eta, forward_sign) = match travel {
-                    Travel::SceneToFilm => (
-                        step,
-                        surfaces.index_front[step] / surfaces.index_back[step],
-                        1.0,
-                    ),
-                    Travel::FilmToScene => {
-                        let i = n - 1 - step;
-                        (i, surfaces.index_back[i] / surfaces.index_front[i], -1.0)
-                    }
-                };
-                let curvature = surfaces.curvature[i];
-                let conic_factor = surfaces.conic_factor[i];
-                let shape = if surfaces.polynomial[i] {
-                    POLYNOMIAL
-                } else if conic_factor != 1.0 {
-                    CONIC
-                } else {
-                    SPHERE
-                };
-                let coefficients = surfaces.aspheric[i];
-                let mut slope_coefficients = coefficients;
-                for (k, a) in slope_coefficients.iter_mut().enumerate() {
-                    *a *= (k + 1) as f32;
+        (0..n).map(move |step| {
+            let (i, eta, forward_sign) = match travel {
+                Travel::SceneToFilm => (
+                    step,
+                    surfaces.index_front[step] / surfaces.index_back[step],
+                    1.0,
+                ),
+                Travel::FilmToScene => {
+                    let i = n - 1 - step;
+                    (i, surfaces.index_back[i] / surfaces.index_front[i], -1.0)
                 }
-                SurfaceConstants {
-                    shape,
-                    vertex_z: surfaces.vertex_z[i],
-                    curvature,
-                    radius: 1.0 / curvature,
-                    conic_factor,
-                    conic: conic_factor - 1.0,
-                    coefficients,
-                    slope_coefficients,
-                    semi_aperture_sq: surfaces.semi_aperture_sq[i],
-                    eta,
-                    forward_sign,
-                }
-            })
-            .collect()
+            };
+            let curvature = surfaces.curvature[i];
+            let conic_factor = surfaces.conic_factor[i];
+            let shape = if surfaces.polynomial[i] {
+                POLYNOMIAL
+            } else if conic_factor != 1.0 {
+                CONIC
+            } else {
+                SPHERE
+            };
+            let coefficients = surfaces.aspheric[i];
+            let mut slope_coefficients = coefficients;
+            for (k, a) in slope_coefficients.iter_mut().enumerate() {
+                *a *= (k + 1) as f32;
+            }
+            SurfaceConstants {
+                shape,
+                vertex_z: surfaces.vertex_z[i],
+                curvature,
+                radius: 1.0 / curvature,
+                conic_factor,
+                conic: conic_factor - 1.0,
+                coefficients,
+                slope_coefficients,
+                semi_aperture_sq: surfaces.semi_aperture_sq[i],
+                eta,
+                forward_sign,
+            }
+        })
     }
 
     /// The same constants broadcast to every lane of `L`.

@@ -24,16 +24,9 @@ struct SimdBlock {
 /// The explicit 8-lane kernel: each block is copied into 8-lane arrays once, traced through
 /// every surface, and copied back.
 #[inline(always)]
-pub(super) fn trace_simd(full_plan: &Plan, rays: &mut RayBatch) {
+pub(super) fn trace_simd(full_plan: &Plan, rays: &mut RayBatch, etas: &mut Vec<f32>) {
     let plan: Vec<SurfaceConstants<f32x8>> = full_plan.surfaces.iter().map(|s| s.splat()).collect();
-    let mut etas = vec![
-        0.0f32;
-        if full_plan.spectral.is_some() {
-            plan.len() * BLOCK
-        } else {
-            0
-        }
-    ];
+    full_plan.size_etas(etas);
     let mut block = SimdBlock {
         rays: [LaneRay {
             origin: [f32x8::ZERO; 3],
@@ -49,7 +42,7 @@ pub(super) fn trace_simd(full_plan: &Plan, rays: &mut RayBatch) {
     while start < len {
         let end = (start + BLOCK).min(len);
         let chunks = (end - start).div_ceil(LANES);
-        let spectral = full_plan.block_etas(start, end - start, &mut etas);
+        let spectral = full_plan.block_etas(start, end - start, etas);
         load_block(rays, start, end, &mut block);
         let n = end - start;
         if let Some(losses) = &full_plan.losses {

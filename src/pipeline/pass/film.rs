@@ -31,7 +31,8 @@ pub fn write_film(
         .map(|(tile, batch)| (tile.rect(), *batch))
         .collect();
     sources.sort_by_key(|(rect, _)| (rect.y0, rect.x0));
-    run_on_tiles(
+    // Done when it returns; the tiles give back nothing.
+    let _ = run_on_tiles(
         Stage::WriteFilm,
         tiles,
         None,
@@ -70,7 +71,8 @@ fn write_spreads(tiles: Vec<(Mut<FilmTile>, &TileBatch)>, stats: &mut RenderStat
         .map(|(tile, batch)| (tile.rect(), &batch.spread))
         .collect();
     spreads.sort_by_key(|(rect, _)| (rect.y0, rect.x0));
-    run_on_tiles(
+    // Done when it returns; the tiles give back nothing.
+    let _ = run_on_tiles(
         Stage::WriteFilm,
         tiles,
         None,

@@ -66,20 +66,22 @@ pub(super) fn tile_parallelism(tiles: usize) -> BatchParallelism {
 /// over the tiles to its busy time. Once `cancel` is raised
 /// the tiles not yet started are skipped; Weight and WriteFilm pass no flag, since their run
 /// condition already kept the pass for the film, which takes all of a pass or none of it.
-/// Returns the results of the tiles that ran.
+/// Returns the results of the tiles that ran, in tile order.
 pub(super) fn run_on_tiles<T: Send, R: Send>(
     stage: Stage,
     tiles: impl IntoIterator<Item = T>,
     cancel: Option<&PassCancel>,
     stats: &mut RenderStats,
     work: impl Fn(T) -> R + Sync + Send,
-) -> Vec<R> {
+) -> impl Iterator<Item = R> {
     let start = Instant::now();
     let tiles: Vec<T> = tiles.into_iter().collect();
     let busy_nanos = AtomicU64::new(0);
-    let results = tiles
+    // Written in place, one slot per tile: no list of per-task vectors to allocate and join.
+    let mut results = Vec::with_capacity(tiles.len());
+    tiles
         .into_par_iter()
-        .filter_map(|tile| {
+        .map(|tile| {
             (!PassCancel::raised(cancel)).then(|| {
                 let tile_start = Instant::now();
                 let result = work(tile);
@@ -88,8 +90,8 @@ pub(super) fn run_on_tiles<T: Send, R: Send>(
                 result
             })
         })
-        .collect();
+        .collect_into_vec(&mut results);
     stats.add_time(stage, start);
     stats.add_busy(stage, Duration::from_nanos(busy_nanos.into_inner()));
-    results
+    results.into_iter().flatten()
 }

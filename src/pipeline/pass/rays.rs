@@ -112,7 +112,6 @@ pub fn generate_rays(
             batch.camera.rays.alive_count() as u64
         },
     )
-    .into_iter()
     .sum();
     stats.camera_samples += (settings.width * settings.height) as u64;
     stats.lens_rays_passed += passed;

@@ -46,16 +46,16 @@ pub fn shade(
         |mut batch: Mut<TileBatch>| {
             let mut tile_stats = ShadeStats::default();
             let batch = &mut *batch;
-            shader.shade_batch(
+            shader.shade_batch_in(
                 &batch.camera.rays,
                 &batch.hits,
                 &mut batch.radiance,
                 &mut tile_stats,
+                &mut batch.shade,
             );
             tile_stats
         },
     )
-    .into_iter()
     .sum();
     stats.rays_traced += shading.rays_traced;
     stats.shading += shading;

@@ -28,7 +28,6 @@ pub fn trace_rays(
             batch.camera.rays.alive_count() as u64
         },
     )
-    .into_iter()
     .sum();
     stats.rays_traced += traced;
 }

@@ -65,7 +65,6 @@ pub fn weight(
             }
         },
     )
-    .into_iter()
     .sum();
     stats.rejected_samples += rejected;
 }
