@@ -54,17 +54,7 @@ impl RayBatch {
     /// Room for `additional` more rays in every array, so that growing to that many
     /// allocates nothing.
     pub fn reserve(&mut self, additional: usize) {
-        for v in [
-            &mut self.ox,
-            &mut self.oy,
-            &mut self.oz,
-            &mut self.dx,
-            &mut self.dy,
-            &mut self.dz,
-            &mut self.tr,
-            &mut self.tg,
-            &mut self.tb,
-        ] {
+        for v in self.float_arrays() {
             v.reserve(additional);
         }
         self.pixel.reserve(additional);
@@ -72,8 +62,9 @@ impl RayBatch {
         self.alive.reserve(additional);
     }
 
-    pub fn clear(&mut self) {
-        for v in [
+    /// Origins, directions and throughputs: the arrays of `f32`.
+    fn float_arrays(&mut self) -> [&mut Vec<f32>; 9] {
+        [
             &mut self.ox,
             &mut self.oy,
             &mut self.oz,
@@ -83,7 +74,11 @@ impl RayBatch {
             &mut self.tr,
             &mut self.tg,
             &mut self.tb,
-        ] {
+        ]
+    }
+
+    pub fn clear(&mut self) {
+        for v in self.float_arrays() {
             v.clear();
         }
         self.pixel.clear();
@@ -94,17 +89,11 @@ impl RayBatch {
     /// Sets every array to `n` rays; new rays have unit throughput and are alive, with zero
     /// origin, direction, pixel and sample, for a stage that fills them in place by index.
     pub fn resize(&mut self, n: usize) {
-        for v in [
-            &mut self.ox,
-            &mut self.oy,
-            &mut self.oz,
-            &mut self.dx,
-            &mut self.dy,
-            &mut self.dz,
-        ] {
+        let [ox, oy, oz, dx, dy, dz, tr, tg, tb] = self.float_arrays();
+        for v in [ox, oy, oz, dx, dy, dz] {
             v.resize(n, 0.0);
         }
-        for v in [&mut self.tr, &mut self.tg, &mut self.tb] {
+        for v in [tr, tg, tb] {
             v.resize(n, 1.0);
         }
         self.pixel.resize(n, 0);

@@ -26,6 +26,11 @@ fn rendered_exr(dir: &Path, name: &str, args: &[&str]) -> Vec<f32> {
     exr_pixels(&dir.join(exr))
 }
 
+/// The `--stats stats.json` a render wrote in `dir`.
+fn stats_in(dir: &Path) -> serde_json::Value {
+    serde_json::from_slice(&std::fs::read(dir.join("stats.json")).unwrap()).unwrap()
+}
+
 const SMALL: [&str; 6] = ["--width", "24", "--height", "16", "--max-depth", "2"];
 
 #[test]
@@ -53,8 +58,7 @@ fn several_lenses_share_one_scene_load_and_one_bvh() {
     ] {
         assert!(dir.path().join(file).exists(), "{file}");
     }
-    let stats: serde_json::Value =
-        serde_json::from_slice(&std::fs::read(dir.path().join("stats.json")).unwrap()).unwrap();
+    let stats = stats_in(dir.path());
     assert_eq!(stats["bvh_builds"], 1);
     assert_eq!(stats["scene_loads"], 1);
     let frames = stats["frames"].as_array().unwrap();
@@ -84,8 +88,7 @@ fn stats_give_each_stage_its_busy_time_within_wall_time_times_threads() {
     ];
     args.extend(SMALL);
     ok(&realcam(dir.path(), &args));
-    let stats: serde_json::Value =
-        serde_json::from_slice(&std::fs::read(dir.path().join("stats.json")).unwrap()).unwrap();
+    let stats = stats_in(dir.path());
     assert_eq!(stats["threads"], 2);
     for stage in ["generate_rays", "trace", "shade", "weight", "write_film"] {
         let wall = stats["stage_seconds"][stage].as_f64().unwrap();
@@ -123,8 +126,7 @@ fn each_lens_of_a_run_renders_on_its_own_film_as_it_does_alone() {
     }
     run.extend(SMALL);
     ok(&realcam(dir.path(), &run));
-    let stats: serde_json::Value =
-        serde_json::from_slice(&std::fs::read(dir.path().join("stats.json")).unwrap()).unwrap();
+    let stats = stats_in(dir.path());
     let frames = stats["frames"].as_array().unwrap();
     for ((lens, diagonal), frame) in lenses.iter().zip(frames) {
         assert_eq!(frame["lens"], *lens);
@@ -202,8 +204,7 @@ fn an_implied_focus_closer_than_the_lens_reaches_is_clamped_but_an_asked_one_is_
             && stderr.contains(&format!("{closest:.4} m")),
         "{stderr}"
     );
-    let stats: serde_json::Value =
-        serde_json::from_slice(&std::fs::read(dir.path().join("stats.json")).unwrap()).unwrap();
+    let stats = stats_in(dir.path());
     let focused = stats["frames"][0]["focus_distance_m"].as_f64().unwrap();
     assert!(
         (focused - closest).abs() < 1e-6 * closest,
@@ -278,8 +279,7 @@ fn an_f_number_sweep_renders_each_stop_as_a_single_render_at_that_f_number() {
     ];
     args.extend(SMALL);
     ok(&realcam(dir.path(), &args));
-    let stats: serde_json::Value =
-        serde_json::from_slice(&std::fs::read(dir.path().join("stats.json")).unwrap()).unwrap();
+    let stats = stats_in(dir.path());
     for (frame, (n, name)) in [(2.8, "000-f2.8"), (5.6, "001-f5.6")].iter().enumerate() {
         // The lens's real f-number (EFL / entrance-pupil diameter) is the one asked for.
         let real = stats["frames"][frame]["f_number"].as_f64().unwrap();
