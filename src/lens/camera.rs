@@ -30,7 +30,7 @@ use super::pupil::{ExitPupil, FilmRays, PupilSampler, PupilSampling, concentric_
 use super::ray::Ray;
 use super::system::LensSystem;
 use super::trace::Travel;
-use super::trace_batch::{Isa, Wavelengths, trace_batch, trace_batch_spectral};
+use super::trace_batch::{Isa, Wavelengths, on_isa, trace_batch, trace_batch_spectral, widened};
 use crate::batch::RayBatch;
 use crate::film::filter::quantise;
 use crate::glass::FRAUNHOFER_D_NM;
@@ -400,28 +400,22 @@ impl LensCamera<'_> {
         }
         // The per-pixel loops are compiled again for wider vector units and the widest this
         // CPU has is chosen, as for the lens kernel.
-        match Isa::detect() {
-            Isa::Baseline => self.generate_prepared(sample, seed, out),
-            // SAFETY (both): `Isa::detect` found the instructions on this CPU.
-            #[cfg(target_arch = "x86_64")]
-            Isa::Avx2 => unsafe { self.generate_prepared_avx2(sample, seed, out) },
-            #[cfg(target_arch = "x86_64")]
-            Isa::Avx512 => unsafe { self.generate_prepared_avx512(sample, seed, out) },
-            #[cfg(not(target_arch = "x86_64"))]
-            _ => unreachable!("Isa::detect finds only the baseline here"),
+        on_isa!(Isa::detect(),
+            baseline: self.generate_prepared(sample, seed, out),
+            avx2: self.generate_prepared_avx2(sample, seed, out),
+            avx512: self.generate_prepared_avx512(sample, seed, out),
+        )
+    }
+
+    widened! {
+        fn generate_prepared_avx2 / generate_prepared_avx512(
+            &self,
+            sample: u32,
+            seed: u64,
+            out: &mut CameraRays,
+        ) {
+            self.generate_prepared(sample, seed, out)
         }
-    }
-
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
-    fn generate_prepared_avx2(&self, sample: u32, seed: u64, out: &mut CameraRays) {
-        self.generate_prepared(sample, seed, out)
-    }
-
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx512f,avx512vl,avx512bw,avx512dq")]
-    fn generate_prepared_avx512(&self, sample: u32, seed: u64, out: &mut CameraRays) {
-        self.generate_prepared(sample, seed, out)
     }
 
     /// [`Self::generate`] once the pixels are in the scratch arrays and the outputs sized.

@@ -1,6 +1,6 @@
-//! A pass in the steady state allocates next to nothing: every tile keeps its batches and its
-//! working memory from pass to pass (`TileBatch`), and the lens kernel and the packet traversal
-//! keep theirs per thread. This test counts the allocations the passes make, with a counting
+//! A pass in the steady state allocates next to nothing: every tile keeps its batches from
+//! pass to pass (`TileBatch`), and Shade, the lens kernel and the packet traversal keep their
+//! working memory per thread. This test counts the allocations the passes make, with a counting
 //! allocator installed in the library's test binary that counts only on threads that asked to
 //! be counted (so that tests running beside it do not).
 

@@ -177,6 +177,4 @@ pub struct TileBatch {
     pub splats: Vec<crate::film::splat::Splat>,
     /// With a filter wider than a pixel, what this tile's samples add around their film points.
     pub spread: crate::film::splat::Spread,
-    /// Shade's working memory, kept from pass to pass.
-    pub shade: crate::shade::ShadeScratch,
 }

@@ -150,12 +150,21 @@ impl Shader<'_> {
         out: &mut RadianceBatch,
         stats: &mut ShadeStats,
     ) {
-        self.shade_batch_in(rays, hits, out, stats, &mut ShadeScratch::default());
+        match self.parallelism {
+            // Nothing under it runs other tasks on this thread, so the thread's own scratch
+            // is free, and warm in its caches.
+            BatchParallelism::OneThread => SHADE_SCRATCH
+                .with_borrow_mut(|scratch| self.shade_batch_in(rays, hits, out, stats, scratch)),
+            // Its tasks may run another batch's on this thread: a scratch of its own.
+            BatchParallelism::Spread => {
+                self.shade_batch_in(rays, hits, out, stats, &mut ShadeScratch::default())
+            }
+        }
     }
 
-    /// [`Shader::shade_batch`] with its working memory in `scratch`, kept from one call to the
-    /// next (the renderer keeps one per tile): a pass then allocates nothing to shade.
-    pub fn shade_batch_in(
+    /// [`Shader::shade_batch`] with its working memory in `scratch`, which keeps its capacity
+    /// from one call to the next.
+    fn shade_batch_in(
         &self,
         rays: &RayBatch,
         hits: &HitBatch,
@@ -246,22 +255,16 @@ impl Shader<'_> {
 /// What [`Shader::shade_batch_in`] works in: the live paths and the bounce rays of a step,
 /// kept between calls so that their vectors keep their capacity.
 #[derive(Default)]
-pub struct ShadeScratch {
+struct ShadeScratch {
     live: Vec<PathSlot>,
     bounce: BounceRays,
 }
 
-impl Clone for ShadeScratch {
-    /// A fresh scratch: nothing in it outlives a call.
-    fn clone(&self) -> Self {
-        ShadeScratch::default()
-    }
-}
-
-impl std::fmt::Debug for ShadeScratch {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("ShadeScratch").finish_non_exhaustive()
-    }
+thread_local! {
+    /// The thread's scratch for the batches it shades alone: warm in its caches, where a
+    /// scratch kept per tile would come cold from memory for each tile.
+    static SHADE_SCRATCH: std::cell::RefCell<ShadeScratch> =
+        std::cell::RefCell::new(ShadeScratch::default());
 }
 
 /// A path of the wavefront and what its next step needs.

@@ -95,16 +95,11 @@ pub(super) struct LossLanes<'a> {
 /// [`attenuate_scalar`].
 #[inline(always)]
 pub(super) fn attenuate_lanes(lanes: &LossLanes, transmission: &mut [f32], isa: Isa) {
-    let done = match isa {
-        Isa::Baseline => 0,
-        // SAFETY (both): the caller's `isa` is supported by this CPU (`Isa::detect`).
-        #[cfg(target_arch = "x86_64")]
-        Isa::Avx512 => unsafe { gathered::attenuate_avx512(lanes, transmission) },
-        #[cfg(target_arch = "x86_64")]
-        Isa::Avx2 => unsafe { gathered::attenuate_avx2(lanes, transmission) },
-        #[cfg(not(target_arch = "x86_64"))]
-        _ => 0,
-    };
+    let done = super::on_isa!(isa,
+        baseline: 0,
+        avx2: gathered::attenuate_avx2(lanes, transmission),
+        avx512: gathered::attenuate_avx512(lanes, transmission),
+    );
     attenuate_scalar(lanes, transmission, done);
 }
 

@@ -78,6 +78,43 @@ pub fn trace_batch_with(
     trace_batch_on(surfaces, rays, travel, kernel, Isa::detect())
 }
 
+/// Defines a function twice more, compiled for AVX2 and for AVX-512 (x86-64 only): the same
+/// parameters and body under the two names given, so that everything the body inlines
+/// (`#[inline(always)]` code) vectorises 8 or 16 lanes wide. The same operations, so the same
+/// bits; [`on_isa!`] picks the copy for an [`Isa`].
+macro_rules! widened {
+    ($(#[$meta:meta])* $vis:vis fn $avx2:ident / $avx512:ident ($($params:tt)*) $(-> $ret:ty)? $body:block) => {
+        $(#[$meta])*
+        #[cfg(target_arch = "x86_64")]
+        #[target_feature(enable = "avx2")]
+        $vis fn $avx2($($params)*) $(-> $ret)? $body
+
+        $(#[$meta])*
+        #[cfg(target_arch = "x86_64")]
+        #[target_feature(enable = "avx512f,avx512vl,avx512bw,avx512dq")]
+        $vis fn $avx512($($params)*) $(-> $ret)? $body
+    };
+}
+
+/// Evaluates the expression for `isa`: `baseline`, or a call of the AVX2 or AVX-512 copy that
+/// [`widened!`] made (the instructions found on this CPU: `isa` at most [`Isa::detect`]'s).
+macro_rules! on_isa {
+    ($isa:expr, baseline: $baseline:expr, avx2: $avx2:expr, avx512: $avx512:expr $(,)?) => {
+        match $isa {
+            $crate::lens::trace_batch::Isa::Baseline => $baseline,
+            // SAFETY (both): the caller passes an `Isa` this CPU has (`Isa::detect`).
+            #[cfg(target_arch = "x86_64")]
+            $crate::lens::trace_batch::Isa::Avx2 => unsafe { $avx2 },
+            #[cfg(target_arch = "x86_64")]
+            $crate::lens::trace_batch::Isa::Avx512 => unsafe { $avx512 },
+            #[cfg(not(target_arch = "x86_64"))]
+            _ => unreachable!("Isa::detect finds only the baseline here"),
+        }
+    };
+}
+
+pub(crate) use {on_isa, widened};
+
 /// The instruction sets the kernels are compiled for, narrowest first. All give bit-identical
 /// rays: they differ only in how many lanes one instruction works on.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
@@ -209,16 +246,11 @@ fn run(
                 isa,
             }),
         };
-        match isa {
-            Isa::Baseline => run_kernel(kernel, &plan, rays, etas),
-            // SAFETY (both): `Isa::detect` found the instructions on this CPU.
-            #[cfg(target_arch = "x86_64")]
-            Isa::Avx2 => unsafe { run_kernel_avx2(kernel, &plan, rays, etas) },
-            #[cfg(target_arch = "x86_64")]
-            Isa::Avx512 => unsafe { run_kernel_avx512(kernel, &plan, rays, etas) },
-            #[cfg(not(target_arch = "x86_64"))]
-            _ => unreachable!("Isa::detect finds only the baseline here"),
-        }
+        on_isa!(isa,
+            baseline: run_kernel(kernel, &plan, rays, etas),
+            avx2: run_kernel_avx2(kernel, &plan, rays, etas),
+            avx512: run_kernel_avx512(kernel, &plan, rays, etas),
+        )
     })
 }
 
@@ -342,18 +374,16 @@ fn run_kernel(kernel: Kernel, plan: &Plan, rays: &mut RayBatch, etas: &mut Vec<f
     }
 }
 
-/// The kernels compiled again for AVX2: the plain loop vectorises 8 lanes wide. (`wide`'s
-/// types keep the layout chosen when the crate was compiled: 2 × 128-bit unless the whole
-/// build targets AVX.)
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-fn run_kernel_avx2(kernel: Kernel, plan: &Plan, rays: &mut RayBatch, etas: &mut Vec<f32>) {
-    run_kernel(kernel, plan, rays, etas)
-}
-
-/// The kernels compiled again for AVX-512: the plain loop vectorises 16 lanes wide.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f,avx512vl,avx512bw,avx512dq")]
-fn run_kernel_avx512(kernel: Kernel, plan: &Plan, rays: &mut RayBatch, etas: &mut Vec<f32>) {
-    run_kernel(kernel, plan, rays, etas)
+widened! {
+    /// The kernels compiled again for AVX2 and AVX-512: the plain loop vectorises 8 and 16
+    /// lanes wide. (`wide`'s types keep the layout chosen when the crate was compiled: 2 ×
+    /// 128-bit unless the whole build targets AVX.)
+    fn run_kernel_avx2 / run_kernel_avx512(
+        kernel: Kernel,
+        plan: &Plan,
+        rays: &mut RayBatch,
+        etas: &mut Vec<f32>,
+    ) {
+        run_kernel(kernel, plan, rays, etas)
+    }
 }

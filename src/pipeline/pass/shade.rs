@@ -46,12 +46,11 @@ pub fn shade(
         |mut batch: Mut<TileBatch>| {
             let mut tile_stats = ShadeStats::default();
             let batch = &mut *batch;
-            shader.shade_batch_in(
+            shader.shade_batch(
                 &batch.camera.rays,
                 &batch.hits,
                 &mut batch.radiance,
                 &mut tile_stats,
-                &mut batch.shade,
             );
             tile_stats
         },

@@ -9,7 +9,7 @@ use crate::film::FilmTile;
 use crate::film::filter::Filter;
 use crate::film::splat::Splat;
 use crate::lens::hero_wavelengths::MAX_WAVELENGTHS;
-use crate::lens::trace_batch::Isa;
+use crate::lens::trace_batch::{Isa, on_isa, widened};
 use crate::pipeline::Stage;
 use crate::pipeline::resources::{RenderSettings, RenderStats, TileBatch};
 use crate::spectral::SpectralFilm;
@@ -53,16 +53,11 @@ pub fn weight(
             };
             // Compiled again for wider vector units and the widest this CPU has chosen, as
             // for the lens kernel (the same operations, so the same bits).
-            match Isa::detect() {
-                Isa::Baseline => job.run(),
-                // SAFETY (both): `Isa::detect` found the instructions on this CPU.
-                #[cfg(target_arch = "x86_64")]
-                Isa::Avx2 => unsafe { job.run_avx2() },
-                #[cfg(target_arch = "x86_64")]
-                Isa::Avx512 => unsafe { job.run_avx512() },
-                #[cfg(not(target_arch = "x86_64"))]
-                _ => unreachable!("Isa::detect finds only the baseline here"),
-            }
+            on_isa!(Isa::detect(),
+                baseline: job.run(),
+                avx2: job.run_avx2(),
+                avx512: job.run_avx512(),
+            )
         },
     )
     .sum();
@@ -79,16 +74,10 @@ struct WeighTile<'a> {
 }
 
 impl WeighTile<'_> {
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
-    fn run_avx2(self) -> u64 {
-        self.run()
-    }
-
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx512f,avx512vl,avx512bw,avx512dq")]
-    fn run_avx512(self) -> u64 {
-        self.run()
+    widened! {
+        fn run_avx2 / run_avx512(self) -> u64 {
+            self.run()
+        }
     }
 
     /// Weighs every ray of the tile; returns how many samples were rejected as non-finite.
