@@ -117,6 +117,69 @@ impl Filter {
     }
 }
 
+/// Steps of the position grid in a pixel.
+const STEPS: usize = 256;
+
+impl Filter {
+    /// [`Filter::taps`] at every position on the grid: row `inside · 256 + step` holds the three
+    /// weights (and a zero) of a share `step` steps into the pixel it lands in, where bit k of
+    /// `inside` says whether the k-th of the three pixels it reaches lies on the frame. A
+    /// share's weights depend on nothing else (its position less those pixel centres is exact in
+    /// f32), so each row is taken by `taps` itself at a position on a frame just large enough
+    /// to give its pattern; patterns no share has (no pixel inside, or a gap) stay zero. The CPU
+    /// looks weights up here ([`Filter::grid_taps`]) and the GPU's gather gets the same table,
+    /// so both weigh every share exactly alike. Empty for the box, which weighs nothing.
+    pub fn tap_table(self) -> &'static [[f32; 4]] {
+        static TABLES: [std::sync::OnceLock<Vec<[f32; 4]>>; 3] =
+            [const { std::sync::OnceLock::new() }; 3];
+        let index = Filter::ALL
+            .iter()
+            .position(|&f| f == self)
+            .expect("a filter of ALL");
+        TABLES[index].get_or_init(|| {
+            let mut table = Vec::new();
+            if self.is_box() {
+                return table;
+            }
+            table.resize((1 << TAPS) * STEPS, [0.0; 4]);
+            // The pixel a share lands in (`own`) on a frame of `extent` pixels: every pattern a
+            // share can meet, the last (own == extent) on the far edge of the frame.
+            for extent in 1..=TAPS as i32 {
+                for own in 0..=extent {
+                    let inside = (0..TAPS as i32)
+                        .filter(|k| (0..extent).contains(&(own - 1 + k)))
+                        .fold(0, |bits, k| bits | (1 << k));
+                    for step in 0..STEPS {
+                        let position = own as f32 + step as f32 * POSITION_STEP;
+                        let (first, [a, b, c]) = self.taps(position, extent as u32);
+                        debug_assert_eq!(first, own - 1);
+                        table[inside * STEPS + step] = [a, b, c, 0.0];
+                    }
+                }
+            }
+            table
+        })
+    }
+
+    /// [`Filter::taps`] for a `position` on the grid ([`quantise`]), looked up in
+    /// [`Filter::tap_table`]: the same weights, bit for bit, without evaluating the profile.
+    #[inline(always)]
+    pub fn grid_taps(self, position: f32, extent: u32) -> (i32, [f32; TAPS]) {
+        if self.is_box() {
+            return self.taps(position, extent);
+        }
+        let floor = position.floor();
+        let own = floor as i32;
+        let step = ((position - floor) * STEPS as f32) as usize;
+        let extent = extent as i32;
+        let inside = usize::from(own >= 1)
+            | usize::from(own < extent) << 1
+            | usize::from(own + 1 < extent) << 2;
+        let [a, b, c, _] = self.tap_table()[inside * STEPS + step];
+        (own - 1, [a, b, c])
+    }
+}
+
 /// `position` (pixels) on the 1/256-pixel grid the filter's weights are taken at.
 #[inline(always)]
 pub fn quantise(position: f32) -> f32 {
@@ -198,5 +261,38 @@ mod tests {
             assert_eq!(Filter::from_name(name).map(Filter::name), Some(name));
         }
         assert_eq!(Filter::from_name("mitchell"), None);
+    }
+
+    /// The table, and the look-up in it, give Filter::taps's weights for every position a share
+    /// can have, near the frame's edges and far from them.
+    #[test]
+    fn the_filter_table_is_filter_taps() {
+        assert!(Filter::Box.tap_table().is_empty());
+        let steps = (1.0 / POSITION_STEP) as usize;
+        for filter in [Filter::Tent, Filter::Gaussian] {
+            // accumulate_filtered looks for shares no further than this allows: a pixel whose
+            // centre lies a whole radius from a share's point takes none of it.
+            assert_eq!(filter.taps(1.0, 3).1[2], 0.0, "{filter}");
+            let table = filter.tap_table();
+            for extent in (1..12).chain([16_384]) {
+                let end = extent as usize * steps;
+                let ats = (0..=end.min(4 * steps)).chain(end.saturating_sub(4 * steps)..=end);
+                for at in ats {
+                    let position = at as f32 * POSITION_STEP;
+                    let (first, weights) = filter.taps(position, extent);
+                    let inside = (0..3)
+                        .filter(|&k| (0..extent as i32).contains(&(first + k)))
+                        .fold(0, |bits, k| bits | (1 << k));
+                    let row = table[inside * steps + at % steps];
+                    assert_eq!(row[..3], weights, "{filter} at {position} of {extent}");
+                    let looked_up = filter.grid_taps(position, extent);
+                    assert_eq!(
+                        (looked_up.0, looked_up.1.map(f32::to_bits)),
+                        (first, weights.map(f32::to_bits)),
+                        "{filter} at {position} of {extent}"
+                    );
+                }
+            }
+        }
     }
 }

@@ -86,8 +86,8 @@ impl Spread {
     /// are added without a test.
     #[inline(always)]
     pub fn add(&mut self, filter: Filter, [x, y]: [f32; 2], size: [u32; 2], rgb: [f32; 3]) {
-        let (first_x, weights_x) = filter.taps(x, size[0]);
-        let (first_y, weights_y) = filter.taps(y, size[1]);
+        let (first_x, weights_x) = filter.grid_taps(x, size[0]);
+        let (first_y, weights_y) = filter.grid_taps(y, size[1]);
         let column = (first_x - self.x0) as usize;
         for (ky, &wy) in weights_y.iter().enumerate() {
             let start = (first_y + ky as i32 - self.y0) as usize * self.width as usize + column;

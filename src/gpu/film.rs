@@ -43,7 +43,7 @@ use std::collections::VecDeque;
 
 use super::compute::{Access, Bindings, kernel_with, read_buffer, storage_buffer, zeroed_buffer};
 use super::context::{GpuContext, GpuUnavailable};
-use crate::film::filter::{Filter, POSITION_STEP, TAPS};
+use crate::film::filter::Filter;
 use crate::film::samples::SampleSequence;
 use crate::shade::ShadeStats;
 
@@ -112,7 +112,8 @@ pub struct GpuFilm {
     /// shares, `[k][pixel][wavelength]`), between the two kernels of a dispatch of several
     /// samples (one element when a dispatch renders one sample per pixel into the film).
     _scratch: wgpu::Buffer,
-    /// The filter's weights per axis (see [`filter_taps`]).
+    /// The filter's weights per axis ([`Filter::tap_table`], for accumulate.wgsl's
+    /// `pass_filter_tap`).
     _filter_taps: wgpu::Buffer,
     bindings: Bindings,
     kernels: Option<Kernels>,
@@ -135,38 +136,6 @@ struct Kernels {
     render_wavelengths: wgpu::ComputePipeline,
     accumulate_splats: wgpu::ComputePipeline,
     accumulate_filtered: wgpu::ComputePipeline,
-}
-
-/// The `filter`'s weights along one axis as [`Filter::taps`] gives them, for accumulate.wgsl's
-/// `pass_filter_tap`: per pattern of which of the three pixels a share reaches lie inside the
-/// frame (bit k: pixel k of them), per step of the share's position within the pixel it lands
-/// in, the three weights (and a zero). A share's weights depend on nothing else (its position
-/// on the grid less those pixel centres is exact in f32), so each row is taken at a position
-/// on a frame just large enough to give its pattern; patterns no share has (no pixel inside,
-/// or a gap) stay zero. Empty for the box, whose kernels need none.
-fn filter_taps(filter: Filter) -> Vec<[f32; 4]> {
-    let steps = (1.0 / POSITION_STEP) as usize;
-    let mut table = Vec::new();
-    if filter.is_box() {
-        return table;
-    }
-    table.resize((1 << TAPS) * steps, [0.0; 4]);
-    // The pixel a share lands in (`own`) on a frame of `extent` pixels: every pattern a share
-    // can meet, the last (own == extent) on the far edge of the frame.
-    for extent in 1..=TAPS as i32 {
-        for own in 0..=extent {
-            let inside = (0..TAPS as i32)
-                .filter(|k| (0..extent).contains(&(own - 1 + k)))
-                .fold(0, |bits, k| bits | (1 << k));
-            for step in 0..steps {
-                let position = own as f32 + step as f32 * POSITION_STEP;
-                let (first, [a, b, c]) = filter.taps(position, extent as u32);
-                debug_assert_eq!(first, own - 1);
-                table[inside * steps + step] = [a, b, c, 0.0];
-            }
-        }
-    }
-    table
 }
 
 /// Samples one dispatch renders, pixels × samples per pixel: enough to fill a large GPU many
@@ -243,7 +212,7 @@ impl GpuFilm {
         let film = zeroed_buffer::<[f32; 4]>(context, "film sums", pixels as usize);
         let counters = storage_buffer(context, "pass counters", &[0u32; COUNTER_WORDS]);
         let scratch = zeroed_buffer::<[f32; 4]>(context, "sample scratch", scratch_len as usize);
-        let filter_taps = storage_buffer(context, "filter taps", &filter_taps(filter));
+        let filter_taps = storage_buffer(context, "filter taps", filter.tap_table());
         let bindings = Bindings::new(
             context,
             "pass",
@@ -457,6 +426,7 @@ impl GpuFilm {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::film::filter::POSITION_STEP;
     use crate::gpu::compute::{dispatch, kernel_with};
     use crate::lens::hero_wavelengths::SPLAT_RADIUS;
     use crate::sampling::Rng;
@@ -598,33 +568,6 @@ mod tests {
                              pixel {pixel}: {got:?} vs {want:?}"
                         );
                     }
-                }
-            }
-        }
-    }
-
-    /// The table gives Filter::taps's weights for every position a share can have, near the
-    /// frame's edges and far from them.
-    #[test]
-    fn the_filter_table_is_filter_taps() {
-        assert!(filter_taps(Filter::Box).is_empty());
-        let steps = (1.0 / POSITION_STEP) as usize;
-        for filter in [Filter::Tent, Filter::Gaussian] {
-            // accumulate_filtered looks for shares no further than this allows: a pixel whose
-            // centre lies a whole radius from a share's point takes none of it.
-            assert_eq!(filter.taps(1.0, 3).1[2], 0.0, "{filter}");
-            let table = filter_taps(filter);
-            for extent in (1..12).chain([16_384]) {
-                let end = extent as usize * steps;
-                let ats = (0..=end.min(4 * steps)).chain(end.saturating_sub(4 * steps)..=end);
-                for at in ats {
-                    let position = at as f32 * POSITION_STEP;
-                    let (first, weights) = filter.taps(position, extent);
-                    let inside = (0..3)
-                        .filter(|&k| (0..extent as i32).contains(&(first + k)))
-                        .fold(0, |bits, k| bits | (1 << k));
-                    let row = table[inside * steps + at % steps];
-                    assert_eq!(row[..3], weights, "{filter} at {position} of {extent}");
                 }
             }
         }
