@@ -48,7 +48,8 @@ pub(super) fn pass_pending(pass: Res<PassState>, cancel: Option<Res<PassCancel>>
 
 /// With at least this many tiles per worker thread, the tiles alone keep every thread busy
 /// to the end of a stage, and each tile's rays stay on one thread (Trace, Shade): splitting
-/// them again made the 640² peer frames 5 % slower on 16 cores (BENCHMARKS.md, "Scaling").
+/// them again made the 640² peer frames 2–5 % slower on 16 cores (BENCHMARKS.md, "The GPU
+/// machine, 2026-11-27").
 const TILES_PER_THREAD: usize = 4;
 
 /// How Trace and Shade share a tile's rays among the threads, for a pass of `tiles` tiles:
