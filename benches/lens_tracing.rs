@@ -103,6 +103,31 @@ fn soa_coated(bencher: Bencher, lens: &str, isa: Isa) {
         .bench_local(|| black_box(&w).trace_soa(1024, Kernel::AutoVectorised, isa, &mut work));
 }
 
+/// The plain loop with every ray at its own wavelength (a spectral render's camera rays and
+/// companions), 1024-ray batches, on each instruction set: what the per-ray indices cost.
+#[divan::bench(args = ["dgauss.50mm", "fisheye.10mm"], sample_count = 40)]
+fn soa_spectral_baseline(bencher: Bencher, lens: &str) {
+    soa_spectral(bencher, lens, Isa::Baseline);
+}
+
+#[divan::bench(args = ["dgauss.50mm", "fisheye.10mm"], sample_count = 40)]
+fn soa_spectral_avx2(bencher: Bencher, lens: &str) {
+    soa_spectral(bencher, lens, Isa::Avx2);
+}
+
+#[divan::bench(args = ["dgauss.50mm", "fisheye.10mm"], sample_count = 40)]
+fn soa_spectral_widest(bencher: Bencher, lens: &str) {
+    soa_spectral(bencher, lens, Isa::detect());
+}
+
+fn soa_spectral(bencher: Bencher, lens: &str, isa: Isa) {
+    let w = workload(lens);
+    let (mut work, mut nm) = (RayBatch::with_capacity(1024), Vec::new());
+    bencher
+        .counter(divan::counter::ItemsCount::new(RAYS))
+        .bench_local(|| black_box(&w).trace_soa_spectral(1024, isa, &mut work, &mut nm));
+}
+
 /// Exit-pupil bounds of a lens (64 film segments, in parallel on all cores).
 #[divan::bench(args = lenses(), sample_count = 10)]
 fn exit_pupil_bounds(bencher: Bencher, lens: &str) {

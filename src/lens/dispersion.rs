@@ -6,6 +6,7 @@
 //! costs a lookup per medium instead of a Sellmeier evaluation.
 
 use super::prescription::SurfaceRow;
+use super::trace_batch::{Isa, on_isa};
 use crate::spectral::{LAMBDA_MAX, LAMBDA_MIN};
 
 /// Table entries per nanometre.
@@ -49,8 +50,15 @@ impl DispersionTable {
     /// The index after surface `surface` at table position (`i`, `t`).
     #[inline(always)]
     pub fn index_after(&self, surface: usize, (i, t): (usize, f32)) -> f32 {
-        let table = &self.after[surface];
-        table[i] + t * (table[i + 1] - table[i])
+        self.curve(surface).at(i, t)
+    }
+
+    /// The index after surface `surface` over wavelength, for looking many rays up at once.
+    #[inline(always)]
+    pub fn curve(&self, surface: usize) -> IndexCurve<'_> {
+        IndexCurve {
+            entries: &self.after[surface],
+        }
     }
 
     /// The index before surface `surface` (air in front of the first).
@@ -71,5 +79,152 @@ impl DispersionTable {
 
     pub fn surface_count(&self) -> usize {
         self.after.len()
+    }
+}
+
+/// One medium's index at every table wavelength.
+#[derive(Clone, Copy, Debug)]
+pub struct IndexCurve<'a> {
+    entries: &'a [f32],
+}
+
+impl IndexCurve<'_> {
+    /// The index at table position (`i`, `t`) from [`DispersionTable::position`]: linear
+    /// between entries `i` and `i + 1`.
+    #[inline(always)]
+    pub fn at(self, i: usize, t: f32) -> f32 {
+        let (a, b) = (self.entries[i], self.entries[i + 1]);
+        a + t * (b - a)
+    }
+
+    /// [`Self::at`] for many lanes, `out[lane]` at (`cells[lane]`, `fractions[lane]`), with
+    /// `isa`'s gathers (one this CPU supports): LLVM leaves a loop of table lookups scalar.
+    /// The same arithmetic, so the same bits.
+    #[inline(always)]
+    pub fn at_lanes(self, cells: &[u32], fractions: &[f32], out: &mut [f32], isa: Isa) {
+        let n = out.len();
+        let (cells, fractions) = (&cells[..n], &fractions[..n]);
+        let last_cell = self.entries.len().saturating_sub(2);
+        // Every gathered cell is clamped to the last whole cell (a no-op for a position's
+        // cell) so both its entries are in the table.
+        let done = on_isa!(isa,
+            baseline: 0,
+            avx2: gathered::at_lanes_avx2(self.entries, last_cell, cells, fractions, out),
+            avx512: gathered::at_lanes_avx512(self.entries, last_cell, cells, fractions, out),
+        );
+        for lane in done..n {
+            out[lane] = self.at(cells[lane] as usize, fractions[lane]);
+        }
+    }
+}
+
+/// [`IndexCurve::at`]'s arithmetic, 16 or 8 lanes at a time.
+#[cfg(target_arch = "x86_64")]
+mod gathered {
+    use std::arch::x86_64::*;
+
+    /// Whole groups of 16 lanes; returns how many lanes it did.
+    #[target_feature(enable = "avx512f,avx512vl,avx512bw,avx512dq")]
+    pub(super) fn at_lanes_avx512(
+        entries: &[f32],
+        last_cell: usize,
+        cells: &[u32],
+        fractions: &[f32],
+        out: &mut [f32],
+    ) -> usize {
+        const W: usize = 16;
+        if entries.len() < 2 {
+            return 0;
+        }
+        let groups = out.len() / W;
+        let last = _mm512_set1_epi32(last_cell as i32);
+        for g in 0..groups {
+            let at = g * W;
+            // SAFETY: `at + W <= len` for the three slices (`cells` and `fractions` are
+            // `out`'s length), and every gathered index is at most `last_cell + 1`, the
+            // table's last entry.
+            unsafe {
+                let cell = _mm512_loadu_si512(cells.as_ptr().add(at) as *const _);
+                let cell = _mm512_min_epu32(cell, last);
+                let a = _mm512_i32gather_ps::<4>(cell, entries.as_ptr());
+                let b = _mm512_i32gather_ps::<4>(cell, entries.as_ptr().add(1));
+                let t = _mm512_loadu_ps(fractions.as_ptr().add(at));
+                let index = _mm512_add_ps(a, _mm512_mul_ps(t, _mm512_sub_ps(b, a)));
+                _mm512_storeu_ps(out.as_mut_ptr().add(at), index);
+            }
+        }
+        groups * W
+    }
+
+    /// Whole groups of 8 lanes; returns how many lanes it did.
+    #[target_feature(enable = "avx2")]
+    pub(super) fn at_lanes_avx2(
+        entries: &[f32],
+        last_cell: usize,
+        cells: &[u32],
+        fractions: &[f32],
+        out: &mut [f32],
+    ) -> usize {
+        const W: usize = 8;
+        if entries.len() < 2 {
+            return 0;
+        }
+        let groups = out.len() / W;
+        let last = _mm256_set1_epi32(last_cell as i32);
+        for g in 0..groups {
+            let at = g * W;
+            // SAFETY: as in `at_lanes_avx512`.
+            unsafe {
+                let cell = _mm256_loadu_si256(cells.as_ptr().add(at) as *const __m256i);
+                let cell = _mm256_min_epu32(cell, last);
+                let a = _mm256_i32gather_ps::<4>(entries.as_ptr(), cell);
+                let b = _mm256_i32gather_ps::<4>(entries.as_ptr().add(1), cell);
+                let t = _mm256_loadu_ps(fractions.as_ptr().add(at));
+                let index = _mm256_add_ps(a, _mm256_mul_ps(t, _mm256_sub_ps(b, a)));
+                _mm256_storeu_ps(out.as_mut_ptr().add(at), index);
+            }
+        }
+        groups * W
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::lens::LensSystem;
+
+    /// The gathered look-ups give exactly the scalar one's bits, at every instruction set, for
+    /// wavelengths across the table, on its ends and beyond them, and for block lengths that
+    /// leave a scalar tail.
+    #[test]
+    fn index_lookups_for_many_lanes_match_one_at_a_time() {
+        let lens = crate::lens::io::bundled::load_lens("dgauss.50mm", None).unwrap();
+        let system = LensSystem::new(&lens.rows, None);
+        let table = system.dispersion.as_deref().expect("dgauss has glass data");
+        let nm: Vec<f32> = (0..203)
+            .map(|i| LAMBDA_MIN as f32 - 3.0 + i as f32 * 2.037)
+            .chain([LAMBDA_MIN as f32, LAMBDA_MAX as f32, 1e4, -5.0])
+            .collect();
+        let (cells, fractions): (Vec<u32>, Vec<f32>) = nm
+            .iter()
+            .map(|&nm| {
+                let (i, t) = table.position(nm);
+                (i as u32, t)
+            })
+            .unzip();
+        for surface in 0..table.surface_count() {
+            let curve = table.curve(surface);
+            let one_at_a_time: Vec<f32> = (0..nm.len())
+                .map(|lane| curve.at(cells[lane] as usize, fractions[lane]))
+                .collect();
+            for isa in Isa::available() {
+                for len in [nm.len(), 16, 9, 0] {
+                    let mut out = vec![f32::NAN; len];
+                    curve.at_lanes(&cells[..len], &fractions[..len], &mut out, isa);
+                    let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+                    assert_eq!(bits(&out), bits(&one_at_a_time[..len]), "{isa:?} {len}");
+                }
+            }
+        }
     }
 }

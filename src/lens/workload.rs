@@ -10,8 +10,9 @@ use crate::lens::focus::paraxial_film_distance;
 use crate::lens::io::bundled::load_lens;
 use crate::lens::pupil::{ExitPupil, PupilSampling};
 use crate::lens::trace::{Ray, Travel, trace};
-use crate::lens::trace_batch::{Isa, Kernel, trace_batch_on};
+use crate::lens::trace_batch::{Isa, Kernel, Wavelengths, trace_batch_on, trace_batch_spectral_on};
 use crate::sampling::Rng;
+use crate::spectral::{LAMBDA_MAX, LAMBDA_MIN};
 
 /// Film→scene camera rays for one lens, as the renderer makes them: focused at 5 m, film
 /// points uniform over the central 24 × 24 mm of a 35 mm-diagonal film, each aimed at a
@@ -115,6 +116,49 @@ impl LensWorkload {
         }
         passed
     }
+
+    /// [`Self::trace_soa`] with each ray at its own wavelength (the plain kernel, as the
+    /// renderer runs it): the rays' wavelengths spread evenly over the visible, in an order
+    /// that mixes them within every batch as a spectral render's do. Returns `None` for a lens
+    /// without glass data.
+    pub fn trace_soa_spectral(
+        &self,
+        batch_size: usize,
+        isa: Isa,
+        work: &mut RayBatch,
+        nm: &mut Vec<f32>,
+    ) -> Option<usize> {
+        let table = self.system.dispersion.as_deref()?;
+        let mut passed = 0;
+        let len = self.batch.len();
+        let mut start = 0;
+        while start < len {
+            let end = (start + batch_size).min(len);
+            copy_rays(&self.batch, start..end, work);
+            nm.clear();
+            nm.extend((start..end).map(spread_wavelength));
+            let wavelengths = Wavelengths { table, nm };
+            trace_batch_spectral_on(
+                &self.system.f32s,
+                wavelengths,
+                work,
+                Travel::FilmToScene,
+                Kernel::AutoVectorised,
+                isa,
+            );
+            passed += work.alive_count();
+            start = end;
+        }
+        Some(passed)
+    }
+}
+
+/// Ray `i` of `len`'s wavelength for [`LensWorkload::trace_soa_spectral`]: a golden-ratio
+/// sequence over the visible, so neighbouring rays are far apart in wavelength.
+fn spread_wavelength(i: usize) -> f32 {
+    const GOLDEN: f64 = 0.618_033_988_749_895;
+    let u = (i as f64 * GOLDEN).fract();
+    (LAMBDA_MIN + u * (LAMBDA_MAX - LAMBDA_MIN)) as f32
 }
 
 /// Rays `range` of `from` into `to` (positions, directions, alive), replacing its contents.

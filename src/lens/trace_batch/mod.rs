@@ -239,6 +239,7 @@ fn run(
                 .stop_clip
                 .as_deref()
                 .map(|clip| (travel.surface_of_step(clip.surface, n), clip)),
+            isa,
             losses: surfaces.reflectance.as_deref().map(|table| Losses {
                 table,
                 travel,
@@ -274,6 +275,9 @@ struct Plan<'a> {
     surfaces: &'a [SurfaceConstants<f32>],
     spectral: Option<(Wavelengths<'a>, Travel)>,
     clip: Option<(usize, &'a StopClip)>,
+    /// The instruction set the kernel runs with (supported by this CPU): the index look-ups
+    /// use its gathers.
+    isa: Isa,
     losses: Option<Losses<'a>>,
 }
 
@@ -299,44 +303,42 @@ impl Plan<'_> {
         };
         let table = wavelengths.table;
         let count = self.surfaces.len();
-        let mut cell = [0usize; BLOCK];
+        let mut cell = [0u32; BLOCK];
         let mut fraction = [0.0f32; BLOCK];
         for lane in 0..n {
-            (cell[lane], fraction[lane]) = table.position(wavelengths.nm[start + lane]);
+            let (i, t) = table.position(wavelengths.nm[start + lane]);
+            (cell[lane], fraction[lane]) = (i as u32, t);
         }
-        // Each medium's index is looked up once per ray: the index after one surface is the
-        // index before the next.
-        let index_after =
-            |surface: usize, lane: usize| table.index_after(surface, (cell[lane], fraction[lane]));
+        let (cell, fraction) = (&cell[..n], &fraction[..n]);
+        // Each medium's index is looked up once per ray (the index after one surface is the
+        // index before the next), a surface at a time over the block so each lookup is a
+        // gather. Scene to film the rays start in air; film to scene, in the medium behind
+        // the last surface, and crossing surface s leads into the medium after s − 1 (the air
+        // in front of the lens after surface 0).
         let mut carried = [1.0f32; BLOCK];
-        match travel {
-            Travel::SceneToFilm => {
-                for step in 0..count {
-                    let eta = &mut etas[step * BLOCK..step * BLOCK + n];
-                    for lane in 0..n {
-                        let after = index_after(step, lane);
-                        eta[lane] = carried[lane] / after;
-                        carried[lane] = after;
-                    }
-                }
+        let carried = &mut carried[..n];
+        if travel == Travel::FilmToScene {
+            table
+                .curve(count - 1)
+                .at_lanes(cell, fraction, carried, self.isa);
+        }
+        let mut index = [1.0f32; BLOCK];
+        let index = &mut index[..n];
+        for step in 0..count {
+            let after = match travel {
+                Travel::SceneToFilm => Some(step),
+                Travel::FilmToScene => (count - 1 - step).checked_sub(1),
+            };
+            match after {
+                Some(surface) => table
+                    .curve(surface)
+                    .at_lanes(cell, fraction, index, self.isa),
+                None => index.fill(1.0),
             }
-            Travel::FilmToScene => {
-                for (lane, index) in carried[..n].iter_mut().enumerate() {
-                    *index = index_after(count - 1, lane);
-                }
-                for step in 0..count {
-                    let surface = count - 1 - step;
-                    let eta = &mut etas[step * BLOCK..step * BLOCK + n];
-                    for lane in 0..n {
-                        let before = if surface == 0 {
-                            1.0
-                        } else {
-                            index_after(surface - 1, lane)
-                        };
-                        eta[lane] = carried[lane] / before;
-                        carried[lane] = before;
-                    }
-                }
+            let eta = &mut etas[step * BLOCK..step * BLOCK + n];
+            for lane in 0..n {
+                eta[lane] = carried[lane] / index[lane];
+                carried[lane] = index[lane];
             }
         }
         true
