@@ -265,14 +265,24 @@ pub fn submit_steps(
     steps: &[(&wgpu::ComputePipeline, [u32; 3])],
     bind_groups: &[&wgpu::BindGroup],
 ) -> Result<wgpu::SubmissionIndex, GpuUnavailable> {
+    submit_steps_timed(context, steps, bind_groups, None)
+}
+
+/// [`submit_steps`], and with a `clock` each step in a compute pass of its own whose start and
+/// end the GPU stamps (read them with [`StepClock::read`] once the submission is done).
+pub fn submit_steps_timed(
+    context: &GpuContext,
+    steps: &[(&wgpu::ComputePipeline, [u32; 3])],
+    bind_groups: &[&wgpu::BindGroup],
+    clock: Option<&StepClock>,
+) -> Result<wgpu::SubmissionIndex, GpuUnavailable> {
     let scope = context
         .device
         .push_error_scope(wgpu::ErrorFilter::Validation);
     let mut encoder = context
         .device
         .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
-    {
-        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor::default());
+    let encode = |pass: &mut wgpu::ComputePass, steps: &[(&wgpu::ComputePipeline, [u32; 3])]| {
         for (group, bind_group) in bind_groups.iter().enumerate() {
             pass.set_bind_group(group as u32, *bind_group, &[]);
         }
@@ -280,12 +290,94 @@ pub fn submit_steps(
             pass.set_pipeline(pipeline);
             pass.dispatch_workgroups(workgroups[0], workgroups[1], workgroups[2]);
         }
+    };
+    match clock {
+        None => encode(
+            &mut encoder.begin_compute_pass(&wgpu::ComputePassDescriptor::default()),
+            steps,
+        ),
+        Some(clock) => {
+            let steps = &steps[..steps.len().min(clock.steps as usize)];
+            for (k, step) in steps.iter().enumerate() {
+                let k = k as u32;
+                let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                    label: None,
+                    timestamp_writes: Some(wgpu::ComputePassTimestampWrites {
+                        query_set: &clock.queries,
+                        beginning_of_pass_write_index: Some(2 * k),
+                        end_of_pass_write_index: Some(2 * k + 1),
+                    }),
+                });
+                encode(&mut pass, std::slice::from_ref(step));
+            }
+            let stamps = 2 * steps.len() as u32;
+            encoder.resolve_query_set(&clock.queries, 0..stamps, &clock.resolved, 0);
+        }
     }
     let submission = context.queue.submit([encoder.finish()]);
     if let Some(error) = pollster::block_on(scope.pop()) {
         return Err(GpuUnavailable(format!("a GPU dispatch failed: {error}")));
     }
     Ok(submission)
+}
+
+/// The GPU's own clock around each step of a submission (wgpu's timestamp queries): how long
+/// each kernel ran on the device, apart from the time the CPU waits and the other kernels of
+/// the same submission.
+#[derive(Debug)]
+pub struct StepClock {
+    queries: wgpu::QuerySet,
+    /// The stamps, resolved into GPU ticks (two per step: start, end).
+    resolved: wgpu::Buffer,
+    /// Steps it can time in one submission.
+    steps: u32,
+    /// Nanoseconds per tick.
+    period_ns: f64,
+}
+
+impl StepClock {
+    /// A clock for submissions of up to `steps` steps, or `None` where the device was opened
+    /// without timestamp queries (see [`GpuContext::timestamps`]).
+    pub fn new(context: &GpuContext, steps: u32) -> Option<StepClock> {
+        if !context.timestamps {
+            return None;
+        }
+        let queries = context.device.create_query_set(&wgpu::QuerySetDescriptor {
+            label: Some("step clock"),
+            ty: wgpu::QueryType::Timestamp,
+            count: 2 * steps,
+        });
+        let resolved = context.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("step clock stamps"),
+            size: u64::from(2 * steps) * 8,
+            usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        });
+        Some(StepClock {
+            queries,
+            resolved,
+            steps,
+            period_ns: f64::from(context.queue.get_timestamp_period()),
+        })
+    }
+
+    /// How long each of the last submission's first `steps` steps ran, once it is done (this
+    /// waits for it).
+    pub fn read(
+        &self,
+        context: &GpuContext,
+        steps: usize,
+    ) -> Result<Vec<std::time::Duration>, GpuUnavailable> {
+        let steps = steps.min(self.steps as usize);
+        let stamps: Vec<u64> = read_buffer(context, &self.resolved, 2 * steps)?;
+        Ok(stamps
+            .chunks_exact(2)
+            .map(|pair| {
+                let ticks = pair[1].saturating_sub(pair[0]);
+                std::time::Duration::from_nanos((ticks as f64 * self.period_ns).round() as u64)
+            })
+            .collect())
+    }
 }
 
 /// Workgroups of `size` threads covering `n` items.
@@ -338,6 +430,38 @@ mod tests {
         let pipeline = kernel_with(&context, "seven", source, "main", &[&bindings.layout]).unwrap();
         dispatch(&context, &pipeline, &[&bindings.group], [1, 1, 1]).unwrap();
         assert_eq!(read_buffer::<u32>(&context, &out, 1).unwrap(), vec![7]);
+    }
+
+    /// Two kernels timed apart: the one that loops a thousand times longer takes longer, and
+    /// both took some time.
+    #[test]
+    fn the_step_clock_times_each_kernel_of_a_submission() {
+        let Some(context) = GpuContext::for_tests() else {
+            return;
+        };
+        let Some(clock) = StepClock::new(&context, 2) else {
+            eprintln!("skipped: {} has no timestamp queries", context.adapter);
+            return;
+        };
+        let source = "@group(0) @binding(0) var<storage, read_write> out: array<f32>;\n\
+            fn spin(n: u32, id: u32) { var x = f32(id); for (var i = 0u; i < n; i++) \
+            { x = sin(x) + 1.0; } out[id] = x; }\n\
+            @compute @workgroup_size(64) fn short(@builtin(global_invocation_id) id: vec3u) \
+            { spin(10u, id.x); }\n\
+            @compute @workgroup_size(64) fn long(@builtin(global_invocation_id) id: vec3u) \
+            { spin(10000u, id.x); }";
+        let out = zeroed_buffer::<f32>(&context, "out", 64 * 64);
+        let bindings = Bindings::new(&context, "out", &[(&out, Access::ReadWrite)]);
+        let short = kernel_with(&context, "short", source, "short", &[&bindings.layout]).unwrap();
+        let long = kernel_with(&context, "long", source, "long", &[&bindings.layout]).unwrap();
+        let steps = [(&short, [64, 1, 1]), (&long, [64, 1, 1])];
+        let submission =
+            submit_steps_timed(&context, &steps, &[&bindings.group], Some(&clock)).unwrap();
+        wait_for(&context, submission).unwrap();
+        let times = clock.read(&context, 2).unwrap();
+        assert_eq!(times.len(), 2);
+        assert!(times[1] > times[0], "{times:?}");
+        assert!(times[0] > std::time::Duration::ZERO, "{times:?}");
     }
 
     #[test]

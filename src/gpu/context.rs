@@ -104,6 +104,9 @@ pub struct GpuContext {
     pub queue: wgpu::Queue,
     pub adapter: AdapterSummary,
     pub limits: wgpu::Limits,
+    /// Whether the device was opened with timestamp queries (when the adapter offers them):
+    /// [`super::compute::StepClock`] times kernels with them.
+    pub timestamps: bool,
 }
 
 impl fmt::Debug for GpuContext {
@@ -140,9 +143,14 @@ impl GpuContext {
             })?;
         let summary = AdapterSummary::of(&adapter.get_info());
         let limits = adapter.limits();
+        let timestamps = adapter.features().contains(wgpu::Features::TIMESTAMP_QUERY);
         let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
             label: Some("realcam"),
-            required_features: wgpu::Features::empty(),
+            required_features: if timestamps {
+                wgpu::Features::TIMESTAMP_QUERY
+            } else {
+                wgpu::Features::empty()
+            },
             required_limits: limits.clone(),
             ..Default::default()
         }))
@@ -157,6 +165,7 @@ impl GpuContext {
             queue,
             adapter: summary,
             limits,
+            timestamps,
         })
     }
 

@@ -39,9 +39,12 @@ fn accumulate_source() -> String {
     .concat()
 }
 
-use std::collections::VecDeque;
+use std::collections::{BTreeMap, VecDeque};
+use std::time::Duration;
 
-use super::compute::{Access, Bindings, kernel_with, read_buffer, storage_buffer, zeroed_buffer};
+use super::compute::{
+    Access, Bindings, StepClock, kernel_with, read_buffer, storage_buffer, zeroed_buffer,
+};
 use super::context::{GpuContext, GpuUnavailable};
 use crate::film::filter::Filter;
 use crate::film::samples::SampleSequence;
@@ -119,6 +122,10 @@ pub struct GpuFilm {
     kernels: Option<Kernels>,
     /// Passes submitted and perhaps not yet done, oldest first.
     in_flight: VecDeque<wgpu::SubmissionIndex>,
+    /// With `REALCAM_GPU_TIMESTAMPS=1` (on a device with timestamp queries), the clock that
+    /// times every kernel a dispatch runs, and each kernel's time on the GPU so far.
+    clock: Option<StepClock>,
+    pub kernel_busy: BTreeMap<&'static str, Duration>,
 }
 
 /// The pass's kernels (pass.wgsl): one invocation per pixel and sample of a single-sample
@@ -237,6 +244,11 @@ impl GpuFilm {
             bindings,
             kernels: None,
             in_flight: VecDeque::new(),
+            clock: std::env::var("REALCAM_GPU_TIMESTAMPS")
+                .is_ok_and(|v| v == "1")
+                .then(|| StepClock::new(context, 2))
+                .flatten(),
+            kernel_busy: BTreeMap::new(),
         })
     }
 
@@ -367,31 +379,50 @@ impl GpuFilm {
         let pixels = self.width * self.height;
         let gather = [pixels.div_ceil(64), 1, 1];
         let filtered = !self.filter.is_box();
-        let steps: Vec<(&wgpu::ComputePipeline, [u32; 3])> = if self.wavelengths > 1 {
+        let steps: Vec<(&'static str, &wgpu::ComputePipeline, [u32; 3])> = if self.wavelengths > 1 {
             vec![
                 (
+                    "render_wavelengths",
                     &kernels.render_wavelengths,
                     [tiles[0], tiles[1], samples.count],
                 ),
                 if filtered {
-                    (&kernels.accumulate_filtered, gather)
+                    ("accumulate_filtered", &kernels.accumulate_filtered, gather)
                 } else {
-                    (&kernels.accumulate_splats, gather)
+                    ("accumulate_splats", &kernels.accumulate_splats, gather)
                 },
             ]
         } else if samples.count == 1 && !filtered {
-            vec![(&kernels.render_pass, [tiles[0], tiles[1], 1])]
+            vec![("render_pass", &kernels.render_pass, [tiles[0], tiles[1], 1])]
         } else {
             vec![
-                (&kernels.render_samples, [tiles[0], tiles[1], samples.count]),
+                (
+                    "render_samples",
+                    &kernels.render_samples,
+                    [tiles[0], tiles[1], samples.count],
+                ),
                 if filtered {
-                    (&kernels.accumulate_filtered, gather)
+                    ("accumulate_filtered", &kernels.accumulate_filtered, gather)
                 } else {
-                    (&kernels.accumulate, gather)
+                    ("accumulate", &kernels.accumulate, gather)
                 },
             ]
         };
-        let submission = super::compute::submit_steps(context, &steps, &groups)?;
+        let kernel_steps: Vec<_> = steps.iter().map(|&(_, k, w)| (k, w)).collect();
+        let submission = super::compute::submit_steps_timed(
+            context,
+            &kernel_steps,
+            &groups,
+            self.clock.as_ref(),
+        )?;
+        if let Some(clock) = &self.clock {
+            // Reading the stamps waits for this dispatch: timed renders do not overlap the
+            // CPU's next dispatch with the GPU's work, but each kernel's own time is exact.
+            let times = clock.read(context, steps.len())?;
+            for (&(name, ..), time) in steps.iter().zip(times) {
+                *self.kernel_busy.entry(name).or_default() += time;
+            }
+        }
         self.in_flight.push_back(submission);
         while self.in_flight.len() > PASSES_IN_FLIGHT {
             let oldest = self.in_flight.pop_front().expect("longer than the bound");

@@ -40,6 +40,11 @@ pub(super) fn stats_json(
         "gpu_adapter": adapter,
         "wall_seconds": wall_seconds,
         "gpu_kernel_seconds": stats.gpu_kernel_time.as_secs_f64(),
+        "gpu_kernel_busy_seconds": stats
+            .gpu_kernel_busy
+            .iter()
+            .map(|(kernel, time)| (kernel.to_string(), json!(time.as_secs_f64())))
+            .collect::<serde_json::Map<_, _>>(),
         "stage_seconds": per_stage(&stats.stage_time),
         "stage_busy_seconds": per_stage(&stats.stage_busy),
         "threads": rayon::current_num_threads(),

@@ -255,6 +255,7 @@ fn render_pass_on_gpu(
             };
             let result = gpu_film.render_pass(context, upstream, samples);
             stats.add_time(Stage::Shade, start);
+            stats.gpu_kernel_busy.clone_from(&gpu_film.kernel_busy);
             result
         });
     if let Err(why) = result {

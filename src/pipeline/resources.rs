@@ -139,6 +139,9 @@ pub struct RenderStats {
     pub rejected_samples: u64,
     /// Compiling the GPU's pass kernel (set-up, once per renderer; not in any stage's time).
     pub gpu_kernel_time: Duration,
+    /// Each GPU kernel's own time on the device, by name, when the render timed them
+    /// (`REALCAM_GPU_TIMESTAMPS=1`; see [`crate::gpu::compute::StepClock`]).
+    pub gpu_kernel_busy: std::collections::BTreeMap<&'static str, Duration>,
     /// What shading met: escaped rays, emitters, light samples and their fate (its rays are
     /// also counted in `rays_traced`).
     pub shading: ShadeStats,
