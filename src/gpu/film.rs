@@ -118,6 +118,9 @@ pub struct GpuFilm {
     /// The filter's weights per axis ([`Filter::tap_table`], for accumulate.wgsl's
     /// `pass_filter_tap`).
     _filter_taps: wgpu::Buffer,
+    /// With several wavelengths, how far each sample's shares reach (pass_film.wgsl's
+    /// `pass_reach`), so the gathers skip the pixels whose shares cannot reach theirs.
+    _reach: wgpu::Buffer,
     bindings: Bindings,
     kernels: Option<Kernels>,
     /// Passes submitted and perhaps not yet done, oldest first.
@@ -220,6 +223,12 @@ impl GpuFilm {
         let counters = storage_buffer(context, "pass counters", &[0u32; COUNTER_WORDS]);
         let scratch = zeroed_buffer::<[f32; 4]>(context, "sample scratch", scratch_len as usize);
         let filter_taps = storage_buffer(context, "filter taps", filter.tap_table());
+        let reach_len = if wavelengths > 1 {
+            pixels * u64::from(per_pixel)
+        } else {
+            1
+        };
+        let reach = zeroed_buffer::<u32>(context, "share reach", reach_len as usize);
         let bindings = Bindings::new(
             context,
             "pass",
@@ -229,6 +238,7 @@ impl GpuFilm {
                 (&counters, Access::ReadWrite),
                 (&scratch, Access::ReadWrite),
                 (&filter_taps, Access::ReadOnly),
+                (&reach, Access::ReadWrite),
             ],
         );
         Ok(GpuFilm {
@@ -241,6 +251,7 @@ impl GpuFilm {
             counters,
             _scratch: scratch,
             _filter_taps: filter_taps,
+            _reach: reach,
             bindings,
             kernels: None,
             in_flight: VecDeque::new(),
@@ -526,6 +537,10 @@ mod tests {
                     .collect();
                 let mut expected: Vec<[f64; 3]> = start.iter().map(|s| s.map(f64::from)).collect();
                 let mut scale = vec![0.0f64; pixels];
+                // Per sample and pixel, as render_wavelengths leaves it: how many pixels from
+                // its own its shares land, at most (what the gather may skip beyond).
+                let mut reach = vec![0u32; samples * pixels];
+                let steps = (1.0 / POSITION_STEP) as i32;
                 for (index, share) in shares.iter_mut().enumerate() {
                     let pixel = (index / count) % pixels;
                     let companion = index % count > 0;
@@ -543,6 +558,9 @@ mod tests {
                     ];
                     let rgb = [rng.next_f32(), rng.next_f32(), 2.0 * rng.next_f32()];
                     *share = [rgb[0], rgb[1], rgb[2], position_code(q)];
+                    let landed = q.map(|q| q.div_euclid(steps).unsigned_abs());
+                    let r = &mut reach[index / count];
+                    *r = (*r).max(landed[0]).max(landed[1]);
                     let at = [
                         x as f32 + q[0] as f32 * POSITION_STEP,
                         y as f32 + q[1] as f32 * POSITION_STEP,
@@ -569,6 +587,11 @@ mod tests {
                 context
                     .queue
                     .write_buffer(&film._scratch, 0, bytemuck::cast_slice(&shares));
+                if wavelengths > 1 {
+                    context
+                        .queue
+                        .write_buffer(&film._reach, 0, bytemuck::cast_slice(&reach));
+                }
                 let params = PassParams {
                     width,
                     height,

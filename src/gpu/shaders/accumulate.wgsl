@@ -44,8 +44,12 @@ fn accumulate_splats(@builtin(global_invocation_id) id: vec3u) {
                 if sx < 0 || sy < 0 || sx >= width || sy >= height {
                     continue;
                 }
+                let source = k * pixels + u32(sy * width + sx);
+                if max(abs(dx), abs(dy)) > i32(pass_reach[source]) {
+                    continue;
+                }
                 let code = f32((dy + r) * (2 * r + 1) + (dx + r));
-                let first = (k * pixels + u32(sy * width + sx)) * count;
+                let first = source * count;
                 for (var w = 0u; w < count; w++) {
                     let share = pass_scratch[first + w];
                     if share.w == code {
@@ -70,8 +74,8 @@ fn pass_inside(pixel: i32, extent: i32) -> u32 {
 // (pass_filter_taps): the CPU's bit for bit, however this GPU rounds exp and division.
 fn pass_filter_tap(at: i32, pixel: i32, extent: i32) -> f32 {
     let steps = FILM_POSITION_STEPS;
-    let within = ((at % steps) + steps) % steps;
-    let own = (at - within) / steps;
+    let own = pass_pixel_of_step(at);
+    let within = at - own * steps;
     let k = pixel - (own - 1);
     if k < 0 || k > 2 {
         return 0.0;
@@ -112,7 +116,14 @@ fn accumulate_filtered(@builtin(global_invocation_id) id: vec3u) {
         var sample = vec3f(0.0);
         for (var sy = max(y - around, 0); sy <= min(y + around, height - 1); sy++) {
             for (var sx = max(x - around, 0); sx <= min(x + around, width - 1); sx++) {
-                let first = (k * pixels + u32(sy * width + sx)) * count;
+                let source = k * pixels + u32(sy * width + sx);
+                // A share in pixel `own` of its source weighs pixels own − 1 … own + 1 only:
+                // beyond its reach + 1 a source adds nothing here.
+                let distance = max(abs(sx - x), abs(sy - y));
+                if distance > 1 && distance > i32(pass_reach[source]) + 1 {
+                    continue;
+                }
+                let first = source * count;
                 for (var w = 0u; w < count; w++) {
                     let share = pass_scratch[first + w];
                     if share.w == PASS_NO_SPLAT {

@@ -154,9 +154,20 @@ fn render_wavelengths(
                 }
             }
         }
+        // How far the shares that count land from this pixel, in pixels along either axis.
+        var reach = 0;
         for (var k = 0u; k < count; k++) {
             pass_scratch[first + k] = shares[k];
+            if shares[k].w != PASS_NO_SPLAT {
+                var landed = wavelengths.offset[k];
+                if pass_params.filtered != 0u {
+                    let q = wavelengths.position[k];
+                    landed = vec2i(pass_pixel_of_step(q.x), pass_pixel_of_step(q.y));
+                }
+                reach = max(reach, max(abs(landed.x), abs(landed.y)));
+            }
         }
+        pass_reach[id.z * pixels + id.y * pass_params.width + id.x] = u32(reach);
     }
     pass_add_counts(local, inside);
 }

@@ -31,6 +31,10 @@ struct PassParams {
 // pattern of the three pixels a share reaches (bit k: pixel k of them lies inside) and per
 // step of the share's position within its pixel, the weights of the three pixels.
 @group(3) @binding(4) var<storage, read> pass_filter_taps: array<vec4f>;
+// With several wavelengths per sample, per sample k and pixel p (at k·pixels + p), how far its
+// shares reach: the most pixels any of them lands from p along either axis (0 when none
+// counts). The gathers skip a pixel's shares beyond it without reading them.
+@group(3) @binding(5) var<storage, read_write> pass_reach: array<u32>;
 
 // A share in the scratch buffer says in w where it goes, as a whole number an f32 holds
 // exactly: with the box filter, a splat code (dy + R)·(2R + 1) + (dx + R) for the offset
@@ -46,6 +50,13 @@ const PASS_POSITION_BIAS: i32 = 1024;
 fn pass_position_code(q: vec2i) -> f32 {
     let biased = q + vec2i(PASS_POSITION_BIAS);
     return f32(biased.y * (2 * PASS_POSITION_BIAS) + biased.x);
+}
+
+// The pixel a position `at` (filter steps from the frame's or a pixel's corner) lies in, in
+// pixels from the same corner: floor(at / FILM_POSITION_STEPS), also below zero.
+fn pass_pixel_of_step(at: i32) -> i32 {
+    let steps = FILM_POSITION_STEPS;
+    return (at - (((at % steps) + steps) % steps)) / steps;
 }
 
 fn pass_position_of(code: f32) -> vec2i {
