@@ -85,6 +85,15 @@ impl FilmTile {
         self.samples = image.samples;
     }
 
+    /// Whether the tile is as [`FilmTile::clear`] leaves it: no samples, and every sum +0.0
+    /// (bit for bit: a −0.0 sum would add differently).
+    pub fn is_clear(&self) -> bool {
+        self.samples == 0
+            && [&self.sum_r, &self.sum_g, &self.sum_b]
+                .iter()
+                .all(|sums| sums.iter().all(|s| s.to_bits() == 0))
+    }
+
     pub fn clear(&mut self) {
         for v in [&mut self.sum_r, &mut self.sum_g, &mut self.sum_b] {
             v.iter_mut().for_each(|s| *s = 0.0);
@@ -162,5 +171,28 @@ impl Image {
             .iter()
             .map(|s| [s[0] * scale, s[1] * scale, s[2] * scale])
             .collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A tile is clear exactly as `clear` leaves it: a sample, a sum or even a −0.0 sum (which
+    /// adds differently from +0.0) makes it not.
+    #[test]
+    fn a_tile_is_clear_only_as_cleared() {
+        let mut tile = FilmTile::new(0, 0, 4, 3);
+        assert!(tile.is_clear());
+        tile.sum_g[5] = 0.25;
+        assert!(!tile.is_clear());
+        tile.clear();
+        tile.sum_b[11] = -0.0;
+        assert!(!tile.is_clear());
+        tile.clear();
+        tile.samples = 1;
+        assert!(!tile.is_clear());
+        tile.clear();
+        assert!(tile.is_clear());
     }
 }

@@ -264,6 +264,18 @@ impl GpuFilm {
     }
 
     /// Replaces the film's sums (row-major RGB per pixel; a cleared film is all zeros).
+    /// Zeroes the film's sums on the GPU: [`GpuFilm::load`] of a cleared film, with nothing
+    /// to upload.
+    pub fn clear(&self, context: &GpuContext) {
+        let mut encoder = context
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("clear film"),
+            });
+        encoder.clear_buffer(&self.film, 0, None);
+        context.queue.submit([encoder.finish()]);
+    }
+
     pub fn load(&self, context: &GpuContext, sums: &[[f32; 3]]) {
         assert_eq!(sums.len(), (self.width * self.height) as usize);
         let padded: Vec<[f32; 4]> = sums.iter().map(|&[r, g, b]| [r, g, b, 0.0]).collect();

@@ -232,11 +232,16 @@ fn render_pass_on_gpu(
     let gpu_film = data.film.as_mut().expect("made above");
     if !data.gpu_newer {
         // The tiles hold the newest sums (a cleared or resumed film, or what the GPU last gave
-        // back): the GPU starts from them.
-        gpu_film.load(
-            context,
-            &Image::from_tiles(width, height, tiles.iter()).sums,
-        );
+        // back): the GPU starts from them. A cleared film (every new render) is cleared there
+        // too, without assembling and uploading a frame of zeros (milliseconds a render).
+        if tiles.iter().all(|tile| tile.is_clear()) {
+            gpu_film.clear(context);
+        } else {
+            gpu_film.load(
+                context,
+                &Image::from_tiles(width, height, tiles.iter()).sums,
+            );
+        }
     }
     let upstream = [&lens.bindings, &scene.bindings, &shading.bindings];
     // Compiling the kernel is set-up (like the BVH build), not pass time.
