@@ -16,10 +16,11 @@ const ACCUMULATE_WGSL: &str = include_str!("shaders/accumulate.wgsl");
 /// The film's bindings and the pass parameters, which both kernels' sources declare.
 const PASS_FILM_WGSL: &str = include_str!("shaders/pass_film.wgsl");
 
-/// The pass kernel's whole WGSL source: every stage's functions, then the entry point.
-pub fn pass_source() -> String {
+/// The pass kernel's whole WGSL source for samples of `wavelengths` wavelengths (see
+/// [`super::lens::lens_source_for`]): every stage's functions, then the entry point.
+pub fn pass_source(wavelengths: u32) -> String {
     [
-        super::lens::lens_source().as_str(),
+        super::lens::lens_source_for(wavelengths).as_str(),
         super::shading::RNG_WGSL,
         super::scene::SCENE_WGSL,
         super::shading::SHADE_WGSL,

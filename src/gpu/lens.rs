@@ -40,8 +40,16 @@ pub const LENS_WGSL: &str = include_str!("shaders/lens.wgsl");
 /// The WGSL a kernel that makes camera rays starts with: the shared constants, sampling,
 /// spectral, lens, in order.
 pub fn lens_source() -> String {
+    lens_source_for(MAX_WAVELENGTHS)
+}
+
+/// [`lens_source`] for samples of at most `wavelengths` wavelengths each (1 ..=
+/// [`MAX_WAVELENGTHS`]): a sample's per-wavelength arrays hold that many, and the loops over
+/// them run to that constant (stopping at the lens's own count), so a GPU compiler unrolls
+/// them and keeps the arrays in registers instead of thread-local memory.
+pub fn lens_source_for(wavelengths: u32) -> String {
     [
-        shared_constants().as_str(),
+        shared_constants_for(wavelengths).as_str(),
         SAMPLING_WGSL,
         SPECTRAL_WGSL,
         LENS_WGSL,
@@ -54,10 +62,16 @@ pub fn lens_source() -> String {
 /// a backward trace starts (see [`crate::lens::hero_wavelengths`]); the steps per pixel of the
 /// film filter's grid (see [`crate::film::filter`]).
 pub fn shared_constants() -> String {
+    shared_constants_for(MAX_WAVELENGTHS)
+}
+
+/// [`shared_constants`] with `MAX_WAVELENGTHS` = `wavelengths` (see [`lens_source_for`]).
+fn shared_constants_for(wavelengths: u32) -> String {
+    let wavelengths = wavelengths.clamp(1, MAX_WAVELENGTHS);
     format!(
         "const SPLAT_RADIUS: i32 = {SPLAT_RADIUS};\n\
          const FILM_POSITION_STEPS: i32 = {steps};\n\
-         const MAX_WAVELENGTHS: u32 = {MAX_WAVELENGTHS}u;\n\
+         const MAX_WAVELENGTHS: u32 = {wavelengths}u;\n\
          const BACKWARD_START_MM: f32 = {BACKWARD_START_MM:?};\n\
          const REFLECTANCE_COSINE_STEPS: u32 = {COSINE_STEPS}u;\n\
          const REFLECTANCE_STEP_NM: f32 = {step:?};\n\

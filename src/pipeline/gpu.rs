@@ -247,7 +247,7 @@ fn render_pass_on_gpu(
     // Compiling the kernel is set-up (like the BVH build), not pass time.
     let compile_start = std::time::Instant::now();
     let result = gpu_film
-        .prepare_kernel(context, upstream, pass_source)
+        .prepare_kernel(context, upstream, || pass_source(wavelengths))
         .and_then(|compiled| {
             if compiled {
                 stats.gpu_kernel_time += compile_start.elapsed();

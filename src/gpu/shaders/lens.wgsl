@@ -722,7 +722,13 @@ fn lens_companions(ray: LensRay, pixel: vec2i, wavelength_set: WavelengthSet, he
     inverse[0] = 1.0 / hero_weight;
     landed[0] = pixel;
     transmission[0] = hero_transmission;
-    for (var k = 1u; k < count; k++) {
+    // Loops over a sample's wavelengths run to the constant MAX_WAVELENGTHS (the kernel is
+    // compiled for the render's count) and stop at `count`: unrolled, with the arrays in
+    // registers.
+    for (var k = 1u; k < MAX_WAVELENGTHS; k++) {
+        if k >= count {
+            break;
+        }
         var shifted = wavelength_set.u + f32(k) / f32(count);
         if shifted >= 1.0 {
             shifted = shifted - 1.0;
@@ -749,10 +755,16 @@ fn lens_companions(ray: LensRay, pixel: vec2i, wavelength_set: WavelengthSet, he
             }
         }
     }
-    for (var k = 0u; k < count; k++) {
+    for (var k = 0u; k < MAX_WAVELENGTHS; k++) {
+        if k >= count {
+            break;
+        }
         if valid[k] && lens_within_radius(landed[k], pixel) {
             var inverse_sum = 0.0;
-            for (var j = 0u; j < count; j++) {
+            for (var j = 0u; j < MAX_WAVELENGTHS; j++) {
+                if j >= count {
+                    break;
+                }
                 if valid[j] && lens_within_radius(landed[j], landed[k]) {
                     inverse_sum += inverse[j];
                 }

@@ -129,13 +129,19 @@ fn render_wavelengths(
         var wavelengths: CameraWavelengths;
         let ray = camera_ray_with(id.x, id.y, sample, &wavelengths);
         var shares: array<vec4f, MAX_WAVELENGTHS>;
-        for (var k = 0u; k < count; k++) {
+        for (var k = 0u; k < MAX_WAVELENGTHS; k++) {
+            if k >= count {
+                break;
+            }
             shares[k] = vec4f(0.0, 0.0, 0.0, PASS_NO_SPLAT);
         }
         if ray.weight > 0.0 {
             let radiance = pass_weighted_radiance(ray, sample);
             var finite = true;
-            for (var k = 0u; k < count; k++) {
+            for (var k = 0u; k < MAX_WAVELENGTHS; k++) {
+            if k >= count {
+                break;
+            }
                 if wavelengths.factor[k] != 0.0 {
                     let rgb = film_rgb(wavelengths.nm[k], wavelengths.factor[k], radiance);
                     let o = wavelengths.offset[k] + vec2i(SPLAT_RADIUS, SPLAT_RADIUS);
@@ -149,14 +155,20 @@ fn render_wavelengths(
             }
             if !finite {
                 atomicAdd(&pass_group_counts[PASS_COUNT_REJECTED], 1u);
-                for (var k = 0u; k < count; k++) {
+                for (var k = 0u; k < MAX_WAVELENGTHS; k++) {
+            if k >= count {
+                break;
+            }
                     shares[k] = vec4f(0.0, 0.0, 0.0, PASS_NO_SPLAT);
                 }
             }
         }
         // How far the shares that count land from this pixel, in pixels along either axis.
         var reach = 0;
-        for (var k = 0u; k < count; k++) {
+        for (var k = 0u; k < MAX_WAVELENGTHS; k++) {
+            if k >= count {
+                break;
+            }
             pass_scratch[first + k] = shares[k];
             if shares[k].w != PASS_NO_SPLAT {
                 var landed = wavelengths.offset[k];
