@@ -124,6 +124,8 @@ pub struct GpuFilm {
     _reach: wgpu::Buffer,
     bindings: Bindings,
     kernels: Option<Kernels>,
+    /// Sample indices per pixel a dispatch renders (the scratch buffer holds their shares).
+    per_dispatch: u32,
     /// Passes submitted and perhaps not yet done, oldest first.
     in_flight: VecDeque<wgpu::SubmissionIndex>,
     /// With `REALCAM_GPU_TIMESTAMPS=1` (on a device with timestamp queries), the clock that
@@ -150,7 +152,9 @@ struct Kernels {
 }
 
 /// Samples one dispatch renders, pixels × samples per pixel: enough to fill a large GPU many
-/// times over (a million invocations), little enough scratch (16 bytes each) to stay small.
+/// times over (a million invocations), little enough scratch (16 bytes a share, one share a
+/// wavelength) to stay small. Each dispatch costs about a millisecond beyond its kernels on an
+/// H200 (BENCHMARKS.md, "The GPU machine, 2026-11-27, second session"): fewer are faster.
 const SAMPLES_PER_DISPATCH: u64 = 1 << 22;
 
 /// Passes the GPU may have queued before the CPU waits for the oldest: with the next pass
@@ -165,15 +169,16 @@ const WORKGROUP_SIDE: u32 = 8;
 impl GpuFilm {
     /// Sample indices per pixel one dispatch renders on a film of `pixels`: about
     /// four million samples, at most 64 a pixel (progress, cancellation and
-    /// checkpoints come between dispatches).
+    /// checkpoints come between dispatches). A film whose samples carry several wavelengths
+    /// renders as many where its scratch buffer fits in what the GPU binds
+    /// ([`GpuFilm::samples_per_dispatch`]).
     pub fn samples_per_pixel_per_dispatch(pixels: u64) -> u32 {
-        Self::samples_per_pixel_with(pixels, 1)
+        (SAMPLES_PER_DISPATCH / pixels.max(1)).clamp(1, 64) as u32
     }
 
-    /// As [`Self::samples_per_pixel_per_dispatch`] with `wavelengths` shares a sample: the
-    /// scratch buffer holds about four million shares.
-    fn samples_per_pixel_with(pixels: u64, wavelengths: u32) -> u32 {
-        (SAMPLES_PER_DISPATCH / (pixels.max(1) * u64::from(wavelengths.max(1)))).clamp(1, 64) as u32
+    /// Sample indices per pixel each of this film's dispatches renders.
+    pub fn samples_per_dispatch(&self) -> u32 {
+        self.per_dispatch
     }
 
     /// A cleared film of `width` × `height` pixels whose samples carry `wavelengths`
@@ -187,7 +192,16 @@ impl GpuFilm {
         filter: Filter,
     ) -> Result<GpuFilm, GpuUnavailable> {
         let pixels = width as u64 * height as u64;
-        let per_pixel = Self::samples_per_pixel_with(pixels, wavelengths);
+        let limit = context
+            .limits
+            .max_storage_buffer_binding_size
+            .min(context.limits.max_buffer_size);
+        // A dispatch's samples, as many as on an RGB film (fewer dispatches, each filling the
+        // GPU), unless their shares (16 bytes each) would not fit in one binding: then as many
+        // as do.
+        let shares = u64::from(wavelengths.max(1));
+        let fits = limit / (16 * pixels.max(1) * shares);
+        let per_pixel = Self::samples_per_pixel_per_dispatch(pixels).min(fits.max(1) as u32);
         let scratch_len = if wavelengths > 1 {
             pixels * u64::from(per_pixel) * u64::from(wavelengths)
         } else if per_pixel > 1 || !filter.is_box() {
@@ -197,10 +211,6 @@ impl GpuFilm {
         };
         // Both hold a vec4f per element: the film one per pixel, the scratch one per share.
         let largest = 16 * pixels.max(scratch_len);
-        let limit = context
-            .limits
-            .max_storage_buffer_binding_size
-            .min(context.limits.max_buffer_size);
         if largest > limit {
             let shares = if wavelengths > 1 {
                 format!(" with {wavelengths} wavelengths per sample")
@@ -255,6 +265,7 @@ impl GpuFilm {
             _reach: reach,
             bindings,
             kernels: None,
+            per_dispatch: per_pixel,
             in_flight: VecDeque::new(),
             clock: std::env::var("REALCAM_GPU_TIMESTAMPS")
                 .is_ok_and(|v| v == "1")
@@ -357,8 +368,7 @@ impl GpuFilm {
         upstream: [&Bindings; 3],
         samples: SampleSequence,
     ) -> Result<(), GpuUnavailable> {
-        let pixels = self.width as u64 * self.height as u64;
-        let per_dispatch = Self::samples_per_pixel_with(pixels, self.wavelengths);
+        let per_dispatch = self.per_dispatch;
         let mut done = 0;
         while done < samples.count {
             let chunk = samples.after(done).first_n(per_dispatch);
@@ -510,6 +520,36 @@ mod tests {
             0 => lo,
             1 => hi,
             _ => (lo as f32 + rng.next_f32() * (hi - lo) as f32).round() as i32,
+        }
+    }
+
+    /// A film whose samples carry three wavelengths dispatches as many samples as an RGB one
+    /// (not a third of them) where their shares fit in one binding, and as many as fit where
+    /// they do not.
+    #[test]
+    fn a_spectral_film_dispatches_as_many_samples_as_fit() {
+        let Some(context) = GpuContext::for_tests() else {
+            return;
+        };
+        let limit = context
+            .limits
+            .max_storage_buffer_binding_size
+            .min(context.limits.max_buffer_size);
+        for side in [64u32, 160, 400, 640] {
+            let pixels = u64::from(side * side);
+            let rgb = GpuFilm::samples_per_pixel_per_dispatch(pixels);
+            let fitting = (limit / (16 * pixels * 3)).max(1) as u32;
+            if 16 * pixels * 3 > limit {
+                continue;
+            }
+            let film = GpuFilm::new(&context, side, side, 3, Filter::Tent).unwrap();
+            let got = film.samples_per_dispatch();
+            assert!(got >= 1 && got <= rgb, "{side}²: {got} against {rgb}");
+            assert!(16 * pixels * 3 * u64::from(got) <= limit, "{side}²: {got}");
+            assert!(
+                got == rgb || got == fitting,
+                "{side}²: {got}, {rgb}, {fitting}"
+            );
         }
     }
 
