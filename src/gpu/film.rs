@@ -152,10 +152,14 @@ struct Kernels {
 }
 
 /// Samples one dispatch renders, pixels × samples per pixel: enough to fill a large GPU many
-/// times over (a million invocations), little enough scratch (16 bytes a share, one share a
-/// wavelength) to stay small. Each dispatch costs about a millisecond beyond its kernels on an
-/// H200 (BENCHMARKS.md, "The GPU machine, 2026-11-27, second session"): fewer are faster.
-const SAMPLES_PER_DISPATCH: u64 = 1 << 22;
+/// times over (sixteen million invocations), in few dispatches, since each costs a
+/// millisecond or more beyond its kernels on an H200 (BENCHMARKS.md, "The GPU machine,
+/// 2026-11-27, second session": 2²⁴ against 2²² renders 1.31× faster in RGB and 1.07× with
+/// three wavelengths at 640²). Its scratch is 16 bytes a share, one share a wavelength: 256 MiB
+/// in RGB, 768 MiB with three wavelengths, less where the GPU binds less
+/// ([`GpuFilm::new`]). Progress and cancellation come between dispatches: about 40 ms apart
+/// on an H200.
+const SAMPLES_PER_DISPATCH: u64 = 1 << 24;
 
 /// Passes the GPU may have queued before the CPU waits for the oldest: with the next pass
 /// already queued when one finishes, the GPU never idles between passes, and progress and
@@ -168,7 +172,7 @@ const WORKGROUP_SIDE: u32 = 8;
 
 impl GpuFilm {
     /// Sample indices per pixel one dispatch renders on a film of `pixels`: about
-    /// four million samples, at most 64 a pixel (progress, cancellation and
+    /// sixteen million samples, at most 64 a pixel (progress, cancellation and
     /// checkpoints come between dispatches). A film whose samples carry several wavelengths
     /// renders as many where its scratch buffer fits in what the GPU binds
     /// ([`GpuFilm::samples_per_dispatch`]).

@@ -329,7 +329,7 @@ impl Renderer {
     }
 
     /// How many passes one update should render: one on the CPU (its passes are long and
-    /// parallel inside); on a GPU enough for about four million samples a dispatch, so that
+    /// parallel inside); on a GPU enough for about sixteen million samples a dispatch, so that
     /// the CPU's share of a pass (the schedule, the submission) does not leave the GPU idle.
     pub fn passes_per_update(&self) -> u32 {
         if !self.world.contains_resource::<GpuBackend>() {
