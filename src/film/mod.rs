@@ -75,14 +75,20 @@ impl FilmTile {
 
     /// Takes this tile's pixels and sample count from a whole-image `image`.
     pub fn load(&mut self, image: &Image) {
+        self.load_from(image.width, image.samples, |i| image.sums[i]);
+    }
+
+    /// Takes this tile's pixels from row-major whole-image sums of `image_width` pixels a row
+    /// (`sum(i)`: pixel i's RGB), and `samples`.
+    pub fn load_from(&mut self, image_width: u32, samples: u32, sum: impl Fn(usize) -> [f32; 3]) {
         for ty in 0..self.height {
             for tx in 0..self.width {
                 let t = (ty * self.width + tx) as usize;
-                let s = image.sums[((self.y0 + ty) * image.width + self.x0 + tx) as usize];
+                let s = sum(((self.y0 + ty) * image_width + self.x0 + tx) as usize);
                 (self.sum_r[t], self.sum_g[t], self.sum_b[t]) = (s[0], s[1], s[2]);
             }
         }
-        self.samples = image.samples;
+        self.samples = samples;
     }
 
     /// Whether the tile is as [`FilmTile::clear`] leaves it: no samples, and every sum +0.0

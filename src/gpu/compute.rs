@@ -62,9 +62,23 @@ pub fn read_buffer<T: bytemuck::Pod>(
     buffer: &wgpu::Buffer,
     len: usize,
 ) -> Result<Vec<T>, GpuUnavailable> {
-    let size = (len * size_of::<T>()) as u64;
+    let bytes = (len * size_of::<T>()) as u64;
+    read_buffers(context, &[(buffer, bytes)], |parts| {
+        bytemuck::cast_slice::<u8, T>(parts[0]).to_vec()
+    })
+}
+
+/// The first bytes of several buffers (`(buffer, bytes)`, each a multiple of 4), copied back
+/// together after all submitted work is done (one copy, one wait, one mapping) and handed to
+/// `use_bytes` while mapped, so a large buffer is read in place instead of copied out first.
+pub fn read_buffers<R>(
+    context: &GpuContext,
+    parts: &[(&wgpu::Buffer, u64)],
+    use_bytes: impl FnOnce(&[&[u8]]) -> R,
+) -> Result<R, GpuUnavailable> {
+    let size: u64 = parts.iter().map(|&(_, bytes)| bytes).sum();
     if size == 0 {
-        return Ok(Vec::new());
+        return Ok(use_bytes(&vec![&[][..]; parts.len()]));
     }
     let staging = context.device.create_buffer(&wgpu::BufferDescriptor {
         label: Some("readback"),
@@ -77,7 +91,13 @@ pub fn read_buffer<T: bytemuck::Pod>(
         .create_command_encoder(&wgpu::CommandEncoderDescriptor {
             label: Some("readback"),
         });
-    encoder.copy_buffer_to_buffer(buffer, 0, &staging, 0, size);
+    let mut offset = 0;
+    for &(buffer, bytes) in parts {
+        if bytes > 0 {
+            encoder.copy_buffer_to_buffer(buffer, 0, &staging, offset, bytes);
+        }
+        offset += bytes;
+    }
     context.queue.submit([encoder.finish()]);
     let slice = staging.slice(..);
     let (sender, receiver) = std::sync::mpsc::channel();
@@ -92,14 +112,23 @@ pub fn read_buffer<T: bytemuck::Pod>(
         .recv()
         .map_err(|_| GpuUnavailable("the GPU readback was dropped".into()))?
         .map_err(|e| GpuUnavailable(format!("could not read a GPU buffer back: {e}")))?;
-    let values = {
+    let result = {
         let view = slice
             .get_mapped_range()
             .map_err(|e| GpuUnavailable(format!("could not read a GPU buffer back: {e}")))?;
-        bytemuck::cast_slice::<u8, T>(&view).to_vec()
+        let mut rest: &[u8] = &view;
+        let pieces: Vec<&[u8]> = parts
+            .iter()
+            .map(|&(_, bytes)| {
+                let (piece, after) = rest.split_at(bytes as usize);
+                rest = after;
+                piece
+            })
+            .collect();
+        use_bytes(&pieces)
     };
     staging.unmap();
-    Ok(values)
+    Ok(result)
 }
 
 /// The kernel `entry` of `source` with `layout`: a shader that fails validation is an error

@@ -44,7 +44,7 @@ use std::collections::{BTreeMap, VecDeque};
 use std::time::Duration;
 
 use super::compute::{
-    Access, Bindings, StepClock, kernel_with, read_buffer, storage_buffer, zeroed_buffer,
+    Access, Bindings, StepClock, kernel_with, read_buffers, storage_buffer, zeroed_buffer,
 };
 use super::context::{GpuContext, GpuUnavailable};
 use crate::film::filter::Filter;
@@ -475,20 +475,39 @@ impl GpuFilm {
         &mut self,
         context: &GpuContext,
     ) -> Result<(Vec<[f32; 3]>, PassCounts), GpuUnavailable> {
+        let mut out = Vec::new();
+        let counts = self.read_with(context, |sums| {
+            out = sums.iter().map(|&[r, g, b, _]| [r, g, b]).collect();
+        })?;
+        Ok((out, counts))
+    }
+
+    /// [`GpuFilm::read`] with the sums handed to `use_sums` where the readback maps them
+    /// (row-major, RGB and an unused w per pixel): the film and the counters come back in one
+    /// copy and one wait, and nothing copies the frame out before it is used.
+    pub fn read_with(
+        &mut self,
+        context: &GpuContext,
+        use_sums: impl FnOnce(&[[f32; 4]]),
+    ) -> Result<PassCounts, GpuUnavailable> {
         // The readback is queued after every pass and waits for them all.
         self.in_flight.clear();
-        let sums: Vec<[f32; 4]> =
-            read_buffer(context, &self.film, (self.width * self.height) as usize)?;
-        let counters: Vec<u32> = read_buffer(context, &self.counters, COUNTER_WORDS)?;
+        let film_bytes = u64::from(self.width * self.height) * 16;
+        let counters_bytes = (COUNTER_WORDS * 4) as u64;
+        let counters = read_buffers(
+            context,
+            &[(&self.film, film_bytes), (&self.counters, counters_bytes)],
+            |parts| {
+                use_sums(bytemuck::cast_slice(parts[0]));
+                bytemuck::cast_slice::<u8, u32>(parts[1]).to_vec()
+            },
+        )?;
         context.queue.write_buffer(
             &self.counters,
             0,
             bytemuck::cast_slice(&[0u32; COUNTER_WORDS]),
         );
-        Ok((
-            sums.into_iter().map(|[r, g, b, _]| [r, g, b]).collect(),
-            PassCounts::of(&counters),
-        ))
+        Ok(PassCounts::of(&counters))
     }
 }
 

@@ -296,26 +296,30 @@ pub(super) fn read_film_back(world: &mut World) -> anyhow::Result<()> {
     if !data.gpu_newer {
         return Ok(());
     }
-    let Some(film) = data.film.as_mut() else {
+    // Out of the resource while the tiles (in the same world) take its sums.
+    let Some(mut film) = data.film.take() else {
         return Ok(());
     };
     // Waiting for the passes still queued is pass time: WriteFilm's, as on the CPU.
     let start = std::time::Instant::now();
-    let (width, height) = (film.width, film.height);
-    let (sums, counts) = film
-        .read(&backend.0)
-        .map_err(|why| anyhow::anyhow!("GPU: {why}"))?;
+    let width = film.width;
+    let mut query = world.query::<&mut FilmTile>();
+    let samples = query.iter(world).next().map_or(0, |tile| tile.samples);
+    let mut tiles: Vec<_> = query.iter_mut(world).collect();
+    // Each tile takes its pixels straight from the mapped readback.
+    let read = film.read_with(&backend.0, |sums| {
+        tiles.par_iter_mut().for_each(|tile| {
+            tile.load_from(width, samples, |i| {
+                let [r, g, b, _] = sums[i];
+                [r, g, b]
+            })
+        });
+    });
+    drop(tiles);
+    let mut data = world.resource_mut::<GpuFilmData>();
+    data.film = Some(film);
+    let counts = read.map_err(|why| anyhow::anyhow!("GPU: {why}"))?;
     data.gpu_newer = false;
-    let mut tiles = world.query::<&mut FilmTile>();
-    let samples = tiles.iter(world).next().map_or(0, |tile| tile.samples);
-    let image = Image {
-        width,
-        height,
-        sums,
-        samples,
-    };
-    let mut tiles: Vec<_> = tiles.iter_mut(world).collect();
-    tiles.par_iter_mut().for_each(|tile| tile.load(&image));
     let mut stats = world.resource_mut::<RenderStats>();
     stats.add_time(Stage::WriteFilm, start);
     stats.lens_rays_passed += counts.lens_rays_passed;
