@@ -97,24 +97,9 @@ impl LensWorkload {
         isa: Isa,
         work: &mut RayBatch,
     ) -> usize {
-        let mut passed = 0;
-        let len = self.batch.len();
-        let mut start = 0;
-        while start < len {
-            let end = (start + batch_size).min(len);
-            copy_rays(&self.batch, start..end, work);
-            if self.system.f32s.reflectance.is_some() {
-                // The surfaces' losses scale each ray's throughput, which starts at 1.
-                for throughput in [&mut work.tr, &mut work.tg, &mut work.tb] {
-                    throughput.clear();
-                    throughput.resize(end - start, 1.0);
-                }
-            }
-            trace_batch_on(&self.system.f32s, work, Travel::FilmToScene, kernel, isa);
-            passed += work.alive_count();
-            start = end;
-        }
-        passed
+        self.trace_in_batches(batch_size, work, |_, work| {
+            trace_batch_on(&self.system.f32s, work, Travel::FilmToScene, kernel, isa)
+        })
     }
 
     /// [`Self::trace_soa`] with each ray at its own wavelength (the plain kernel, as the
@@ -129,14 +114,9 @@ impl LensWorkload {
         nm: &mut Vec<f32>,
     ) -> Option<usize> {
         let table = self.system.dispersion.as_deref()?;
-        let mut passed = 0;
-        let len = self.batch.len();
-        let mut start = 0;
-        while start < len {
-            let end = (start + batch_size).min(len);
-            copy_rays(&self.batch, start..end, work);
+        Some(self.trace_in_batches(batch_size, work, |rays, work| {
             nm.clear();
-            nm.extend((start..end).map(spread_wavelength));
+            nm.extend(rays.map(spread_wavelength));
             let wavelengths = Wavelengths { table, nm };
             trace_batch_spectral_on(
                 &self.system.f32s,
@@ -146,14 +126,39 @@ impl LensWorkload {
                 Kernel::AutoVectorised,
                 isa,
             );
+        }))
+    }
+
+    /// Copies the rays into `work` a batch of `batch_size` at a time and has `trace` trace
+    /// each batch (its rays' indices, the batch) in place. Returns the number that pass.
+    fn trace_in_batches(
+        &self,
+        batch_size: usize,
+        work: &mut RayBatch,
+        mut trace: impl FnMut(std::ops::Range<usize>, &mut RayBatch),
+    ) -> usize {
+        let mut passed = 0;
+        let len = self.batch.len();
+        let mut start = 0;
+        while start < len {
+            let end = (start + batch_size).min(len);
+            copy_rays(&self.batch, start..end, work);
+            if self.system.f32s.reflectance.is_some() {
+                // The surfaces' losses scale each ray's throughput, which starts at 1.
+                for throughput in [&mut work.tr, &mut work.tg, &mut work.tb] {
+                    throughput.clear();
+                    throughput.resize(end - start, 1.0);
+                }
+            }
+            trace(start..end, work);
             passed += work.alive_count();
             start = end;
         }
-        Some(passed)
+        passed
     }
 }
 
-/// Ray `i` of `len`'s wavelength for [`LensWorkload::trace_soa_spectral`]: a golden-ratio
+/// Ray `i`'s wavelength for [`LensWorkload::trace_soa_spectral`]: a golden-ratio
 /// sequence over the visible, so neighbouring rays are far apart in wavelength.
 fn spread_wavelength(i: usize) -> f32 {
     const GOLDEN: f64 = 0.618_033_988_749_895;
