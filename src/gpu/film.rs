@@ -114,14 +114,19 @@ pub struct GpuFilm {
     counters: wgpu::Buffer,
     /// Each sample's weighted radiance, `[k][pixel]` (with several wavelengths, each sample's
     /// shares, `[k][pixel][wavelength]`), between the two kernels of a dispatch of several
-    /// samples (one element when a dispatch renders one sample per pixel into the film).
-    _scratch: wgpu::Buffer,
+    /// samples (one element when a dispatch renders one sample per pixel into the film). Sized
+    /// for the largest dispatch so far ([`GpuFilm::reserve_samples`]): a live lab's
+    /// one-sample passes never hold a job's hundreds of MiB.
+    scratch: wgpu::Buffer,
     /// The filter's weights per axis ([`Filter::tap_table`], for accumulate.wgsl's
     /// `pass_filter_tap`).
-    _filter_taps: wgpu::Buffer,
+    filter_taps: wgpu::Buffer,
     /// With several wavelengths, how far each sample's shares reach (pass_film.wgsl's
-    /// `pass_reach`), so the gathers skip the pixels whose shares cannot reach theirs.
-    _reach: wgpu::Buffer,
+    /// `pass_reach`), so the gathers skip the pixels whose shares cannot reach theirs. Sized
+    /// with `scratch`.
+    reach: wgpu::Buffer,
+    /// Sample indices per pixel `scratch` and `reach` hold.
+    scratch_samples: u32,
     bindings: Bindings,
     kernels: Option<Kernels>,
     /// Sample indices per pixel a dispatch renders (the scratch buffer holds their shares).
@@ -206,13 +211,7 @@ impl GpuFilm {
         let shares = u64::from(wavelengths.max(1));
         let fits = limit / (16 * pixels.max(1) * shares);
         let per_pixel = Self::samples_per_pixel_per_dispatch(pixels).min(fits.max(1) as u32);
-        let scratch_len = if wavelengths > 1 {
-            pixels * u64::from(per_pixel) * u64::from(wavelengths)
-        } else if per_pixel > 1 || !filter.is_box() {
-            pixels * u64::from(per_pixel)
-        } else {
-            1
-        };
+        let (scratch_len, _) = Self::scratch_lens(pixels, wavelengths, filter, per_pixel);
         // Both hold a vec4f per element: the film one per pixel, the scratch one per share.
         let largest = 16 * pixels.max(scratch_len);
         if largest > limit {
@@ -236,25 +235,12 @@ impl GpuFilm {
         let params = storage_buffer(context, "pass parameters", &[PassParams::default()]);
         let film = zeroed_buffer::<[f32; 4]>(context, "film sums", pixels as usize);
         let counters = storage_buffer(context, "pass counters", &[0u32; COUNTER_WORDS]);
-        let scratch = zeroed_buffer::<[f32; 4]>(context, "sample scratch", scratch_len as usize);
+        // Scratch for one sample a pixel to begin with; a dispatch of more grows it.
+        let (scratch, reach) = Self::scratch_buffers(context, pixels, wavelengths, filter, 1);
         let filter_taps = storage_buffer(context, "filter taps", filter.tap_table());
-        let reach_len = if wavelengths > 1 {
-            pixels * u64::from(per_pixel)
-        } else {
-            1
-        };
-        let reach = zeroed_buffer::<u32>(context, "share reach", reach_len as usize);
-        let bindings = Bindings::new(
+        let bindings = Self::bind(
             context,
-            "pass",
-            &[
-                (&params, Access::ReadOnly),
-                (&film, Access::ReadWrite),
-                (&counters, Access::ReadWrite),
-                (&scratch, Access::ReadWrite),
-                (&filter_taps, Access::ReadOnly),
-                (&reach, Access::ReadWrite),
-            ],
+            [&params, &film, &counters, &scratch, &filter_taps, &reach],
         );
         Ok(GpuFilm {
             width,
@@ -264,9 +250,10 @@ impl GpuFilm {
             params,
             film,
             counters,
-            _scratch: scratch,
-            _filter_taps: filter_taps,
-            _reach: reach,
+            scratch,
+            filter_taps,
+            reach,
+            scratch_samples: 1,
             bindings,
             kernels: None,
             per_dispatch: per_pixel,
@@ -280,6 +267,80 @@ impl GpuFilm {
     }
 
     /// Replaces the film's sums (row-major RGB per pixel; a cleared film is all zeros).
+    /// Elements of the scratch buffer (shares) and of the reach buffer for `per_pixel`
+    /// samples a pixel (at least one each: WGSL has no empty bindings).
+    fn scratch_lens(pixels: u64, wavelengths: u32, filter: Filter, per_pixel: u32) -> (u64, u64) {
+        let samples = pixels * u64::from(per_pixel);
+        if wavelengths > 1 {
+            (samples * u64::from(wavelengths), samples)
+        } else if per_pixel > 1 || !filter.is_box() {
+            (samples, 1)
+        } else {
+            (1, 1)
+        }
+    }
+
+    fn scratch_buffers(
+        context: &GpuContext,
+        pixels: u64,
+        wavelengths: u32,
+        filter: Filter,
+        per_pixel: u32,
+    ) -> (wgpu::Buffer, wgpu::Buffer) {
+        let (scratch_len, reach_len) = Self::scratch_lens(pixels, wavelengths, filter, per_pixel);
+        (
+            zeroed_buffer::<[f32; 4]>(context, "sample scratch", scratch_len as usize),
+            zeroed_buffer::<u32>(context, "share reach", reach_len as usize),
+        )
+    }
+
+    /// The pass's bind group over its buffers, in pass_film.wgsl's binding order.
+    fn bind(context: &GpuContext, buffers: [&wgpu::Buffer; 6]) -> Bindings {
+        let [params, film, counters, scratch, filter_taps, reach] = buffers;
+        Bindings::new(
+            context,
+            "pass",
+            &[
+                (params, Access::ReadOnly),
+                (film, Access::ReadWrite),
+                (counters, Access::ReadWrite),
+                (scratch, Access::ReadWrite),
+                (filter_taps, Access::ReadOnly),
+                (reach, Access::ReadWrite),
+            ],
+        )
+    }
+
+    /// Makes the scratch hold `samples` sample indices a pixel (at most
+    /// [`GpuFilm::samples_per_dispatch`]), growing it (and binding the new buffers: the
+    /// layout, and so the compiled kernels, stay as they are) when it holds fewer.
+    pub fn reserve_samples(&mut self, context: &GpuContext, samples: u32) {
+        let samples = samples.min(self.per_dispatch);
+        if samples <= self.scratch_samples {
+            return;
+        }
+        let pixels = u64::from(self.width) * u64::from(self.height);
+        (self.scratch, self.reach) =
+            Self::scratch_buffers(context, pixels, self.wavelengths, self.filter, samples);
+        self.bindings = Self::bind(
+            context,
+            [
+                &self.params,
+                &self.film,
+                &self.counters,
+                &self.scratch,
+                &self.filter_taps,
+                &self.reach,
+            ],
+        );
+        self.scratch_samples = samples;
+    }
+
+    /// Bytes of scratch the film holds now.
+    pub fn scratch_bytes(&self) -> u64 {
+        self.scratch.size() + self.reach.size()
+    }
+
     /// Zeroes the film's sums on the GPU: [`GpuFilm::load`] of a cleared film, with nothing
     /// to upload.
     pub fn clear(&self, context: &GpuContext) {
@@ -388,9 +449,11 @@ impl GpuFilm {
         upstream: [&Bindings; 3],
         samples: SampleSequence,
     ) -> Result<(), GpuUnavailable> {
-        let Some(kernels) = self.kernels.as_ref() else {
+        if self.kernels.is_none() {
             return Err(GpuUnavailable("the pass kernel was not compiled".into()));
-        };
+        }
+        self.reserve_samples(context, samples.count);
+        let kernels = self.kernels.as_ref().expect("checked above");
         let params = PassParams {
             width: self.width,
             height: self.height,
@@ -576,6 +639,28 @@ mod tests {
         }
     }
 
+    /// The scratch starts at one sample a pixel and grows to what a dispatch asks for, never
+    /// beyond the film's dispatch size: a live lab's one-sample passes keep it small.
+    #[test]
+    fn the_scratch_grows_to_the_largest_dispatch_only() {
+        let Some(context) = GpuContext::for_tests() else {
+            return;
+        };
+        let mut film = GpuFilm::new(&context, 64, 48, 3, Filter::Tent).unwrap();
+        let one = film.scratch_bytes();
+        // One sample a pixel: three shares of 16 bytes and a reach word each.
+        assert_eq!(one, 64 * 48 * (3 * 16 + 4));
+        film.reserve_samples(&context, 1);
+        assert_eq!(film.scratch_bytes(), one);
+        film.reserve_samples(&context, 5);
+        assert_eq!(film.scratch_bytes(), 5 * one);
+        film.reserve_samples(&context, 2);
+        assert_eq!(film.scratch_bytes(), 5 * one);
+        let most = film.samples_per_dispatch();
+        film.reserve_samples(&context, most + 100);
+        assert_eq!(film.scratch_bytes(), u64::from(most) * one);
+    }
+
     /// accumulate_filtered against the CPU's filter: shares at positions all over their range
     /// (the frame's edges, a companion on the far edge of its last pixel, frames one and two
     /// pixels wide) spread as Filter::taps weights them, sample after sample onto the sums.
@@ -660,13 +745,14 @@ mod tests {
                     }
                 }
                 film.load(&context, &start);
+                film.reserve_samples(&context, samples as u32);
                 context
                     .queue
-                    .write_buffer(&film._scratch, 0, bytemuck::cast_slice(&shares));
+                    .write_buffer(&film.scratch, 0, bytemuck::cast_slice(&shares));
                 if wavelengths > 1 {
                     context
                         .queue
-                        .write_buffer(&film._reach, 0, bytemuck::cast_slice(&reach));
+                        .write_buffer(&film.reach, 0, bytemuck::cast_slice(&reach));
                 }
                 let params = PassParams {
                     width,
