@@ -252,6 +252,9 @@ fn render_pass_on_gpu(
             if compiled {
                 stats.gpu_kernel_time += compile_start.elapsed();
             }
+            // Growing the scratch for this update's dispatches is set-up too, as making the
+            // film is.
+            gpu_film.reserve_samples(context, pass.count.max(1));
             let start = std::time::Instant::now();
             let samples = SampleSequence {
                 first: pass.sample,
