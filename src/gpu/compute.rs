@@ -326,20 +326,23 @@ pub fn submit_steps_timed(
             steps,
         ),
         Some(clock) => {
-            let steps = &steps[..steps.len().min(clock.steps as usize)];
+            // The clock times its first `clock.steps` steps; any after them run untimed.
+            let timed = steps.len().min(clock.steps as usize);
             for (k, step) in steps.iter().enumerate() {
                 let k = k as u32;
                 let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
                     label: None,
-                    timestamp_writes: Some(wgpu::ComputePassTimestampWrites {
-                        query_set: &clock.queries,
-                        beginning_of_pass_write_index: Some(2 * k),
-                        end_of_pass_write_index: Some(2 * k + 1),
-                    }),
+                    timestamp_writes: ((k as usize) < timed).then_some(
+                        wgpu::ComputePassTimestampWrites {
+                            query_set: &clock.queries,
+                            beginning_of_pass_write_index: Some(2 * k),
+                            end_of_pass_write_index: Some(2 * k + 1),
+                        },
+                    ),
                 });
                 encode(&mut pass, std::slice::from_ref(step));
             }
-            let stamps = 2 * steps.len() as u32;
+            let stamps = 2 * timed as u32;
             encoder.resolve_query_set(&clock.queries, 0..stamps, &clock.resolved, 0);
         }
     }
@@ -491,6 +494,25 @@ mod tests {
         assert_eq!(times.len(), 2);
         assert!(times[1] > times[0], "{times:?}");
         assert!(times[0] > std::time::Duration::ZERO, "{times:?}");
+        // A clock for fewer steps than a submission has times the first and still runs all.
+        let small = StepClock::new(&context, 1).unwrap();
+        let writes = "@group(0) @binding(0) var<storage, read_write> out: array<f32>;\n\
+            @compute @workgroup_size(64) fn one(@builtin(global_invocation_id) id: vec3u) \
+            { out[id.x] = 1.0; }\n\
+            @compute @workgroup_size(64) fn two(@builtin(global_invocation_id) id: vec3u) \
+            { out[id.x] = out[id.x] + 2.0; }";
+        let one = kernel_with(&context, "one", writes, "one", &[&bindings.layout]).unwrap();
+        let two = kernel_with(&context, "two", writes, "two", &[&bindings.layout]).unwrap();
+        let steps = [(&one, [64, 1, 1]), (&two, [64, 1, 1])];
+        let submission =
+            submit_steps_timed(&context, &steps, &[&bindings.group], Some(&small)).unwrap();
+        wait_for(&context, submission).unwrap();
+        assert_eq!(small.read(&context, 2).unwrap().len(), 1);
+        let written: Vec<f32> = read_buffer(&context, &out, 64 * 64).unwrap();
+        assert!(
+            written.iter().all(|&x| x == 3.0),
+            "both steps ran, in order"
+        );
     }
 
     #[test]
