@@ -19,9 +19,6 @@ pub(super) struct Losses<'a> {
     /// Each ray's wavelength (a spectral batch), or `None`: every ray at the lens's own
     /// indices, n_d, so its losses are those at the d line.
     pub nm: Option<&'a [f32]>,
-    /// The instruction set the kernel runs with (supported by this CPU): the look-ups use
-    /// its gathers.
-    pub isa: Isa,
 }
 
 impl Losses<'_> {
@@ -52,7 +49,8 @@ impl Losses<'_> {
 
     /// Multiplies the transmission of every lane that `survived` step `step` by 1 − R at its
     /// `cosine` and table wavelength: [`SurfaceReflectance::lookup`] (the same arithmetic on
-    /// the same entries), one cell load per lane.
+    /// the same entries), one cell load per lane, with the gathers of `isa` (the kernel's,
+    /// supported by this CPU).
     #[inline(always)]
     pub fn attenuate(
         &self,
@@ -60,6 +58,7 @@ impl Losses<'_> {
         cosines: &[f32],
         survived: &[bool],
         scratch: &mut LossScratch,
+        isa: Isa,
     ) {
         let n = survived.len();
         let intervals = self.table.wavelength_entries() - 1;
@@ -75,7 +74,7 @@ impl Losses<'_> {
             rows: &scratch.row[..n],
             fractions: &scratch.fraction[..n],
         };
-        attenuate_lanes(&lanes, &mut scratch.transmission[..n], self.isa);
+        attenuate_lanes(&lanes, &mut scratch.transmission[..n], isa);
     }
 }
 

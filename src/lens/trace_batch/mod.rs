@@ -244,7 +244,6 @@ fn run(
                 table,
                 travel,
                 nm: wavelengths.map(|w| w.nm),
-                isa,
             }),
         };
         on_isa!(isa,
@@ -275,8 +274,8 @@ struct Plan<'a> {
     surfaces: &'a [SurfaceConstants<f32>],
     spectral: Option<(Wavelengths<'a>, Travel)>,
     clip: Option<(usize, &'a StopClip)>,
-    /// The instruction set the kernel runs with (supported by this CPU): the index look-ups
-    /// use its gathers.
+    /// The instruction set the kernel runs with (supported by this CPU): the index and loss
+    /// look-ups use its gathers.
     isa: Isa,
     losses: Option<Losses<'a>>,
 }

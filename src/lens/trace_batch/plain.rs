@@ -71,7 +71,7 @@ pub(super) fn trace_plain(plan: &Plan, rays: &mut RayBatch, etas: &mut Vec<f32>)
                 clip_plain(clip, ox, oy, alive, throughput);
             }
             if let Some(losses) = &plan.losses {
-                losses.attenuate(step, &cosines[..n], alive, &mut scratch);
+                losses.attenuate(step, &cosines[..n], alive, &mut scratch, plan.isa);
             }
             if !any_alive {
                 break;

@@ -68,7 +68,13 @@ pub(super) fn trace_simd(full_plan: &Plan, rays: &mut RayBatch, etas: &mut Vec<f
                         survived[c * LANES + lane] = mask & (1 << lane) != 0;
                     }
                 }
-                losses.attenuate(step, &cosines[..n], &survived[..n], &mut scratch);
+                losses.attenuate(
+                    step,
+                    &cosines[..n],
+                    &survived[..n],
+                    &mut scratch,
+                    full_plan.isa,
+                );
             }
             if !any_alive {
                 break;
