@@ -12,7 +12,7 @@
 //! dgauss.50mm), mean chroma (max−min)/max over rows 330–420, columns 150–350, per filter.
 //! Prints tables (no timing asserts): `cargo bench --bench colour_noise` (about 20 minutes on 2
 //! cores; `-- --reference-spp N` for a quicker, noisier run; `-- --filter tent` for one filter's
-//! rows).
+//! rows, `-- --lens NAME` for one lens's, `-- --no-floor` without the floor table).
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -122,6 +122,18 @@ fn main() {
         .into_iter()
         .filter(|f| chosen.is_empty() || chosen.contains(f))
         .collect();
+    // `-- --lens NAME` (repeatable): only these lenses in the per-lens table.
+    let chosen_lenses: Vec<&str> = args
+        .windows(2)
+        .filter(|w| w[0] == "--lens")
+        .map(|w| w[1].as_str())
+        .collect();
+    let lenses: Vec<&str> = LENSES
+        .into_iter()
+        .filter(|l| chosen_lenses.is_empty() || chosen_lenses.contains(l))
+        .collect();
+    // `-- --no-floor`: without the floor table.
+    let floor = !args.iter().any(|a| a == "--no-floor");
     let dir = tempfile::tempdir().expect("a temporary directory");
     let dir: PathBuf = dir.path().to_path_buf();
     println!(
@@ -132,7 +144,7 @@ fn main() {
         "{:<16} {:<9} {:<14} {:>8} {:>10} {:>10} {:>16}",
         "lens", "filter", "estimator", "time s", "lum RMSE", "chroma RMSE", "lum equal-time"
     );
-    for lens in LENSES {
+    for lens in lenses.iter().copied() {
         for filter in filters.iter().copied() {
             let base = |spp: u32| {
                 strings(&[
@@ -173,6 +185,9 @@ fn main() {
                 );
             }
         }
+    }
+    if !floor {
+        return;
     }
     println!("\nthe default render's grey floor (512², 64 spp, dgauss.50mm): mean (max−min)/max");
     for filter in ["box", "tent", "gaussian"] {

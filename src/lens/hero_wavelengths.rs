@@ -234,81 +234,11 @@ impl BackwardTrace<'_> {
         };
         trace_batch_spectral(self.surfaces, wavelengths, backward, Travel::SceneToFilm);
         self.land(scratch);
-        let BackwardScratch {
-            rays: backward,
-            passed,
-            landed_x,
-            landed_y,
-            landed_at,
-            inverse_weight,
-            ..
-        } = scratch;
-        // Per wavelength of one ray: its pixel, 1/W (0: not a technique) and transmission.
-        let mut pixel = [[0i32; 2]; MAX_WAVELENGTHS as usize];
-        let mut inverse = [0.0f32; MAX_WAVELENGTHS as usize];
-        let mut transmission = [0.0f32; MAX_WAVELENGTHS as usize];
-        let mut next_passed = 0;
-        for i in 0..n {
-            let hero_pixel = [hero.px[i] as i32, hero.py[i] as i32];
-            let w0 = out.weight[i];
-            pixel[0] = hero_pixel;
-            inverse[0] = if rays.alive[i] && w0 > 0.0 {
-                1.0 / w0
-            } else {
-                0.0
-            };
-            transmission[0] = rays.tr[i];
-            let traced = passed.get(next_passed) == Some(&(i as u32));
-            for k in 1..count {
-                let j = (k - 1) * m + next_passed;
-                if traced {
-                    let [qx, qy] = landed_at[j];
-                    out.position[k * n + i] =
-                        [quantise(qx - hero.px[i]), quantise(qy - hero.py[i])];
-                }
-                (pixel[k], inverse[k], transmission[k]) = if traced {
-                    (
-                        [landed_x[j], landed_y[j]],
-                        inverse_weight[j],
-                        backward.tr[j],
-                    )
-                } else {
-                    ([0, 0], 0.0, 0.0)
-                };
-            }
-            next_passed += usize::from(traced);
-            // Most often every wavelength is a technique landing in the hero's pixel: then
-            // every share has the same techniques.
-            let all_home = (0..count).all(|k| inverse[k] > 0.0 && pixel[k] == hero_pixel);
-            if all_home {
-                let inverse_sum: f32 = inverse[..count].iter().sum();
-                for (k, t) in transmission[..count].iter().enumerate() {
-                    out.coefficient[k * n + i] *= t / inverse_sum;
-                    out.offset[k * n + i] = [0, 0];
-                }
-                out.weight[i] = 1.0;
-                continue;
-            }
-            for k in 0..count {
-                let c = &mut out.coefficient[k * n + i];
-                if inverse[k] > 0.0 && within_radius(pixel[k], hero_pixel) {
-                    let mut inverse_sum = 0.0;
-                    for j in 0..count {
-                        if inverse[j] > 0.0 && within_radius(pixel[j], pixel[k]) {
-                            inverse_sum += inverse[j];
-                        }
-                    }
-                    *c *= transmission[k] / inverse_sum;
-                    out.offset[k * n + i] = [
-                        (pixel[k][0] - hero_pixel[0]) as i8,
-                        (pixel[k][1] - hero_pixel[1]) as i8,
-                    ];
-                } else {
-                    *c = 0.0;
-                    out.offset[k * n + i] = [0, 0];
-                }
-            }
-            out.weight[i] = if inverse[0] > 0.0 { 1.0 } else { 0.0 };
+        // The per-ray loop compiled for the default count too, so that its loops over the
+        // wavelengths unroll (one copy for any other count).
+        match count {
+            3 => combine_rays::<3>(hero, out, scratch, count),
+            _ => combine_rays::<0>(hero, out, scratch, count),
         }
     }
 
@@ -403,6 +333,96 @@ impl BackwardTrace<'_> {
         } else {
             (0, 0, 0.0, [0.0; 2])
         }
+    }
+}
+
+/// [`BackwardTrace::combine`]'s per-ray loop, once the backward rays have landed: `FIXED`
+/// wavelengths per ray, or `count` when `FIXED` is 0.
+#[inline(always)]
+fn combine_rays<const FIXED: usize>(
+    hero: HeroRays,
+    out: Combined,
+    scratch: &mut BackwardScratch,
+    count: usize,
+) {
+    let count = if FIXED > 0 { FIXED } else { count };
+    let n = hero.rays.len();
+    let rays = hero.rays;
+    let m = scratch.passed.len();
+    let BackwardScratch {
+        rays: backward,
+        passed,
+        landed_x,
+        landed_y,
+        landed_at,
+        inverse_weight,
+        ..
+    } = scratch;
+    // Per wavelength of one ray: its pixel, 1/W (0: not a technique) and transmission.
+    let mut pixel = [[0i32; 2]; MAX_WAVELENGTHS as usize];
+    let mut inverse = [0.0f32; MAX_WAVELENGTHS as usize];
+    let mut transmission = [0.0f32; MAX_WAVELENGTHS as usize];
+    let mut next_passed = 0;
+    for i in 0..n {
+        let hero_pixel = [hero.px[i] as i32, hero.py[i] as i32];
+        let w0 = out.weight[i];
+        pixel[0] = hero_pixel;
+        inverse[0] = if rays.alive[i] && w0 > 0.0 {
+            1.0 / w0
+        } else {
+            0.0
+        };
+        transmission[0] = rays.tr[i];
+        let traced = passed.get(next_passed) == Some(&(i as u32));
+        for k in 1..count {
+            let j = (k - 1) * m + next_passed;
+            if traced {
+                let [qx, qy] = landed_at[j];
+                out.position[k * n + i] = [quantise(qx - hero.px[i]), quantise(qy - hero.py[i])];
+            }
+            (pixel[k], inverse[k], transmission[k]) = if traced {
+                (
+                    [landed_x[j], landed_y[j]],
+                    inverse_weight[j],
+                    backward.tr[j],
+                )
+            } else {
+                ([0, 0], 0.0, 0.0)
+            };
+        }
+        next_passed += usize::from(traced);
+        // Most often every wavelength is a technique landing in the hero's pixel: then
+        // every share has the same techniques.
+        let all_home = (0..count).all(|k| inverse[k] > 0.0 && pixel[k] == hero_pixel);
+        if all_home {
+            let inverse_sum: f32 = inverse[..count].iter().sum();
+            for (k, t) in transmission[..count].iter().enumerate() {
+                out.coefficient[k * n + i] *= t / inverse_sum;
+                out.offset[k * n + i] = [0, 0];
+            }
+            out.weight[i] = 1.0;
+            continue;
+        }
+        for k in 0..count {
+            let c = &mut out.coefficient[k * n + i];
+            if inverse[k] > 0.0 && within_radius(pixel[k], hero_pixel) {
+                let mut inverse_sum = 0.0;
+                for j in 0..count {
+                    if inverse[j] > 0.0 && within_radius(pixel[j], pixel[k]) {
+                        inverse_sum += inverse[j];
+                    }
+                }
+                *c *= transmission[k] / inverse_sum;
+                out.offset[k * n + i] = [
+                    (pixel[k][0] - hero_pixel[0]) as i8,
+                    (pixel[k][1] - hero_pixel[1]) as i8,
+                ];
+            } else {
+                *c = 0.0;
+                out.offset[k * n + i] = [0, 0];
+            }
+        }
+        out.weight[i] = if inverse[0] > 0.0 { 1.0 } else { 0.0 };
     }
 }
 
