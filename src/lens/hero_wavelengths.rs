@@ -53,7 +53,7 @@
 
 use super::camera::{FilmMap, FilmTilt};
 use super::dispersion::DispersionTable;
-use super::pupil::PupilSampler;
+use super::pupil::{DrawnRay, PupilSampler, PupilSampling};
 use super::system::SurfaceArrays;
 use super::trace::Travel;
 use super::trace_batch::{Wavelengths, trace_batch_spectral};
@@ -138,6 +138,40 @@ pub(crate) struct BackwardScratch {
     landed_at: Vec<[f32; 2]>,
     /// 1/W there; 0 when that technique could not have drawn the scene ray.
     inverse_weight: Vec<f32>,
+    /// Per backward ray, what the pupil sampler makes of it before its look-ups.
+    drawn: DrawnRays,
+}
+
+/// [`DrawnRay`]s, structure of arrays (so the loop that makes them vectorises).
+#[derive(Clone, Debug, Default)]
+struct DrawnRays {
+    segment: Vec<u32>,
+    x: Vec<f32>,
+    y: Vec<f32>,
+    factor: Vec<f32>,
+    depth: Vec<f32>,
+}
+
+impl DrawnRays {
+    /// `len` rays' worth of zeros.
+    fn zeroed(&mut self, len: usize) {
+        self.segment.clear();
+        self.segment.resize(len, 0);
+        for v in [&mut self.x, &mut self.y, &mut self.factor, &mut self.depth] {
+            v.clear();
+            v.resize(len, 0.0);
+        }
+    }
+
+    #[inline(always)]
+    fn get(&self, j: usize) -> DrawnRay {
+        DrawnRay {
+            segment: self.segment[j],
+            point: [self.x[j], self.y[j]],
+            factor: self.factor[j],
+            depth: self.depth[j],
+        }
+    }
 }
 
 impl BackwardScratch {
@@ -249,6 +283,22 @@ impl BackwardTrace<'_> {
     /// film kind, so it vectorises.
     #[inline(always)]
     fn land(&self, scratch: &mut BackwardScratch) {
+        // The sampler's kind and the film's tilt are the batch's: picked here once, so that
+        // the loops below have no branches.
+        match (self.sampler.sampling, self.sampler.is_flat()) {
+            (PupilSampling::Bounds, true) => self.land_as::<true, true>(scratch),
+            (PupilSampling::Bounds, false) => self.land_as::<true, false>(scratch),
+            (PupilSampling::RearElement, true) => self.land_as::<false, true>(scratch),
+            (PupilSampling::RearElement, false) => self.land_as::<false, false>(scratch),
+        }
+    }
+
+    /// [`Self::land`] for one kind of pupil sampler and film (see
+    /// [`PupilSampler::drawn_ray`]), in two loops: first where each ray meets the film and the
+    /// rear plane and what the sampler makes of it without its tables (the divisions and
+    /// roots, in a loop that vectorises), then the segments' look-ups.
+    #[inline(always)]
+    fn land_as<const BOUNDS: bool, const FLAT: bool>(&self, scratch: &mut BackwardScratch) {
         let rays = &scratch.rays;
         let len = rays.len();
         for v in [&mut scratch.landed_x, &mut scratch.landed_y] {
@@ -259,24 +309,46 @@ impl BackwardTrace<'_> {
         scratch.inverse_weight.resize(len, 0.0);
         scratch.landed_at.clear();
         scratch.landed_at.resize(len, [0.0; 2]);
+        scratch.drawn.zeroed(len);
         let at_out = &mut scratch.landed_at[..len];
-        let (x_out, y_out) = (&mut scratch.landed_x[..len], &mut scratch.landed_y[..len]);
-        let inverse_out = &mut scratch.inverse_weight[..len];
-        let mut land_one = |j: usize, lens_xy: [f32; 2], plane: [f32; 2], depth: f32| {
-            let (x, y, inverse, at) = self.landing(rays, j, lens_xy, plane, depth);
-            (x_out[j], y_out[j], inverse_out[j], at_out[j]) = (x, y, inverse, at);
-        };
-        // The film plane: through the frame centre, normal to the (tilted) film. `lens_xy` is
-        // the film point as the pupil sampler takes it, `plane` where it lies in the film
-        // plane's own coordinates (the film map's), `depth` its distance behind the rear plane.
+        let (ox, oy, oz) = (&rays.ox[..len], &rays.oy[..len], &rays.oz[..len]);
+        let (dx, dy, dz) = (&rays.dx[..len], &rays.dy[..len], &rays.dz[..len]);
+        let drawn = &mut scratch.drawn;
+        let (segment, drawn_x, drawn_y) = (
+            &mut drawn.segment[..len],
+            &mut drawn.x[..len],
+            &mut drawn.y[..len],
+        );
+        let (factor, drawn_depth) = (&mut drawn.factor[..len], &mut drawn.depth[..len]);
+        // The rear-vertex plane, where the pupil sampler draws its points.
+        let rear_z = self.film_z - self.sampler.film_distance;
+        // `lens_xy` is the film point as the pupil sampler takes it, `plane` where it lies in
+        // the film plane's own coordinates (the film map's), `depth` its distance behind the
+        // rear plane.
+        // A macro, not a closure: the compiler keeps a closure out of line here, and the loop
+        // then does not vectorise.
+        macro_rules! geometry {
+            ($j:expr, $lens_xy:expr, $plane:expr, $depth:expr) => {{
+                let j = $j;
+                let (o, d) = ([ox[j], oy[j], oz[j]], [dx[j], dy[j], dz[j]]);
+                at_out[j] = self.film.pixel_position($plane);
+                let t = (rear_z - o[2]) / d[2];
+                let rear = [o[0] + t * d[0], o[1] + t * d[1]];
+                let ray = self
+                    .sampler
+                    .drawn_ray::<BOUNDS, FLAT>($lens_xy, $depth, rear);
+                (segment[j], drawn_x[j], drawn_y[j]) = (ray.segment, ray.point[0], ray.point[1]);
+                (factor[j], drawn_depth[j]) = (ray.factor, ray.depth);
+            }};
+        }
+        // The film plane: through the frame centre, normal to the (tilted) film.
         match self.tilt {
             None => {
                 let depth = self.sampler.film_distance;
                 for j in 0..len {
-                    let (o, d) = (rays.origin(j), rays.direction(j));
-                    let t = (self.film_z - o[2]) / d[2];
-                    let p = [o[0] + t * d[0], o[1] + t * d[1]];
-                    land_one(j, p, p, depth);
+                    let t = (self.film_z - oz[j]) / dz[j];
+                    let p = [ox[j] + t * dx[j], oy[j] + t * dy[j]];
+                    geometry!(j, p, p, depth);
                 }
             }
             Some(tilt) => {
@@ -284,7 +356,7 @@ impl BackwardTrace<'_> {
                 let normal = self.sampler.film_normal;
                 let centre = [tilt.centre[0], tilt.centre[1], self.film_z];
                 for j in 0..len {
-                    let (o, d) = (rays.origin(j), rays.direction(j));
+                    let (o, d) = ([ox[j], oy[j], oz[j]], [dx[j], dy[j], dz[j]]);
                     let to_centre = [centre[0] - o[0], centre[1] - o[1], centre[2] - o[2]];
                     let t = dot(to_centre, normal) / dot(d, normal);
                     let p = [o[0] + t * d[0], o[1] + t * d[1], o[2] + t * d[2]];
@@ -293,45 +365,34 @@ impl BackwardTrace<'_> {
                         tilt.centre[0] + dot(offset, [xa, ya, za]),
                         tilt.centre[1] + dot(offset, [xb, yb, zb]),
                     ];
-                    land_one(
+                    geometry!(
                         j,
                         [p[0], p[1]],
                         plane,
-                        self.sampler.film_distance + offset[2],
+                        self.sampler.film_distance + offset[2]
                     );
                 }
             }
         }
-    }
-}
-
-impl BackwardTrace<'_> {
-    /// Backward ray `j`'s landing at film point `lens_xy` (`plane` in the film plane's
-    /// coordinates, `depth` behind the rear plane): its pixel, 1/W and the continuous pixel
-    /// position, or 1/W = 0 where the technique could not have drawn it (see [`Self::land`]).
-    #[inline(always)]
-    fn landing(
-        &self,
-        rays: &RayBatch,
-        j: usize,
-        lens_xy: [f32; 2],
-        plane: [f32; 2],
-        depth: f32,
-    ) -> (i32, i32, f32, [f32; 2]) {
-        let (o, d) = (rays.origin(j), rays.direction(j));
-        let [qx, qy] = self.film.pixel_position(plane);
-        let on_frame =
-            qx >= 0.0 && qy >= 0.0 && qx < self.size[0] as f32 && qy < self.size[1] as f32;
-        // The rear-vertex plane, where the pupil sampler draws its points.
-        let rear_z = self.film_z - self.sampler.film_distance;
-        let t = (rear_z - o[2]) / d[2];
-        let rear = [o[0] + t * d[0], o[1] + t * d[1]];
-        let w = self.sampler.drawn_weight(lens_xy, depth, rear);
-        let valid = rays.alive[j] && on_frame && w > 0.0 && w.is_finite();
-        if valid {
-            (qx as i32, qy as i32, 1.0 / w, [qx, qy])
-        } else {
-            (0, 0, 0.0, [0.0; 2])
+        let alive = &rays.alive[..len];
+        let (x_out, y_out) = (&mut scratch.landed_x[..len], &mut scratch.landed_y[..len]);
+        let inverse_out = &mut scratch.inverse_weight[..len];
+        for j in 0..len {
+            let [qx, qy] = scratch.landed_at[j];
+            let on_frame =
+                qx >= 0.0 && qy >= 0.0 && qx < self.size[0] as f32 && qy < self.size[1] as f32;
+            let w = self
+                .sampler
+                .weight_of_drawn::<BOUNDS, FLAT>(scratch.drawn.get(j));
+            let valid = alive[j] && on_frame && w > 0.0 && w.is_finite();
+            (x_out[j], y_out[j], inverse_out[j]) = if valid {
+                (qx as i32, qy as i32, 1.0 / w)
+            } else {
+                (0, 0, 0.0)
+            };
+            if !valid {
+                scratch.landed_at[j] = [0.0; 2];
+            }
         }
     }
 }
@@ -443,7 +504,6 @@ mod tests {
     use crate::film::filter::POSITION_STEP;
     use crate::lens::camera::{CameraRays, LensCamera};
     use crate::lens::movements::FilmMovements;
-    use crate::lens::pupil::PupilSampling;
     use crate::lens::test_lens::{PLAIN, Setup, TestLens};
 
     /// Refraction is reversible: a camera ray's scene ray traced back at the ray's own

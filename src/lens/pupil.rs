@@ -26,6 +26,8 @@ use crate::batch::RayBatch;
 
 /// Number of radial film segments (pbrt uses 64 as well).
 pub const SEGMENTS: usize = 64;
+// `DrawnRay`'s segment is masked with SEGMENTS − 1 (a no-op that spares a bounds check).
+const _: () = assert!(SEGMENTS.is_power_of_two());
 /// Coarse cells across the paraxial exit pupil, at least: fine enough that no pupil slips
 /// between grid points, however small the stop.
 const COARSE_CELLS_PER_PUPIL: f64 = 6.0;
@@ -321,8 +323,14 @@ impl ExitPupil {
 /// area `A` sampled uniformly, with `inv_z2` = 1 / z²: see [`PupilSample::weight`].
 #[inline(always)]
 fn camera_weight(to: [f32; 3], area: f32, inv_z2: f32) -> f32 {
+    camera_factor(to) * area * inv_z2
+}
+
+/// cos⁴θ for a ray along `to`: [`camera_weight`] per unit area and 1/z².
+#[inline(always)]
+fn camera_factor(to: [f32; 3]) -> f32 {
     let cos2 = to[2] * to[2] / (to[0] * to[0] + to[1] * to[1] + to[2] * to[2]);
-    cos2 * cos2 * area * inv_z2
+    cos2 * cos2
 }
 
 /// The camera weight on a tilted film, from a film point `depth` behind the rear-vertex plane:
@@ -331,10 +339,17 @@ fn camera_weight(to: [f32; 3], area: f32, inv_z2: f32) -> f32 {
 /// |cos θ_film| · cos³θ_rear · A / depth² (cos⁴θ · A / z² when the film is not tilted).
 #[inline(always)]
 fn tilted_camera_weight(to: [f32; 3], normal: [f32; 3], area: f32, depth: f32) -> f32 {
+    tilted_camera_factor(to, normal) * area / (depth * depth)
+}
+
+/// |cos θ_film| · cos³θ_rear for a ray along `to`: [`tilted_camera_weight`] per unit area and
+/// 1/depth².
+#[inline(always)]
+fn tilted_camera_factor(to: [f32; 3], normal: [f32; 3]) -> f32 {
     let inv_len = 1.0 / (to[0] * to[0] + to[1] * to[1] + to[2] * to[2]).sqrt();
     let cos_rear = (to[2] * inv_len).abs();
     let cos_film = ((to[0] * normal[0] + to[1] * normal[1] + to[2] * normal[2]) * inv_len).abs();
-    cos_film * cos_rear * cos_rear * cos_rear * area / (depth * depth)
+    cos_film * cos_rear * cos_rear * cos_rear
 }
 
 /// [`ExitPupil::sample`] in f32 over whole batches, with what depends only on the lens worked
@@ -354,6 +369,21 @@ pub struct PupilSampler {
     pub(crate) film_distance: f32,
     pub(crate) inv_z2: f32,
     pub(crate) film_normal: [f32; 3],
+}
+
+/// A ray [`PupilSampler::drawn_weight`] is asked about, worked out as far as it goes without
+/// the sampler's tables (see [`PupilSampler::drawn_ray`]).
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct DrawnRay {
+    /// The film point's segment (bounds sampling; 0 otherwise).
+    pub segment: u32,
+    /// The rear-plane point, in the frame of a film point on +x where the bounds were found
+    /// (bounds sampling) or as it is (rear element).
+    pub point: [f32; 2],
+    /// The camera weight per unit area, less 1/z² (flat film) or 1/depth² (tilted).
+    pub factor: f32,
+    /// The film point's depth behind the rear-vertex plane, mm.
+    pub depth: f32,
 }
 
 /// Film points and the camera rays out of them, structure of arrays (lens frame, mm).
@@ -449,41 +479,102 @@ impl PupilSampler {
     /// with which the sampler makes that ray (see [`super::hero_wavelengths`]).
     #[inline(always)]
     pub fn drawn_weight(&self, film: [f32; 2], depth: f32, rear: [f32; 2]) -> f32 {
+        macro_rules! weight_as {
+            ($bounds:literal, $flat:literal) => {
+                self.weight_of_drawn::<$bounds, $flat>(
+                    self.drawn_ray::<$bounds, $flat>(film, depth, rear),
+                )
+            };
+        }
+        match (self.sampling, self.is_flat()) {
+            (PupilSampling::Bounds, true) => weight_as!(true, true),
+            (PupilSampling::Bounds, false) => weight_as!(true, false),
+            (PupilSampling::RearElement, true) => weight_as!(false, true),
+            (PupilSampling::RearElement, false) => weight_as!(false, false),
+        }
+    }
+
+    /// Whether the film is normal to the axis (not tilted).
+    #[inline(always)]
+    pub(crate) fn is_flat(&self) -> bool {
+        self.film_normal == [0.0, 0.0, 1.0]
+    }
+
+    /// [`Self::drawn_weight`] as far as it goes without the sampler's tables, for a sampler
+    /// drawing within the bounds (`BOUNDS`) or over the rear element, on a film normal to the
+    /// axis (`FLAT`) or tilted. [`Self::weight_of_drawn`] finishes it. Split so that a batch
+    /// works this part (its divisions and root) out in a loop without look-ups or branches,
+    /// which vectorises.
+    #[inline(always)]
+    pub(crate) fn drawn_ray<const BOUNDS: bool, const FLAT: bool>(
+        &self,
+        film: [f32; 2],
+        depth: f32,
+        rear: [f32; 2],
+    ) -> DrawnRay {
         let [x, y] = film;
-        let area = match self.sampling {
-            PupilSampling::Bounds => {
-                let r = (x * x + y * y).sqrt();
-                let k = ((r * self.segment_scale) as usize).min(SEGMENTS - 1);
-                let [min_x, min_y, extent_x, extent_y] = self.segments[k];
-                // Into the frame of a film point on +x, where the bounds were found.
-                let (sin, cos) = if r > 0.0 { (y / r, x / r) } else { (0.0, 1.0) };
-                let bx = cos * rear[0] + sin * rear[1];
-                let by = cos * rear[1] - sin * rear[0];
-                // The rotation there and back rounds: a point drawn on an edge may come back
-                // a few ulps outside it.
-                let slack = 1e-5 * (extent_x + extent_y);
-                let inside = bx >= min_x - slack
-                    && bx <= min_x + extent_x + slack
-                    && by >= min_y - slack
-                    && by <= min_y + extent_y + slack;
-                if inside { self.areas[k] } else { 0.0 }
-            }
-            PupilSampling::RearElement => {
-                let radius = self.rear_radius;
-                // A point drawn on the rim may round to just beyond it.
-                let reach = radius * (1.0 + 1e-5);
-                if rear[0] * rear[0] + rear[1] * rear[1] <= reach * reach {
-                    std::f32::consts::PI * radius * radius
-                } else {
-                    0.0
-                }
-            }
+        let (segment, point) = if BOUNDS {
+            let r = (x * x + y * y).sqrt();
+            // Clamped as a float (one instruction a lane; `as usize` then `min` saturates in
+            // several): the same segment for every film point that can count (NaN, off the
+            // frame, goes to the last instead of the first).
+            let k = (r * self.segment_scale).min((SEGMENTS - 1) as f32) as u32;
+            // Into the frame of a film point on +x, where the bounds were found.
+            let (sin, cos) = if r > 0.0 { (y / r, x / r) } else { (0.0, 1.0) };
+            let bx = cos * rear[0] + sin * rear[1];
+            let by = cos * rear[1] - sin * rear[0];
+            (k, [bx, by])
+        } else {
+            (0, rear)
         };
         let to = [rear[0] - x, rear[1] - y, -depth];
-        if self.film_normal == [0.0, 0.0, 1.0] {
-            camera_weight(to, area, self.inv_z2)
+        let factor = if FLAT {
+            camera_factor(to)
         } else {
-            tilted_camera_weight(to, self.film_normal, area, depth)
+            tilted_camera_factor(to, self.film_normal)
+        };
+        DrawnRay {
+            segment,
+            point,
+            factor,
+            depth,
+        }
+    }
+
+    /// The camera weight of a [`DrawnRay`] (see [`Self::drawn_ray`]): the area its film
+    /// point's sampler draws from, if it draws the ray's rear-plane point, times the weight
+    /// per unit area.
+    #[inline(always)]
+    pub(crate) fn weight_of_drawn<const BOUNDS: bool, const FLAT: bool>(
+        &self,
+        ray: DrawnRay,
+    ) -> f32 {
+        let [px, py] = ray.point;
+        let area = if BOUNDS {
+            let k = ray.segment as usize & (SEGMENTS - 1);
+            let [min_x, min_y, extent_x, extent_y] = self.segments[k];
+            // The rotation there and back rounds: a point drawn on an edge may come back
+            // a few ulps outside it.
+            let slack = 1e-5 * (extent_x + extent_y);
+            let inside = px >= min_x - slack
+                && px <= min_x + extent_x + slack
+                && py >= min_y - slack
+                && py <= min_y + extent_y + slack;
+            if inside { self.areas[k] } else { 0.0 }
+        } else {
+            let radius = self.rear_radius;
+            // A point drawn on the rim may round to just beyond it.
+            let reach = radius * (1.0 + 1e-5);
+            if px * px + py * py <= reach * reach {
+                std::f32::consts::PI * radius * radius
+            } else {
+                0.0
+            }
+        };
+        if FLAT {
+            ray.factor * area * self.inv_z2
+        } else {
+            ray.factor * area / (ray.depth * ray.depth)
         }
     }
 
