@@ -279,8 +279,7 @@ impl BackwardTrace<'_> {
     /// Where every backward ray of `scratch` (on the rear surface, heading for the film) meets
     /// the film: the pixel there, and the inverse of the camera weight the pupil sampler would
     /// have drawn it with if the point lies on the frame and the sampler can draw its
-    /// rear-plane point (0 otherwise, and for a blocked ray). One loop without branches per
-    /// film kind, so it vectorises.
+    /// rear-plane point (0 otherwise, and for a blocked ray).
     #[inline(always)]
     fn land(&self, scratch: &mut BackwardScratch) {
         // The sampler's kind and the film's tilt are the batch's: picked here once, so that
