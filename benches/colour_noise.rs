@@ -102,6 +102,21 @@ fn strings(args: &[&str]) -> Vec<String> {
     args.iter().map(|s| s.to_string()).collect()
 }
 
+/// The `options` named after `flag` in `args` (each `flag NAME`), in `options`' order; all of
+/// them when none is named.
+fn chosen<'a>(args: &[String], flag: &str, options: &[&'a str]) -> Vec<&'a str> {
+    let named: Vec<&str> = args
+        .windows(2)
+        .filter(|w| w[0] == flag)
+        .map(|w| w[1].as_str())
+        .collect();
+    options
+        .iter()
+        .copied()
+        .filter(|o| named.is_empty() || named.contains(o))
+        .collect()
+}
+
 fn main() {
     let args: Vec<String> = std::env::args().collect();
     if args.iter().any(|a| a == "--list") {
@@ -112,26 +127,9 @@ fn main() {
         .position(|a| a == "--reference-spp")
         .and_then(|i| args.get(i + 1))
         .map_or(4096, |v| v.parse().expect("a whole number"));
-    // `-- --filter NAME` (repeatable): only these filters in the per-lens table.
-    let chosen: Vec<&str> = args
-        .windows(2)
-        .filter(|w| w[0] == "--filter")
-        .map(|w| w[1].as_str())
-        .collect();
-    let filters: Vec<&str> = FILTERS
-        .into_iter()
-        .filter(|f| chosen.is_empty() || chosen.contains(f))
-        .collect();
-    // `-- --lens NAME` (repeatable): only these lenses in the per-lens table.
-    let chosen_lenses: Vec<&str> = args
-        .windows(2)
-        .filter(|w| w[0] == "--lens")
-        .map(|w| w[1].as_str())
-        .collect();
-    let lenses: Vec<&str> = LENSES
-        .into_iter()
-        .filter(|l| chosen_lenses.is_empty() || chosen_lenses.contains(l))
-        .collect();
+    // `-- --filter NAME`, `-- --lens NAME` (each repeatable): only these in the per-lens table.
+    let filters = chosen(&args, "--filter", &FILTERS);
+    let lenses = chosen(&args, "--lens", &LENSES);
     // `-- --no-floor`: without the floor table.
     let floor = !args.iter().any(|a| a == "--no-floor");
     let dir = tempfile::tempdir().expect("a temporary directory");
