@@ -407,16 +407,17 @@ pub struct FilmRays<'a> {
 }
 
 impl PupilSampler {
-    /// One camera ray per film point of `rays`, as [`ExitPupil::sample`] picks them. A loop
-    /// without branches, so it vectorises (in the bounds scheme: the rear-element scheme's
+    /// One camera ray per film point of `rays`, as [`ExitPupil::sample`] picks them, in loops
+    /// without branches, so they vectorise (in the bounds scheme: the rear-element scheme's
     /// disk mapping calls sin and cos).
     #[inline(always)]
     pub fn sample(&self, rays: FilmRays) {
-        match self.sampling {
-            PupilSampling::Bounds => {
+        match (self.sampling, rays.depth) {
+            (PupilSampling::Bounds, None) => self.sample_in_bounds(rays),
+            (PupilSampling::Bounds, Some(_)) => {
                 self.sample_with(rays, |x, y, u, v| self.in_bounds(x, y, u, v))
             }
-            PupilSampling::RearElement => {
+            (PupilSampling::RearElement, _) => {
                 self.sample_with(rays, |_, _, u, v| self.on_rear_element(u, v))
             }
         }
@@ -432,17 +433,75 @@ impl PupilSampler {
         let (dx, dy, dz) = (&mut rays.dx[..n], &mut rays.dy[..n], &mut rays.dz[..n]);
         let (weight, passes) = (&mut rays.weight[..n], &mut rays.passes[..n]);
         for i in 0..n {
-            let ([px, py], area) = point(x[i], y[i], u[i], v[i]);
-            let to = [px - x[i], py - y[i], -self.film_distance];
-            let inv_len = 1.0 / (to[0] * to[0] + to[1] * to[1] + to[2] * to[2]).sqrt();
-            let passing = area > 0.0;
-            let d = to.map(|c| c * inv_len);
-            dx[i] = if passing { d[0] } else { 0.0 };
-            dy[i] = if passing { d[1] } else { 0.0 };
-            dz[i] = if passing { d[2] } else { -1.0 };
-            weight[i] = camera_weight(d, area, self.inv_z2);
-            passes[i] = passing;
+            let (point, area) = point(x[i], y[i], u[i], v[i]);
+            let ray = self.flat_ray([x[i], y[i]], point, area);
+            ([dx[i], dy[i], dz[i]], weight[i], passes[i]) = ray;
         }
+    }
+
+    /// [`Self::sample`] in the bounds scheme on a flat film, a chunk of rays at a time in three
+    /// loops: each film point's segment and angle, then the segments' bounds looked up, then
+    /// the rays. The first and last have no look-ups and vectorise; one loop doing all of it
+    /// (a look-up a ray) does not. The same operations as [`Self::in_bounds`], so the same
+    /// bits.
+    #[inline(always)]
+    fn sample_in_bounds(&self, rays: FilmRays) {
+        const CHUNK: usize = 64;
+        let n = rays.x.len();
+        let (x, y, u, v) = (&rays.x[..n], &rays.y[..n], &rays.u[..n], &rays.v[..n]);
+        let (dx, dy, dz) = (&mut rays.dx[..n], &mut rays.dy[..n], &mut rays.dz[..n]);
+        let (weight, passes) = (&mut rays.weight[..n], &mut rays.passes[..n]);
+        let mut start = 0;
+        while start < n {
+            let m = CHUNK.min(n - start);
+            let chunk = start..start + m;
+            let (x, y, u, v) = (
+                &x[chunk.clone()],
+                &y[chunk.clone()],
+                &u[chunk.clone()],
+                &v[chunk.clone()],
+            );
+            let mut segment = [0u32; CHUNK];
+            let mut angle = [[0.0f32; 2]; CHUNK];
+            for j in 0..m {
+                (segment[j], angle[j]) = self.segment_and_angle(x[j], y[j]);
+            }
+            let mut bounds = [[0.0f32; 4]; CHUNK];
+            let mut area = [0.0f32; CHUNK];
+            for j in 0..m {
+                let k = segment[j] as usize & (SEGMENTS - 1);
+                (bounds[j], area[j]) = (self.segments[k], self.areas[k]);
+            }
+            let (dx, dy, dz) = (
+                &mut dx[chunk.clone()],
+                &mut dy[chunk.clone()],
+                &mut dz[chunk.clone()],
+            );
+            let (weight, passes) = (&mut weight[chunk.clone()], &mut passes[chunk]);
+            for j in 0..m {
+                let point = point_in_segment(bounds[j], angle[j], u[j], v[j]);
+                let ray = self.flat_ray([x[j], y[j]], point, area[j]);
+                ([dx[j], dy[j], dz[j]], weight[j], passes[j]) = ray;
+            }
+            start += m;
+        }
+    }
+
+    /// The camera ray from film point `film` (flat film) toward rear-plane point `point`,
+    /// drawn from an area `area` (0: no ray passes there): its unit direction ((0, 0, −1)
+    /// where none passes), its weight and whether it passes.
+    #[inline(always)]
+    fn flat_ray(&self, film: [f32; 2], point: [f32; 2], area: f32) -> ([f32; 3], f32, bool) {
+        let to = [point[0] - film[0], point[1] - film[1], -self.film_distance];
+        let inv_len = 1.0 / (to[0] * to[0] + to[1] * to[1] + to[2] * to[2]).sqrt();
+        let passing = area > 0.0;
+        let d = to.map(|c| c * inv_len);
+        let direction = [
+            if passing { d[0] } else { 0.0 },
+            if passing { d[1] } else { 0.0 },
+            if passing { d[2] } else { -1.0 },
+        ];
+        (direction, camera_weight(d, area, self.inv_z2), passing)
     }
 
     /// [`Self::sample_with`] for the points of a tilted film, each at its own depth.
@@ -582,19 +641,29 @@ impl PupilSampler {
     /// in a segment no ray passes).
     #[inline(always)]
     fn in_bounds(&self, x: f32, y: f32, u: f32, v: f32) -> ([f32; 2], f32) {
+        let (k, angle) = self.segment_and_angle(x, y);
+        let k = k as usize & (SEGMENTS - 1);
+        (
+            point_in_segment(self.segments[k], angle, u, v),
+            self.areas[k],
+        )
+    }
+
+    /// Film point (`x`, `y`)'s segment, and the sine and cosine of its angle about the axis.
+    #[inline(always)]
+    fn segment_and_angle(&self, x: f32, y: f32) -> (u32, [f32; 2]) {
         let r = (x * x + y * y).sqrt();
-        let k = ((r * self.segment_scale) as usize).min(SEGMENTS - 1);
-        let [min_x, min_y, extent_x, extent_y] = self.segments[k];
-        let bx = min_x + extent_x * u;
-        let by = min_y + extent_y * v;
-        // The bounds were found for a film point on +x: rotate by the point's angle.
+        // Clamped as a float: one instruction a lane (`as usize` then `min` saturates in
+        // several), the same segment for every film point (a NaN one, which never reaches
+        // here, would go to the last instead of the first).
+        let k = (r * self.segment_scale).min((SEGMENTS - 1) as f32) as u32;
         let inv_r = 1.0 / r;
         let (sin, cos) = if r > 0.0 {
             (y * inv_r, x * inv_r)
         } else {
             (0.0, 1.0)
         };
-        ([cos * bx - sin * by, sin * bx + cos * by], self.areas[k])
+        (k, [sin, cos])
     }
 
     /// Uniformly over the rear element's clear aperture.
@@ -607,6 +676,17 @@ impl PupilSampler {
             std::f32::consts::PI * radius * radius,
         )
     }
+}
+
+/// Uniformly in a segment's `bounds` (min x, min y, extent x, extent y), for a film point at
+/// `angle` (its sine and cosine): the bounds were found for a film point on +x, so the point
+/// is rotated by the film point's angle.
+#[inline(always)]
+fn point_in_segment(bounds: [f32; 4], [sin, cos]: [f32; 2], u: f32, v: f32) -> [f32; 2] {
+    let [min_x, min_y, extent_x, extent_y] = bounds;
+    let bx = min_x + extent_x * u;
+    let by = min_y + extent_y * v;
+    [cos * bx - sin * by, sin * bx + cos * by]
 }
 
 /// Shirley–Chiu concentric map of the unit square onto the unit disk (area preserving).
