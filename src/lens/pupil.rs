@@ -26,7 +26,8 @@ use crate::batch::RayBatch;
 
 /// Number of radial film segments (pbrt uses 64 as well).
 pub const SEGMENTS: usize = 64;
-// `DrawnRay`'s segment is masked with SEGMENTS − 1 (a no-op that spares a bounds check).
+// A segment index is masked with SEGMENTS − 1 before a look-up (a no-op that spares a bounds
+// check, which stops a loop vectorising).
 const _: () = assert!(SEGMENTS.is_power_of_two());
 /// Coarse cells across the paraxial exit pupil, at least: fine enough that no pupil slips
 /// between grid points, however small the stop.
