@@ -575,10 +575,7 @@ impl PupilSampler {
         let [x, y] = film;
         let (segment, point) = if BOUNDS {
             let r = (x * x + y * y).sqrt();
-            // Clamped as a float (one instruction a lane; `as usize` then `min` saturates in
-            // several): the same segment for every film point that can count (NaN, off the
-            // frame, goes to the last instead of the first).
-            let k = (r * self.segment_scale).min((SEGMENTS - 1) as f32) as u32;
+            let k = self.segment_at(r);
             // Into the frame of a film point on +x, where the bounds were found.
             let (sin, cos) = if r > 0.0 { (y / r, x / r) } else { (0.0, 1.0) };
             let bx = cos * rear[0] + sin * rear[1];
@@ -650,14 +647,19 @@ impl PupilSampler {
         )
     }
 
+    /// The segment of film points `r` mm from the axis. Clamped as a float: one instruction a
+    /// lane (`as usize` then `min` saturates in several), the same segment for every finite
+    /// `r` (a NaN film point, which never counts, goes to the last instead of the first).
+    #[inline(always)]
+    fn segment_at(&self, r: f32) -> u32 {
+        (r * self.segment_scale).min((SEGMENTS - 1) as f32) as u32
+    }
+
     /// Film point (`x`, `y`)'s segment, and the sine and cosine of its angle about the axis.
     #[inline(always)]
     fn segment_and_angle(&self, x: f32, y: f32) -> (u32, [f32; 2]) {
         let r = (x * x + y * y).sqrt();
-        // Clamped as a float: one instruction a lane (`as usize` then `min` saturates in
-        // several), the same segment for every film point (a NaN one, which never reaches
-        // here, would go to the last instead of the first).
-        let k = (r * self.segment_scale).min((SEGMENTS - 1) as f32) as u32;
+        let k = self.segment_at(r);
         let inv_r = 1.0 / r;
         let (sin, cos) = if r > 0.0 {
             (y * inv_r, x * inv_r)
