@@ -470,8 +470,7 @@ impl PupilSampler {
             let mut bounds = [[0.0f32; 4]; CHUNK];
             let mut area = [0.0f32; CHUNK];
             for j in 0..m {
-                let k = segment[j] as usize & (SEGMENTS - 1);
-                (bounds[j], area[j]) = (self.segments[k], self.areas[k]);
+                (bounds[j], area[j]) = self.segment_bounds(segment[j]);
             }
             let (dx, dy, dz) = (
                 &mut dx[chunk.clone()],
@@ -608,8 +607,7 @@ impl PupilSampler {
     ) -> f32 {
         let [px, py] = ray.point;
         let area = if BOUNDS {
-            let k = ray.segment as usize & (SEGMENTS - 1);
-            let [min_x, min_y, extent_x, extent_y] = self.segments[k];
+            let ([min_x, min_y, extent_x, extent_y], area) = self.segment_bounds(ray.segment);
             // The rotation there and back rounds: a point drawn on an edge may come back
             // a few ulps outside it.
             let slack = 1e-5 * (extent_x + extent_y);
@@ -617,7 +615,7 @@ impl PupilSampler {
                 && px <= min_x + extent_x + slack
                 && py >= min_y - slack
                 && py <= min_y + extent_y + slack;
-            if inside { self.areas[k] } else { 0.0 }
+            if inside { area } else { 0.0 }
         } else {
             let radius = self.rear_radius;
             // A point drawn on the rim may round to just beyond it.
@@ -640,11 +638,17 @@ impl PupilSampler {
     #[inline(always)]
     fn in_bounds(&self, x: f32, y: f32, u: f32, v: f32) -> ([f32; 2], f32) {
         let (k, angle) = self.segment_and_angle(x, y);
+        let (bounds, area) = self.segment_bounds(k);
+        (point_in_segment(bounds, angle, u, v), area)
+    }
+
+    /// Segment `k`'s bounds (min x, min y, extent x, extent y) on the rear plane and their
+    /// area. The index is masked (a no-op for a segment [`Self::segment_at`] gives) so that the
+    /// look-up needs no bounds check.
+    #[inline(always)]
+    fn segment_bounds(&self, k: u32) -> ([f32; 4], f32) {
         let k = k as usize & (SEGMENTS - 1);
-        (
-            point_in_segment(self.segments[k], angle, u, v),
-            self.areas[k],
-        )
+        (self.segments[k], self.areas[k])
     }
 
     /// The segment of film points `r` mm from the axis. Clamped as a float: one instruction a
