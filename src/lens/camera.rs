@@ -21,15 +21,15 @@ use bevy_ecs::resource::Resource;
 use glam::Mat4;
 
 use super::dispersion::DispersionTable;
-use super::ghost::{GHOST_EVERY, Ghosts, trace_ghost};
+use super::ghost::{GHOST_EVERY, Ghosts};
 use super::hero_wavelengths::{
     BackwardScratch, BackwardTrace, Combined, HeroRays, MAX_WAVELENGTHS, wavelength_of_set,
 };
 use super::movements::FilmMovements;
 use super::pupil::{ExitPupil, FilmRays, PupilSampler, PupilSampling, concentric_disk};
-use super::ray::Ray;
 use super::system::LensSystem;
 use super::trace::Travel;
+use super::trace_batch::ghost::{GhostBatch, GhostLens};
 use super::trace_batch::{Isa, Wavelengths, on_isa, trace_batch, trace_batch_spectral, widened};
 use crate::batch::RayBatch;
 use crate::film::filter::quantise;
@@ -289,6 +289,10 @@ struct Scratch {
     ghost: Vec<bool>,
     ghost_u: Vec<f32>,
     ghost_inverse_pdf: Vec<f32>,
+    /// This batch's ghost paths, and per ghost sample its camera weight and its pair's
+    /// probability.
+    ghost_batch: GhostBatch,
+    ghost_factor: Vec<(f32, f32)>,
 }
 
 /// Seed key of the camera's sample patterns, apart from the shading streams.
@@ -553,17 +557,22 @@ impl LensCamera<'_> {
         let n = out.rays.len();
         let count = out.wavelength.len() / n.max(1);
         let ordinary = GHOST_EVERY as f32 / (GHOST_EVERY - 1) as f32;
-        let s = &out.scratch;
+        let s = &mut out.scratch;
         let film_distance = self.pupil.film_distance as f32;
         let rear_z = film_z - film_distance;
         // The scratch keeps a tilted film's depths from earlier batches: only a tilt sets them.
         let tilted = FilmTilt::of(&self.film.movements).is_some();
+        // First each ghost sample's ray to its rear-element point, its camera weight and its
+        // pair; the ordinary samples' weights scaled by the share of samples they are.
+        s.ghost_batch.clear_with_room(n);
+        s.ghost_factor.clear();
+        s.ghost_factor.reserve(n);
         for i in 0..n {
             if !s.ghost[i] {
                 out.weight[i] *= ordinary;
                 continue;
             }
-            let rays = &mut out.rays;
+            let rays = &out.rays;
             let film = [rays.ox[i], rays.oy[i], rays.oz[i]];
             let depth = if tilted { s.depth[i] } else { film_distance };
             let [u, v] = concentric_disk([s.u[2][i], s.u[3][i]]);
@@ -571,35 +580,40 @@ impl LensCamera<'_> {
             let weight = rear.drawn_weight([film[0], film[1]], depth, point);
             let to = [point[0] - film[0], point[1] - film[1], rear_z - film[2]];
             let length = (to[0] * to[0] + to[1] * to[1] + to[2] * to[2]).sqrt();
-            let ray = Ray {
-                origin: film,
-                direction: to.map(|c| c / length),
-            };
             let (pair, probability) = ghosts.choose(s.ghost_u[i]);
             let nm = if count > 0 {
                 out.wavelength[i]
             } else {
                 FRAUNHOFER_D_NM as f32
             };
-            // The media's indices at the ray's wavelength, or the lens's own.
-            let at_nm = self.dispersion.map(|table| (table, table.position(nm)));
-            let index = |surface: usize| match at_nm {
-                Some((table, p)) => (
-                    table.index_before(surface, p),
-                    table.index_after(surface, p),
-                ),
-                None => (f32s.index_front[surface], f32s.index_back[surface]),
+            let direction = to.map(|c| c / length);
+            s.ghost_batch.push(film, direction, nm, ghosts.pairs[pair]);
+            s.ghost_factor.push((weight, probability));
+        }
+        // Then every ghost path at once (without reflectances nothing reflects, and no ghost
+        // path passes).
+        let reflectance = f32s.reflectance.as_deref();
+        if let Some(reflectance) = reflectance {
+            let lens = GhostLens {
+                surfaces: f32s,
+                reflectance,
+                dispersion: self.dispersion,
             };
-            let traced = f32s.reflectance.as_deref().and_then(|reflectance| {
-                let at = reflectance.position(nm);
-                trace_ghost(f32s, ray, ghosts.film_steps(pair), index, |k, c| {
-                    reflectance.lookup(k, c, at)
-                })
-            });
+            s.ghost_batch.trace(&lens);
+        }
+        let mut pushed = 0;
+        for i in 0..n {
+            if !s.ghost[i] {
+                continue;
+            }
+            let rays = &mut out.rays;
+            let (weight, probability) = s.ghost_factor[pushed];
+            let traced = reflectance.and_then(|_| s.ghost_batch.traced(pushed));
+            pushed += 1;
             match traced {
-                Some((leaving, transmission)) if weight > 0.0 => {
-                    [rays.ox[i], rays.oy[i], rays.oz[i]] = leaving.origin;
-                    [rays.dx[i], rays.dy[i], rays.dz[i]] = leaving.direction;
+                Some((origin, direction, transmission)) if weight > 0.0 => {
+                    [rays.ox[i], rays.oy[i], rays.oz[i]] = origin;
+                    [rays.dx[i], rays.dy[i], rays.dz[i]] = direction;
                     rays.alive[i] = true;
                     out.weight[i] = weight * transmission * (GHOST_EVERY as f32 / probability);
                 }

@@ -24,15 +24,15 @@ pub fn inside_blades<L: Lanes>(clip: &StopClip, x: L, y: L) -> L::Mask {
 }
 
 /// The plain kernel's clip at the stop: rays on the closed side of a blade, or where the mask
-/// is black, stop being alive; survivors' throughput (`tr`, `tg`, `tb`) is multiplied by the
-/// mask's grey level.
+/// is black, stop being alive; survivors' throughput (`tr`, `tg`, `tb`, or a ghost path's
+/// one transmission) is multiplied by the mask's grey level.
 #[inline(always)]
-pub fn clip_plain(
+pub fn clip_plain<const N: usize>(
     clip: &StopClip,
     x: &[f32],
     y: &[f32],
     alive: &mut [bool],
-    throughput: [&mut [f32]; 3],
+    mut throughput: [&mut [f32]; N],
 ) {
     let n = alive.len();
     let (x, y) = (&x[..n], &y[..n]);
@@ -40,15 +40,14 @@ pub fn clip_plain(
         alive[i] &= inside_blades::<f32>(clip, x[i], y[i]);
     }
     if clip.has_mask() {
-        let [tr, tg, tb] = throughput;
         for i in 0..n {
             if alive[i] {
                 let t = clip.mask_transmission_f32(x[i], y[i]);
                 alive[i] = t > 0.0;
                 if alive[i] {
-                    tr[i] *= t;
-                    tg[i] *= t;
-                    tb[i] *= t;
+                    for channel in throughput.iter_mut() {
+                        channel[i] *= t;
+                    }
                 }
             }
         }

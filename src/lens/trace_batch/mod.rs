@@ -19,6 +19,7 @@
 //! `wide` types use AVX only when the whole build targets it (see BENCHMARKS.md).
 
 mod clip;
+pub(crate) mod ghost;
 mod lanes;
 mod losses;
 mod plain;

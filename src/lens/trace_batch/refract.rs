@@ -71,34 +71,40 @@ impl SurfaceConstants<f32> {
                     (i, surfaces.index_back[i] / surfaces.index_front[i], -1.0)
                 }
             };
-            let curvature = surfaces.curvature[i];
-            let conic_factor = surfaces.conic_factor[i];
-            let shape = if surfaces.polynomial[i] {
-                POLYNOMIAL
-            } else if conic_factor != 1.0 {
-                CONIC
-            } else {
-                SPHERE
-            };
-            let coefficients = surfaces.aspheric[i];
-            let mut slope_coefficients = coefficients;
-            for (k, a) in slope_coefficients.iter_mut().enumerate() {
-                *a *= (k + 1) as f32;
-            }
-            SurfaceConstants {
-                shape,
-                vertex_z: surfaces.vertex_z[i],
-                curvature,
-                radius: 1.0 / curvature,
-                conic_factor,
-                conic: conic_factor - 1.0,
-                coefficients,
-                slope_coefficients,
-                semi_aperture_sq: surfaces.semi_aperture_sq[i],
-                eta,
-                forward_sign,
-            }
+            Self::of(surfaces, i, eta, forward_sign)
         })
+    }
+
+    /// Surface `i`'s constants for rays crossing it with index ratio `eta` and leaving toward
+    /// the sign of z `forward_sign`.
+    pub fn of(surfaces: &SurfaceArrays<f32>, i: usize, eta: f32, forward_sign: f32) -> Self {
+        let curvature = surfaces.curvature[i];
+        let conic_factor = surfaces.conic_factor[i];
+        let shape = if surfaces.polynomial[i] {
+            POLYNOMIAL
+        } else if conic_factor != 1.0 {
+            CONIC
+        } else {
+            SPHERE
+        };
+        let coefficients = surfaces.aspheric[i];
+        let mut slope_coefficients = coefficients;
+        for (k, a) in slope_coefficients.iter_mut().enumerate() {
+            *a *= (k + 1) as f32;
+        }
+        SurfaceConstants {
+            shape,
+            vertex_z: surfaces.vertex_z[i],
+            curvature,
+            radius: 1.0 / curvature,
+            conic_factor,
+            conic: conic_factor - 1.0,
+            coefficients,
+            slope_coefficients,
+            semi_aperture_sq: surfaces.semi_aperture_sq[i],
+            eta,
+            forward_sign,
+        }
     }
 
     /// The same constants broadcast to every lane of `L`.
@@ -169,63 +175,193 @@ pub fn refract_from_hit<L: Lanes, const SHAPE: u8>(
     hit: L::Mask,
 ) -> Crossing<L> {
     let zero = L::splat(0.0);
-    let one = L::splat(1.0);
-    let [px, py, pz] = ray.origin;
-    let [vx, vy, vz] = ray.direction;
-    let hx = px + t * vx;
-    let hy = py + t * vy;
-    let hz = pz + t * vz;
-    let inside = (hx * hx + hy * hy).le(s.semi_aperture_sq);
-
-    // The surface normal, facing the scene at the vertex. A hit found from far away (t ~ 1000
-    // mm in f32) can sit 1e-3 mm off the surface, and an unnormalised normal would scale the
-    // refracted direction by that error: normalising makes it a tiny tilt instead.
-    let (nx, ny, nz) = match SHAPE {
-        // (h − centre)/R = (c·x, c·y, c·z − 1).
-        SPHERE => (
-            s.curvature * hx,
-            s.curvature * hy,
-            s.curvature * (hz - s.vertex_z) - one,
-        ),
-        // ∇ of the quadric: (c·x, c·y, κc·z − 1).
-        CONIC => (
-            s.curvature * hx,
-            s.curvature * hy,
-            s.conic_factor * s.curvature * (hz - s.vertex_z) - one,
-        ),
-        // ∇(sag(ρ) − z) = (2x·sag′, 2y·sag′, −1).
-        _ => {
-            let (_, slope, _) = sag_and_slope(s, hx * hx + hy * hy);
-            let two_slope = slope + slope;
-            (two_slope * hx, two_slope * hy, -one)
-        }
-    };
-    let inv_length = one / (nx * nx + ny * ny + nz * nz).sqrt();
-    let (nx, ny, nz) = (nx * inv_length, ny * inv_length, nz * inv_length);
-    // Face the normal against the incoming ray: flip = ±1 multiplies exactly.
-    let cos_raw = -(vx * nx + vy * ny + vz * nz);
-    let flip = L::select(cos_raw.lt(zero), -one, one);
-    let cos_i = cos_raw * flip;
-    let cos_t_sq = one - eta * eta * (one - cos_i * cos_i);
-    let no_tir = cos_t_sq.ge(zero);
-    let cos_t = cos_t_sq.max(zero).sqrt();
-    // Snell's law in vector form, η·d + (η·cos_i − cos_t)·n: a unit vector when d and n are,
-    // so it is renormalised only once, after the last surface ([`normalise_direction`]); the
-    // rounding drift over a whole lens is ~1e-6.
-    let along_normal = (eta * cos_i - cos_t) * flip;
-    let rx = eta * vx + along_normal * nx;
-    let ry = eta * vy + along_normal * ny;
-    let rz = eta * vz + along_normal * nz;
-    let forward = (rz * s.forward_sign).gt(zero);
-
-    let survives = alive & hit & inside & no_tir & forward;
-    let keep = |new: L, old: L| L::select(survives, new, old);
-    ray.origin = [keep(hx, px), keep(hy, py), keep(hz, pz)];
-    ray.direction = [keep(rx, vx), keep(ry, vy), keep(rz, vz)];
-    // The less dense medium is the incident one where η = n_i/n_t ≤ 1.
+    let incidence = Incidence::at::<SHAPE>(s, ray, t);
+    let refraction = incidence.refraction(ray, eta);
+    let forward = (refraction.direction[2] * s.forward_sign).gt(zero);
+    let survives = alive & hit & incidence.inside & refraction.passes & forward;
+    incidence.move_onto(ray, survives, refraction.direction);
     Crossing {
         survives,
-        cosine: L::select(eta.le(one), cos_i, cos_t),
+        cosine: refraction.cosine,
+    }
+}
+
+/// What one step of a ghost path ([`ghost_step_at`]) leaves of a group of lanes.
+#[derive(Clone, Copy, Debug)]
+pub struct GhostCrossing<L: Lanes> {
+    /// The lanes still alive (those the step did not involve included).
+    pub survives: L::Mask,
+    /// Each lane's cosine in the less dense medium: the reflectance tables' coordinate.
+    pub cosine: L,
+    /// The mirrored lanes reflected totally (beyond the critical angle: R = 1).
+    pub total: L::Mask,
+}
+
+/// One surface of a ghost path ([`crate::lens::ghost`]) for a group of lanes travelling
+/// toward the sign of z `s.forward_sign`: the `active` lanes among the `alive` ones meet
+/// surface `s` (shape `SHAPE`) and are mirrored in it where `reflect` (d − 2(d·n)n, turning
+/// back), refracted with `eta` elsewhere; the other lanes pass untouched (their path does not
+/// meet this surface now). `eta` is n on the lanes' side over n beyond the surface for both:
+/// it decides total reflection, and the angle the reflectance is looked up at.
+#[inline(always)]
+pub fn ghost_step_at<L: Lanes, const SHAPE: u8>(
+    s: &SurfaceConstants<L>,
+    ray: &mut LaneRay<L>,
+    alive: L::Mask,
+    active: L::Mask,
+    reflect: L::Mask,
+    eta: L,
+) -> GhostCrossing<L> {
+    let zero = L::splat(0.0);
+    let involved = alive & active;
+    let (t, hit) = match SHAPE {
+        SPHERE => hit_sphere(s, ray),
+        CONIC => hit_conic(s, ray),
+        _ => hit_polynomial(s, ray, involved),
+    };
+    let incidence = Incidence::at::<SHAPE>(s, ray, t);
+    let refraction = incidence.refraction(ray, eta);
+    let [vx, vy, vz] = ray.direction;
+    let [nx, ny, nz] = incidence.normal;
+    // −2(d·n) = 2·cos_raw, whichever way n faces.
+    let along_normal = incidence.cos_raw + incidence.cos_raw;
+    let mirrored = [
+        vx + along_normal * nx,
+        vy + along_normal * ny,
+        vz + along_normal * nz,
+    ];
+    let [rx, ry, rz] = refraction.direction;
+    let direction = [
+        L::select(reflect, mirrored[0], rx),
+        L::select(reflect, mirrored[1], ry),
+        L::select(reflect, mirrored[2], rz),
+    ];
+    // Refracted lanes go on the way they came; mirrored ones turn back.
+    let onward = direction[2] * s.forward_sign;
+    let heading = L::select(reflect, -onward, onward).gt(zero);
+    let passes = refraction.passes | reflect;
+    let crosses = involved & hit & incidence.inside & passes & heading;
+    incidence.move_onto(ray, crosses, direction);
+    GhostCrossing {
+        survives: crosses | (alive & !active),
+        cosine: refraction.cosine,
+        total: reflect & !refraction.passes,
+    }
+}
+
+/// Where a group of lanes meets a surface at distance `t`: the point, the unit normal there
+/// (facing the scene at the vertex), the cosine of the angle of incidence and whether the
+/// point lies within the clear aperture.
+#[derive(Clone, Copy, Debug)]
+struct Incidence<L: Lanes> {
+    point: [L; 3],
+    normal: [L; 3],
+    /// −d·n with the normal as it faces.
+    cos_raw: L,
+    /// ±1: the sign that faces the normal against the incoming ray.
+    flip: L,
+    /// cos_raw · flip ≥ 0.
+    cos_i: L,
+    inside: L::Mask,
+}
+
+/// Snell's law at an [`Incidence`].
+#[derive(Clone, Copy, Debug)]
+struct Refraction<L: Lanes> {
+    direction: [L; 3],
+    /// Not reflected totally.
+    passes: L::Mask,
+    /// The cosine in the less dense medium.
+    cosine: L,
+}
+
+impl<L: Lanes> Incidence<L> {
+    #[inline(always)]
+    fn at<const SHAPE: u8>(s: &SurfaceConstants<L>, ray: &LaneRay<L>, t: L) -> Self {
+        let zero = L::splat(0.0);
+        let one = L::splat(1.0);
+        let [px, py, pz] = ray.origin;
+        let [vx, vy, vz] = ray.direction;
+        let hx = px + t * vx;
+        let hy = py + t * vy;
+        let hz = pz + t * vz;
+        let inside = (hx * hx + hy * hy).le(s.semi_aperture_sq);
+
+        // The surface normal, facing the scene at the vertex. A hit found from far away (t ~
+        // 1000 mm in f32) can sit 1e-3 mm off the surface, and an unnormalised normal would
+        // scale the new direction by that error: normalising makes it a tiny tilt instead.
+        let (nx, ny, nz) = match SHAPE {
+            // (h − centre)/R = (c·x, c·y, c·z − 1).
+            SPHERE => (
+                s.curvature * hx,
+                s.curvature * hy,
+                s.curvature * (hz - s.vertex_z) - one,
+            ),
+            // ∇ of the quadric: (c·x, c·y, κc·z − 1).
+            CONIC => (
+                s.curvature * hx,
+                s.curvature * hy,
+                s.conic_factor * s.curvature * (hz - s.vertex_z) - one,
+            ),
+            // ∇(sag(ρ) − z) = (2x·sag′, 2y·sag′, −1).
+            _ => {
+                let (_, slope, _) = sag_and_slope(s, hx * hx + hy * hy);
+                let two_slope = slope + slope;
+                (two_slope * hx, two_slope * hy, -one)
+            }
+        };
+        let inv_length = one / (nx * nx + ny * ny + nz * nz).sqrt();
+        let (nx, ny, nz) = (nx * inv_length, ny * inv_length, nz * inv_length);
+        // Face the normal against the incoming ray: flip = ±1 multiplies exactly.
+        let cos_raw = -(vx * nx + vy * ny + vz * nz);
+        let flip = L::select(cos_raw.lt(zero), -one, one);
+        Incidence {
+            point: [hx, hy, hz],
+            normal: [nx, ny, nz],
+            cos_raw,
+            flip,
+            cos_i: cos_raw * flip,
+            inside,
+        }
+    }
+
+    /// The direction `ray` refracts into here with index ratio `eta` (n_incident /
+    /// n_transmitted).
+    #[inline(always)]
+    fn refraction(&self, ray: &LaneRay<L>, eta: L) -> Refraction<L> {
+        let zero = L::splat(0.0);
+        let one = L::splat(1.0);
+        let [vx, vy, vz] = ray.direction;
+        let [nx, ny, nz] = self.normal;
+        let (flip, cos_i) = (self.flip, self.cos_i);
+        let cos_t_sq = one - eta * eta * (one - cos_i * cos_i);
+        let cos_t = cos_t_sq.max(zero).sqrt();
+        // Snell's law in vector form, η·d + (η·cos_i − cos_t)·n: a unit vector when d and n
+        // are, so it is renormalised only once, after the last surface
+        // ([`normalise_direction`]); the rounding drift over a whole lens is ~1e-6.
+        let along_normal = (eta * cos_i - cos_t) * flip;
+        Refraction {
+            direction: [
+                eta * vx + along_normal * nx,
+                eta * vy + along_normal * ny,
+                eta * vz + along_normal * nz,
+            ],
+            passes: cos_t_sq.ge(zero),
+            // The less dense medium is the incident one where η = n_i/n_t ≤ 1.
+            cosine: L::select(eta.le(one), cos_i, cos_t),
+        }
+    }
+
+    /// Moves the `survives` lanes of `ray` to the point, heading along `direction`; the others
+    /// keep their state, so a miss never leaves a NaN behind.
+    #[inline(always)]
+    fn move_onto(&self, ray: &mut LaneRay<L>, survives: L::Mask, direction: [L; 3]) {
+        let keep = |new: L, old: L| L::select(survives, new, old);
+        let ([px, py, pz], [vx, vy, vz]) = (ray.origin, ray.direction);
+        let [hx, hy, hz] = self.point;
+        let [rx, ry, rz] = direction;
+        ray.origin = [keep(hx, px), keep(hy, py), keep(hz, pz)];
+        ray.direction = [keep(rx, vx), keep(ry, vy), keep(rz, vz)];
     }
 }
 
