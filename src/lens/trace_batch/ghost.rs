@@ -46,8 +46,6 @@ pub(crate) struct GhostBatch {
     pair: Vec<[u32; 2]>,
     /// The share of each ray's light its path passes.
     transmission: Vec<f32>,
-    /// A block's indices of every medium, per lane (see [`trace_block`]).
-    media: Vec<f32>,
 }
 
 impl GhostBatch {
@@ -82,20 +80,10 @@ impl GhostBatch {
         let mut start = 0;
         while start < n {
             let end = (start + BLOCK).min(n);
-            let r = &mut self.rays;
-            let lanes = GhostLanes {
-                ox: &mut r.ox[start..end],
-                oy: &mut r.oy[start..end],
-                oz: &mut r.oz[start..end],
-                dx: &mut r.dx[start..end],
-                dy: &mut r.dy[start..end],
-                dz: &mut r.dz[start..end],
-                alive: &mut r.alive[start..end],
-                transmission: &mut self.transmission[start..end],
-                nm: &self.nm[start..end],
-                pair: &self.pair[start..end],
-            };
-            trace_block(lens, lanes, &mut self.media);
+            let mut block = Block::default();
+            block.load(self, start..end, lens);
+            let survivors = block.trace(lens);
+            block.store(self, start..end, survivors);
             start = end;
         }
     }
@@ -113,7 +101,7 @@ impl GhostBatch {
     }
 }
 
-/// At most [`BLOCK`] ghost rays, structure of arrays.
+/// A block's lanes as [`Step`] sees them, structure of arrays.
 struct GhostLanes<'a> {
     ox: &'a mut [f32],
     oy: &'a mut [f32],
@@ -122,9 +110,129 @@ struct GhostLanes<'a> {
     dy: &'a mut [f32],
     dz: &'a mut [f32],
     alive: &'a mut [bool],
-    transmission: &'a mut [f32],
-    nm: &'a [f32],
-    pair: &'a [[u32; 2]],
+}
+
+/// At most [`BLOCK`] ghost rays in the working order: the first `len` lanes are those still
+/// traced (blocked ones are dropped from time to time, so that a path blocked early stops
+/// costing anything), each with its ray's index in the batch.
+struct Block {
+    len: usize,
+    ray: [u32; BLOCK],
+    ox: [f32; BLOCK],
+    oy: [f32; BLOCK],
+    oz: [f32; BLOCK],
+    dx: [f32; BLOCK],
+    dy: [f32; BLOCK],
+    dz: [f32; BLOCK],
+    alive: [bool; BLOCK],
+    transmission: [f32; BLOCK],
+    pair: [[u32; 2]; BLOCK],
+    /// The reflectance table's wavelength row, and with dispersion the index table's cell
+    /// and fraction.
+    row: [(usize, f32); BLOCK],
+    cell: [u32; BLOCK],
+    fraction: [f32; BLOCK],
+}
+
+impl Default for Block {
+    fn default() -> Self {
+        Block {
+            len: 0,
+            ray: [0; BLOCK],
+            ox: [0.0; BLOCK],
+            oy: [0.0; BLOCK],
+            oz: [0.0; BLOCK],
+            dx: [0.0; BLOCK],
+            dy: [0.0; BLOCK],
+            dz: [0.0; BLOCK],
+            alive: [false; BLOCK],
+            transmission: [1.0; BLOCK],
+            pair: [[0; 2]; BLOCK],
+            row: [(0, 0.0); BLOCK],
+            cell: [0; BLOCK],
+            fraction: [0.0; BLOCK],
+        }
+    }
+}
+
+impl Block {
+    /// The batch's rays `range` (at most [`BLOCK`]), with their places in the tables.
+    #[inline(always)]
+    fn load(&mut self, batch: &GhostBatch, range: std::ops::Range<usize>, lens: &GhostLens) {
+        let r = &batch.rays;
+        self.len = range.len();
+        for (lane, k) in range.enumerate() {
+            self.ray[lane] = k as u32;
+            [self.ox[lane], self.oy[lane], self.oz[lane]] = r.origin(k);
+            [self.dx[lane], self.dy[lane], self.dz[lane]] = r.direction(k);
+            self.alive[lane] = r.alive[k];
+            self.transmission[lane] = 1.0;
+            self.pair[lane] = batch.pair[k];
+            let nm = batch.nm[k];
+            self.row[lane] = lens.reflectance.position(nm);
+            if let Some(table) = lens.dispersion {
+                let (i, t) = table.position(nm);
+                (self.cell[lane], self.fraction[lane]) = (i as u32, t);
+            }
+        }
+    }
+
+    /// Writes the `survivors` back to the batch's rays `range`; every other ray is blocked.
+    #[inline(always)]
+    fn store(&self, batch: &mut GhostBatch, range: std::ops::Range<usize>, survivors: bool) {
+        batch.rays.alive[range].fill(false);
+        if !survivors {
+            return;
+        }
+        let r = &mut batch.rays;
+        for lane in 0..self.len {
+            let k = self.ray[lane] as usize;
+            [r.ox[k], r.oy[k], r.oz[k]] = [self.ox[lane], self.oy[lane], self.oz[lane]];
+            [r.dx[k], r.dy[k], r.dz[k]] = [self.dx[lane], self.dy[lane], self.dz[lane]];
+            r.alive[k] = self.alive[lane];
+            batch.transmission[k] = self.transmission[lane];
+        }
+    }
+
+    /// The first `len` lanes, as the step sees them.
+    #[inline(always)]
+    fn lanes(&mut self) -> GhostLanes<'_> {
+        let n = self.len;
+        GhostLanes {
+            ox: &mut self.ox[..n],
+            oy: &mut self.oy[..n],
+            oz: &mut self.oz[..n],
+            dx: &mut self.dx[..n],
+            dy: &mut self.dy[..n],
+            dz: &mut self.dz[..n],
+            alive: &mut self.alive[..n],
+        }
+    }
+
+    /// Drops the blocked lanes, keeping the others in order.
+    #[inline(always)]
+    fn compact(&mut self) {
+        let mut kept = 0;
+        for lane in 0..self.len {
+            if self.alive[lane] {
+                self.ray[kept] = self.ray[lane];
+                self.ox[kept] = self.ox[lane];
+                self.oy[kept] = self.oy[lane];
+                self.oz[kept] = self.oz[lane];
+                self.dx[kept] = self.dx[lane];
+                self.dy[kept] = self.dy[lane];
+                self.dz[kept] = self.dz[lane];
+                self.alive[kept] = true;
+                self.transmission[kept] = self.transmission[lane];
+                self.pair[kept] = self.pair[lane];
+                self.row[kept] = self.row[lane];
+                self.cell[kept] = self.cell[lane];
+                self.fraction[kept] = self.fraction[lane];
+                kept += 1;
+            }
+        }
+        self.len = kept;
+    }
 }
 
 /// Which way a sweep travels, and which lanes meet surface `i` in it and reflect there.
@@ -155,130 +263,114 @@ impl Sweep {
     }
 }
 
-/// Traces a block of ghost rays along their paths: each surface met keeps 1 − R of the light,
-/// each reflection R (1 beyond the critical angle), the clear apertures and the stop clip as
-/// for any ray. Survivors end leaving the front surface with unit directions; blocked lanes
-/// get `alive = false`. `media` is working memory: with dispersion, every medium's index per
-/// lane.
-#[inline(always)]
-fn trace_block(lens: &GhostLens, mut lanes: GhostLanes, media: &mut Vec<f32>) {
-    let n = lanes.alive.len();
-    let surfaces = lens.surfaces;
-    let count = surfaces.len();
-    // Each lane's place in the reflectance table, and with dispersion the index of every
-    // medium at its wavelength (medium m lies in front of surface m; medium 0 is air).
-    let mut row = [(0usize, 0.0f32); BLOCK];
-    for (row, &nm) in row.iter_mut().zip(lanes.nm) {
-        *row = lens.reflectance.position(nm);
-    }
-    media.clear();
-    if let Some(table) = lens.dispersion {
-        // Room for a whole block, whatever this one's size.
-        media.reserve((count + 1) * BLOCK);
-        let mut cell = [0u32; BLOCK];
-        let mut fraction = [0.0f32; BLOCK];
-        for lane in 0..n {
-            let (i, t) = table.position(lanes.nm[lane]);
-            (cell[lane], fraction[lane]) = (i as u32, t);
-        }
-        media.resize((count + 1) * n, 1.0);
-        for surface in 0..count {
-            let after = &mut media[(surface + 1) * n..(surface + 2) * n];
-            table
-                .curve(surface)
-                .at_lanes(&cell[..n], &fraction[..n], after, Isa::detect());
-        }
-    }
-    let mut eta = [1.0f32; BLOCK];
-    let mut active = [false; BLOCK];
-    let mut reflect = [false; BLOCK];
-    let mut cosine = [0.0f32; BLOCK];
-    let mut total = [false; BLOCK];
-    let mut clipped = [false; BLOCK];
-    for sweep in [Sweep::In, Sweep::Back, Sweep::Out] {
-        let toward_film = sweep.toward_film();
-        let order: &mut dyn Iterator<Item = usize> = if toward_film {
-            &mut (0..count)
-        } else {
-            &mut (0..count).rev()
-        };
-        for i in order {
-            for lane in 0..n {
-                (active[lane], reflect[lane]) = sweep.meets(i as u32, lanes.pair[lane]);
-            }
-            // n on the lanes' side over n beyond: toward the film the medium in front of i
-            // over the one behind it.
-            match lens.dispersion {
-                Some(_) => {
-                    let (front, back) = (&media[i * n..(i + 1) * n], &media[(i + 1) * n..]);
-                    for lane in 0..n {
-                        eta[lane] = if toward_film {
-                            front[lane] / back[lane]
-                        } else {
-                            back[lane] / front[lane]
-                        };
+impl Block {
+    /// Traces the block's rays along their paths: each surface met keeps 1 − R of the light,
+    /// each reflection R (1 beyond the critical angle), the clear apertures and the stop clip
+    /// as for any ray. Survivors end leaving the front surface with unit directions, blocked
+    /// lanes with `alive = false`; returns whether any survived.
+    #[inline(always)]
+    fn trace(&mut self, lens: &GhostLens) -> bool {
+        let surfaces = lens.surfaces;
+        let count = surfaces.len();
+        let mut before = [1.0f32; BLOCK];
+        let mut after = [1.0f32; BLOCK];
+        let mut eta = [1.0f32; BLOCK];
+        let mut active = [false; BLOCK];
+        let mut reflect = [false; BLOCK];
+        let mut cosine = [0.0f32; BLOCK];
+        let mut total = [false; BLOCK];
+        let mut clipped = [false; BLOCK];
+        for sweep in [Sweep::In, Sweep::Back, Sweep::Out] {
+            let toward_film = sweep.toward_film();
+            let order: &mut dyn Iterator<Item = usize> = if toward_film {
+                &mut (0..count)
+            } else {
+                &mut (0..count).rev()
+            };
+            for i in order {
+                let n = self.len;
+                for lane in 0..n {
+                    (active[lane], reflect[lane]) = sweep.meets(i as u32, self.pair[lane]);
+                }
+                // The media's indices in front of surface i and behind it, at each lane's
+                // wavelength or the lens's own; the ratio n on the lanes' side over n beyond.
+                let (front, back) = (&mut before[..n], &mut after[..n]);
+                match lens.dispersion {
+                    Some(table) => {
+                        let (cell, fraction) = (&self.cell[..n], &self.fraction[..n]);
+                        let isa = Isa::detect();
+                        table.curve(i).at_lanes(cell, fraction, back, isa);
+                        match i.checked_sub(1) {
+                            Some(f) => table.curve(f).at_lanes(cell, fraction, front, isa),
+                            None => front.fill(1.0),
+                        }
+                    }
+                    None => {
+                        front.fill(surfaces.index_front[i]);
+                        back.fill(surfaces.index_back[i]);
                     }
                 }
-                None => {
-                    let (front, back) = (surfaces.index_front[i], surfaces.index_back[i]);
-                    eta.fill(if toward_film {
-                        front / back
-                    } else {
-                        back / front
-                    });
-                }
-            }
-            let forward_sign = if toward_film { 1.0 } else { -1.0 };
-            let s = SurfaceConstants::of(surfaces, i, 1.0, forward_sign);
-            let step = Step {
-                eta: &eta[..n],
-                active: &active[..n],
-                reflect: &reflect[..n],
-                cosine: &mut cosine[..n],
-                total: &mut total[..n],
-            };
-            let any_alive = match s.shape {
-                SPHERE => step.run::<SPHERE>(&s, &mut lanes),
-                CONIC => step.run::<CONIC>(&s, &mut lanes),
-                _ => step.run::<POLYNOMIAL>(&s, &mut lanes),
-            };
-            if !any_alive {
-                return;
-            }
-            if let Some(clip) = surfaces.stop_clip.as_deref()
-                && clip.surface == i
-            {
-                // Only the lanes that met the stop now are clipped.
                 for lane in 0..n {
-                    clipped[lane] = lanes.alive[lane] && active[lane];
-                }
-                clip_plain(
-                    clip,
-                    lanes.ox,
-                    lanes.oy,
-                    &mut clipped[..n],
-                    [&mut *lanes.transmission],
-                );
-                for lane in 0..n {
-                    lanes.alive[lane] &= clipped[lane] || !active[lane];
-                }
-            }
-            for lane in 0..n {
-                if lanes.alive[lane] && active[lane] {
-                    let r = if total[lane] {
-                        1.0
+                    eta[lane] = if toward_film {
+                        front[lane] / back[lane]
                     } else {
-                        lens.reflectance.lookup(i, cosine[lane], row[lane])
+                        back[lane] / front[lane]
                     };
-                    lanes.transmission[lane] *= if reflect[lane] { r } else { 1.0 - r };
+                }
+                let forward_sign = if toward_film { 1.0 } else { -1.0 };
+                let s = SurfaceConstants::of(surfaces, i, 1.0, forward_sign);
+                let step = Step {
+                    eta: &eta[..n],
+                    active: &active[..n],
+                    reflect: &reflect[..n],
+                    cosine: &mut cosine[..n],
+                    total: &mut total[..n],
+                };
+                let alive = match s.shape {
+                    SPHERE => step.run::<SPHERE>(&s, &mut self.lanes()),
+                    CONIC => step.run::<CONIC>(&s, &mut self.lanes()),
+                    _ => step.run::<POLYNOMIAL>(&s, &mut self.lanes()),
+                };
+                if alive == 0 {
+                    return false;
+                }
+                let (alive_now, transmission) = (&mut self.alive[..n], &mut self.transmission[..n]);
+                if let Some(clip) = surfaces.stop_clip.as_deref()
+                    && clip.surface == i
+                {
+                    // Only the lanes that met the stop now are clipped.
+                    for lane in 0..n {
+                        clipped[lane] = alive_now[lane] && active[lane];
+                    }
+                    let (x, y) = (&self.ox[..n], &self.oy[..n]);
+                    clip_plain(clip, x, y, &mut clipped[..n], [&mut *transmission]);
+                    for lane in 0..n {
+                        alive_now[lane] &= clipped[lane] || !active[lane];
+                    }
+                }
+                for lane in 0..n {
+                    if alive_now[lane] && active[lane] {
+                        let r = if total[lane] {
+                            1.0
+                        } else {
+                            lens.reflectance.lookup(i, cosine[lane], self.row[lane])
+                        };
+                        transmission[lane] *= if reflect[lane] { r } else { 1.0 - r };
+                    }
+                }
+                // Once half the lanes are blocked, the rest move up.
+                if 2 * alive <= n {
+                    self.compact();
                 }
             }
         }
-    }
-    for lane in 0..n {
-        let mut ray = lane_ray(&lanes, lane);
-        normalise_direction(&mut ray, lanes.alive[lane]);
-        [lanes.dx[lane], lanes.dy[lane], lanes.dz[lane]] = ray.direction;
+        let lanes = self.lanes();
+        for lane in 0..lanes.alive.len() {
+            let mut ray = lane_ray(&lanes, lane);
+            normalise_direction(&mut ray, lanes.alive[lane]);
+            [lanes.dx[lane], lanes.dy[lane], lanes.dz[lane]] = ray.direction;
+        }
+        true
     }
 }
 
@@ -301,17 +393,17 @@ struct Step<'a> {
 }
 
 impl Step<'_> {
-    /// Runs [`ghost_step_at`] over the lanes (a plain loop, which vectorises); returns
-    /// whether any lane is alive.
+    /// Runs [`ghost_step_at`] over the lanes (a plain loop, which vectorises); returns how
+    /// many lanes are alive (before the stop clip).
     #[inline(always)]
-    fn run<const SHAPE: u8>(self, s: &SurfaceConstants<f32>, lanes: &mut GhostLanes) -> bool {
+    fn run<const SHAPE: u8>(self, s: &SurfaceConstants<f32>, lanes: &mut GhostLanes) -> usize {
         let n = self.eta.len();
         let (ox, oy, oz) = (&mut lanes.ox[..n], &mut lanes.oy[..n], &mut lanes.oz[..n]);
         let (dx, dy, dz) = (&mut lanes.dx[..n], &mut lanes.dy[..n], &mut lanes.dz[..n]);
         let alive = &mut lanes.alive[..n];
         let (active, reflect) = (&self.active[..n], &self.reflect[..n]);
         let (cosine, total) = (&mut self.cosine[..n], &mut self.total[..n]);
-        let mut any_alive = false;
+        let mut alive_count = 0;
         for lane in 0..n {
             let mut ray = LaneRay {
                 origin: [ox[lane], oy[lane], oz[lane]],
@@ -329,8 +421,8 @@ impl Step<'_> {
             [dx[lane], dy[lane], dz[lane]] = ray.direction;
             alive[lane] = crossing.survives;
             (cosine[lane], total[lane]) = (crossing.cosine, crossing.total);
-            any_alive |= crossing.survives;
+            alive_count += usize::from(crossing.survives);
         }
-        any_alive
+        alive_count
     }
 }
