@@ -19,7 +19,8 @@
 
 use super::clip::clip_plain;
 use super::refract::{
-    CONIC, LaneRay, POLYNOMIAL, SPHERE, SurfaceConstants, ghost_step_at, normalise_direction,
+    CONIC, LaneRay, POLYNOMIAL, RaySlices, SPHERE, SurfaceConstants, ghost_step_at,
+    normalise_direction,
 };
 use super::{BLOCK, Isa};
 use crate::batch::RayBatch;
@@ -99,17 +100,6 @@ impl GhostBatch {
             )
         })
     }
-}
-
-/// A block's lanes as [`Step`] sees them, structure of arrays.
-struct GhostLanes<'a> {
-    ox: &'a mut [f32],
-    oy: &'a mut [f32],
-    oz: &'a mut [f32],
-    dx: &'a mut [f32],
-    dy: &'a mut [f32],
-    dz: &'a mut [f32],
-    alive: &'a mut [bool],
 }
 
 /// At most [`BLOCK`] ghost rays in the working order: the first `len` lanes are those still
@@ -196,9 +186,9 @@ impl Block {
 
     /// The first `len` lanes, as the step sees them.
     #[inline(always)]
-    fn lanes(&mut self) -> GhostLanes<'_> {
+    fn lanes(&mut self) -> RaySlices<'_> {
         let n = self.len;
-        GhostLanes {
+        RaySlices {
             ox: &mut self.ox[..n],
             oy: &mut self.oy[..n],
             oz: &mut self.oz[..n],
@@ -366,19 +356,11 @@ impl Block {
         }
         let lanes = self.lanes();
         for lane in 0..lanes.alive.len() {
-            let mut ray = lane_ray(&lanes, lane);
+            let mut ray = lanes.ray(lane);
             normalise_direction(&mut ray, lanes.alive[lane]);
             [lanes.dx[lane], lanes.dy[lane], lanes.dz[lane]] = ray.direction;
         }
         true
-    }
-}
-
-#[inline(always)]
-fn lane_ray(lanes: &GhostLanes, lane: usize) -> LaneRay<f32> {
-    LaneRay {
-        origin: [lanes.ox[lane], lanes.oy[lane], lanes.oz[lane]],
-        direction: [lanes.dx[lane], lanes.dy[lane], lanes.dz[lane]],
     }
 }
 
@@ -396,7 +378,7 @@ impl Step<'_> {
     /// Runs [`ghost_step_at`] over the lanes (a plain loop, which vectorises); returns how
     /// many lanes are alive (before the stop clip).
     #[inline(always)]
-    fn run<const SHAPE: u8>(self, s: &SurfaceConstants<f32>, lanes: &mut GhostLanes) -> usize {
+    fn run<const SHAPE: u8>(self, s: &SurfaceConstants<f32>, lanes: &mut RaySlices) -> usize {
         let n = self.eta.len();
         let (ox, oy, oz) = (&mut lanes.ox[..n], &mut lanes.oy[..n], &mut lanes.oz[..n]);
         let (dx, dy, dz) = (&mut lanes.dx[..n], &mut lanes.dy[..n], &mut lanes.dz[..n]);

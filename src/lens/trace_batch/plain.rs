@@ -5,7 +5,7 @@
 use super::clip::clip_plain;
 use super::losses::LossScratch;
 use super::refract::{
-    CONIC, LaneRay, NEWTON_STEPS, Newton, POLYNOMIAL, SPHERE, SurfaceConstants,
+    CONIC, LaneRay, NEWTON_STEPS, Newton, POLYNOMIAL, RaySlices, SPHERE, SurfaceConstants,
     normalise_direction, refract_at, refract_from_hit,
 };
 use super::{BLOCK, Plan};
@@ -35,13 +35,15 @@ pub(super) fn trace_plain(plan: &Plan, rays: &mut RayBatch, etas: &mut Vec<f32>)
         let alive = &mut rays.alive[start..end];
         for (step, surface) in plan.surfaces.iter().enumerate() {
             let lanes = Lanes {
-                ox: &mut *ox,
-                oy: &mut *oy,
-                oz: &mut *oz,
-                dx: &mut *dx,
-                dy: &mut *dy,
-                dz: &mut *dz,
-                alive: &mut *alive,
+                rays: RaySlices {
+                    ox: &mut *ox,
+                    oy: &mut *oy,
+                    oz: &mut *oz,
+                    dx: &mut *dx,
+                    dy: &mut *dy,
+                    dz: &mut *dz,
+                    alive: &mut *alive,
+                },
                 cosines: &mut cosines,
             };
             // The shape (and whether indices vary per ray) picks the kernel once per surface and
@@ -98,16 +100,10 @@ pub(super) fn trace_plain(plan: &Plan, rays: &mut RayBatch, etas: &mut Vec<f32>)
     }
 }
 
-/// One block's rays, structure of arrays.
+/// One block's rays, and each lane's cosine in the less dense medium at the surface just
+/// crossed.
 struct Lanes<'a> {
-    ox: &'a mut [f32],
-    oy: &'a mut [f32],
-    oz: &'a mut [f32],
-    dx: &'a mut [f32],
-    dy: &'a mut [f32],
-    dz: &'a mut [f32],
-    alive: &'a mut [bool],
-    /// Each lane's cosine in the less dense medium at the surface just crossed.
+    rays: RaySlices<'a>,
     cosines: &'a mut [f32; BLOCK],
 }
 
@@ -122,11 +118,12 @@ fn plain_surface<const SHAPE: u8, const SPECTRAL: bool>(
     if SHAPE == POLYNOMIAL {
         return plain_polynomial_surface::<SPECTRAL>(surface, lanes, etas);
     }
-    let n = lanes.alive.len();
-    let (ox, oy, oz) = (&mut lanes.ox[..n], &mut lanes.oy[..n], &mut lanes.oz[..n]);
-    let (dx, dy, dz) = (&mut lanes.dx[..n], &mut lanes.dy[..n], &mut lanes.dz[..n]);
-    let alive = &mut lanes.alive[..n];
-    let cosines = &mut lanes.cosines[..n];
+    let (rays, cosines) = (lanes.rays, lanes.cosines);
+    let n = rays.alive.len();
+    let (ox, oy, oz) = (&mut rays.ox[..n], &mut rays.oy[..n], &mut rays.oz[..n]);
+    let (dx, dy, dz) = (&mut rays.dx[..n], &mut rays.dy[..n], &mut rays.dz[..n]);
+    let alive = &mut rays.alive[..n];
+    let cosines = &mut cosines[..n];
     let etas = if SPECTRAL { &etas[..n] } else { etas };
     let mut any_alive = false;
     for i in 0..n {
@@ -155,11 +152,12 @@ fn plain_polynomial_surface<const SPECTRAL: bool>(
     lanes: Lanes,
     etas: &[f32],
 ) -> bool {
-    let n = lanes.alive.len();
-    let (ox, oy, oz) = (&mut lanes.ox[..n], &mut lanes.oy[..n], &mut lanes.oz[..n]);
-    let (dx, dy, dz) = (&mut lanes.dx[..n], &mut lanes.dy[..n], &mut lanes.dz[..n]);
-    let alive = &mut lanes.alive[..n];
-    let cosines = &mut lanes.cosines[..n];
+    let (rays, cosines) = (lanes.rays, lanes.cosines);
+    let n = rays.alive.len();
+    let (ox, oy, oz) = (&mut rays.ox[..n], &mut rays.oy[..n], &mut rays.oz[..n]);
+    let (dx, dy, dz) = (&mut rays.dx[..n], &mut rays.dy[..n], &mut rays.dz[..n]);
+    let alive = &mut rays.alive[..n];
+    let cosines = &mut cosines[..n];
     let ray_at = |i: usize| LaneRay {
         origin: [ox[i], oy[i], oz[i]],
         direction: [dx[i], dy[i], dz[i]],

@@ -133,6 +133,29 @@ pub struct LaneRay<L> {
     pub direction: [L; 3],
 }
 
+/// A block of rays as the plain loops work on them: origins and directions (lens frame, mm),
+/// structure of arrays, and which rays are alive.
+pub struct RaySlices<'a> {
+    pub ox: &'a mut [f32],
+    pub oy: &'a mut [f32],
+    pub oz: &'a mut [f32],
+    pub dx: &'a mut [f32],
+    pub dy: &'a mut [f32],
+    pub dz: &'a mut [f32],
+    pub alive: &'a mut [bool],
+}
+
+impl RaySlices<'_> {
+    /// Ray `i` as one lane.
+    #[inline(always)]
+    pub fn ray(&self, i: usize) -> LaneRay<f32> {
+        LaneRay {
+            origin: [self.ox[i], self.oy[i], self.oz[i]],
+            direction: [self.dx[i], self.dy[i], self.dz[i]],
+        }
+    }
+}
+
 /// What one surface step leaves of a group of lanes.
 #[derive(Clone, Copy, Debug)]
 pub struct Crossing<L: Lanes> {
