@@ -41,12 +41,11 @@ pub(crate) struct GhostLens<'a> {
 /// pair. Kept between batches so that its arrays keep their capacity.
 #[derive(Clone, Debug, Default)]
 pub(crate) struct GhostBatch {
+    /// Traced, each ray's throughput (`tr`) becomes the share of its light the path passes.
     rays: RayBatch,
     nm: Vec<f32>,
     /// Each ray's pair (a, b), a < b, front = 0.
     pair: Vec<[u32; 2]>,
-    /// The share of each ray's light its path passes.
-    transmission: Vec<f32>,
 }
 
 impl GhostBatch {
@@ -56,10 +55,8 @@ impl GhostBatch {
     pub fn clear_with_room(&mut self, rays: usize) {
         self.rays.clear();
         self.rays.reserve(rays);
-        for v in [&mut self.nm, &mut self.transmission] {
-            v.clear();
-            v.reserve(rays);
-        }
+        self.nm.clear();
+        self.nm.reserve(rays);
         self.pair.clear();
         self.pair.reserve(rays);
     }
@@ -76,8 +73,6 @@ impl GhostBatch {
     #[inline(always)]
     pub fn trace(&mut self, lens: &GhostLens) {
         let n = self.pair.len();
-        self.transmission.clear();
-        self.transmission.resize(n, 1.0);
         let mut start = 0;
         while start < n {
             let end = (start + BLOCK).min(n);
@@ -92,13 +87,7 @@ impl GhostBatch {
     /// Ray `k`'s (in the order pushed) ray leaving the front of the lens (lens frame, unit
     /// direction) and the share of its light the path passed; `None` where it was blocked.
     pub fn traced(&self, k: usize) -> Option<([f32; 3], [f32; 3], f32)> {
-        self.rays.alive[k].then(|| {
-            (
-                self.rays.origin(k),
-                self.rays.direction(k),
-                self.transmission[k],
-            )
-        })
+        self.rays.alive[k].then(|| (self.rays.origin(k), self.rays.direction(k), self.rays.tr[k]))
     }
 }
 
@@ -156,7 +145,7 @@ impl Block {
             [self.ox[lane], self.oy[lane], self.oz[lane]] = r.origin(k);
             [self.dx[lane], self.dy[lane], self.dz[lane]] = r.direction(k);
             self.alive[lane] = r.alive[k];
-            self.transmission[lane] = 1.0;
+            self.transmission[lane] = r.tr[k];
             self.pair[lane] = batch.pair[k];
             let nm = batch.nm[k];
             self.row[lane] = lens.reflectance.position(nm);
@@ -180,7 +169,7 @@ impl Block {
             [r.ox[k], r.oy[k], r.oz[k]] = [self.ox[lane], self.oy[lane], self.oz[lane]];
             [r.dx[k], r.dy[k], r.dz[k]] = [self.dx[lane], self.dy[lane], self.dz[lane]];
             r.alive[k] = self.alive[lane];
-            batch.transmission[k] = self.transmission[lane];
+            r.tr[k] = self.transmission[lane];
         }
     }
 
