@@ -25,6 +25,9 @@
 #      `--dispersion off`, both scenes, ${SIZE}² at $SPP spp, three rounds (gpu_wavelengths.tar);
 #   8. benches/gpu/variants.py once per file named in $VARIANT_FILES (its arguments, one a line:
 #      variants of the binary side by side, e.g. benches/gpu/probes/), results variants_*.json;
+#   9. the machine's ceiling: the same one-thread work (the lens kernel's bench, then a render of
+#      each scene at ${SIZE}², $SCALE_SPP spp) alone and as $THREADS_MAX copies at once, beside
+#      one $THREADS_MAX-thread render (ceiling.tar);
 #   0. (first, when $TESTS names the library's unit-test binary, built here with
 #      `cargo test --release --lib --no-run`) the GPU unit tests against the CPU, on this GPU.
 # STEPS picks which run (default "0 1 2 3 4 5"; step 0 only with $TESTS).
@@ -149,13 +152,14 @@ done
 fi
 
 # One render with compare.py's peer settings; its --stats to $1 (the remaining arguments are
-# added to the command line).
+# added to the command line). Its image and errors go to files of its own process, so that
+# renders run at once (step 9) do not share them.
 render_peer() {
   local stats=$1 glb=$2; shift 2
   timeout -k 5 "$GPU_TIMEOUT" "$REALCAM" render "$WORK/$glb.glb" --lens dgauss.50mm --aperture 8 \
     --film-diagonal 35 --look-from 0,0,4.5 --look-at 0,0,0 --env 1,1,1 --width "$SIZE" \
-    --height "$SIZE" --spp "$SPP" --max-depth 5 --out "/tmp/render.png" --stats "$stats" "$@" \
-    >/dev/null 2>/tmp/render.err || { echo "render failed: $*"; tail -3 /tmp/render.err; }
+    --height "$SIZE" --spp "$SPP" --max-depth 5 --out "/tmp/render.$BASHPID.png" --stats "$stats" "$@" \
+    >/dev/null 2>"/tmp/render.$BASHPID.err" || { echo "render failed: $*"; tail -3 "/tmp/render.$BASHPID.err"; }
 }
 
 if want 6; then
@@ -235,6 +239,72 @@ if want 8; then
     timeout -k 5 "$(left)" python3 benches/gpu/variants.py "@$args" --work "$WORK" \
       --budget "$(( $(left) - 15 ))" --results "$OUT/variants_$(basename "$args" .args).json"
   done
+fi
+
+if want 9; then
+  # What one core does when every core is busy, whatever realcam's threading does: the same
+  # one-thread work run alone and as $THREADS_MAX copies at once (separate processes: no shared
+  # state, no barrier). The copies' summed rate is the ceiling a $THREADS_MAX-thread render can
+  # reach on this machine; the render's own rate against it is what realcam's threading loses.
+  step "9. the machine's ceiling: one-thread work alone and as $THREADS_MAX copies at once, ${SIZE}², $SCALE_SPP spp"
+  rm -rf /tmp/ceiling; mkdir -p /tmp/ceiling
+  copies() { # $1 label, $2 count, the rest: the command (its stdout to /tmp/ceiling/LABEL.K.out)
+    local label=$1 count=$2 pids=(); shift 2
+    for k in $(seq 1 "$count"); do "$@" >"/tmp/ceiling/$label.$k.out" 2>/dev/null & pids+=($!); done
+    wait "${pids[@]}" # by name: a bare `wait` would wait for the log's tee too
+  }
+  for round in 0 1; do
+    [ "$(left)" -gt 60 ] || { echo "skipped: the time budget is spent"; break; }
+    copies "kernel.alone.r$round" 1 "$REALCAM" bench --json --rays 65536 --rounds 3
+    copies "kernel.copies.r$round" "$THREADS_MAX" "$REALCAM" bench --json --rays 65536 --rounds 3
+    for scene in helmet spheres; do
+      [ "$(left)" -gt 45 ] || { echo "skipped: the time budget is spent"; break 2; }
+      SPP=$SCALE_SPP render_peer "/tmp/ceiling/$scene.alone.r$round.json" "$scene" --threads 1
+      pids=()
+      for k in $(seq 1 "$THREADS_MAX"); do
+        SPP=$SCALE_SPP render_peer "/tmp/ceiling/$scene.copies.r$round.$k.json" "$scene" --threads 1 &
+        pids+=($!)
+      done
+      wait "${pids[@]}"
+      SPP=$SCALE_SPP render_peer "/tmp/ceiling/$scene.threads.r$round.json" "$scene" --threads "$THREADS_MAX"
+    done
+  done
+  (cd /tmp/ceiling && tar -cf - *) > "$OUT/ceiling.tar"
+  python3 - /tmp/ceiling "$THREADS_MAX" <<'PY'
+import glob, json, os, statistics, sys
+folder, n = sys.argv[1], int(sys.argv[2])
+def rate(path):
+    text = open(path).read()
+    if not text.strip():
+        return None
+    data = json.loads(text)
+    return data.get("samples_per_second") or data.get("soa_rays_per_s")
+def rounds(pattern):  # per round: the list of rates of that round's processes
+    out = {}
+    for path in glob.glob(os.path.join(folder, pattern)):
+        r = rate(path)
+        if r:
+            out.setdefault(os.path.basename(path).split(".r")[1].split(".")[0], []).append(r)
+    return out
+for name, ext, unit in (("kernel", "out", "M rays/s (lens kernel, avx512)"), ("helmet", "json", "M samples/s"), ("spheres", "json", "M samples/s")):
+    alone, copies = rounds(f"{name}.alone.r*.{ext}"), rounds(f"{name}.copies.r*.{ext}")
+    threads = rounds(f"{name}.threads.r*.{ext}")
+    for r in sorted(alone):
+        a = alone[r][0] / 1e6
+        c = copies.get(r, [])
+        line = f"{name:<8} round {r}: alone {a:7.2f} {unit}"
+        if len(c) == n:
+            per, total = statistics.median(c) / 1e6, sum(c) / 1e6
+            line += f"; {n} copies: each {per:.2f} (median, {per / a:.2f}× alone), together {total:.2f} = {total / a:.2f}× one"
+        elif c:
+            line += f"; only {len(c)} of {n} copies reported"
+        if r in threads:
+            t = threads[r][0] / 1e6
+            line += f"; {n} threads {t:.2f} = {t / a:.2f}× one"
+            if len(c) == n:
+                line += f", {t / (sum(c) / 1e6):.2f}× the copies"
+        print(line)
+PY
 fi
 
 if want 4; then
