@@ -5,6 +5,7 @@
 //! and the bevy_ecs schedule that ties them together in [`pipeline`].
 
 pub mod accel;
+pub mod allocator;
 pub mod batch;
 pub mod cli;
 pub mod diagnosis;

@@ -1,4 +1,9 @@
+/// mimalloc, not glibc's malloc: see [`realcam::allocator`].
+#[global_allocator]
+static ALLOCATOR: realcam::allocator::Allocator = realcam::allocator::Allocator {};
+
 fn main() -> std::process::ExitCode {
+    realcam::allocator::keep_freed_memory();
     end_quietly_when_the_reader_leaves();
     realcam::cli::main()
 }
