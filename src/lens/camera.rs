@@ -265,10 +265,13 @@ pub struct CameraRays {
     /// pixels, on the film filter's grid (see [`crate::film::filter`]): laid out as
     /// `wavelength` with several wavelengths per sample, else one per ray (the film jitter).
     pub film_position: Vec<[f32; 2]>,
-    scratch: Scratch,
 }
 
-/// Per-pixel inputs of a batch, structure of arrays, kept to reuse their allocations.
+/// What [`LensCamera::generate`] works in besides its outputs: a batch's per-pixel inputs and
+/// the intermediate arrays, structure of arrays. One per thread ([`CAMERA_SCRATCH`]), not one per
+/// tile: it is filled and used up within one call, so a thread reuses the same memory tile
+/// after tile. Kept per tile, it was half of a frame's batch memory (the peer helmet at 640²:
+/// 223 MB at its peak, 103 MB with one per thread).
 #[derive(Clone, Debug, Default)]
 struct Scratch {
     pixel: Vec<u32>,
@@ -293,6 +296,10 @@ struct Scratch {
     /// probability.
     ghost_batch: GhostBatch,
     ghost_factor: Vec<(f32, f32)>,
+}
+
+thread_local! {
+    static CAMERA_SCRATCH: std::cell::RefCell<Scratch> = std::cell::RefCell::new(Scratch::default());
 }
 
 /// Seed key of the camera's sample patterns, apart from the shading streams.
@@ -370,7 +377,21 @@ impl LensCamera<'_> {
         seed: u64,
         out: &mut CameraRays,
     ) {
-        let scratch = &mut out.scratch;
+        // Nothing under this call runs other tasks on this thread, so the thread's scratch is
+        // free.
+        CAMERA_SCRATCH
+            .with_borrow_mut(|scratch| self.generate_in(pixels, sample, seed, out, scratch))
+    }
+
+    /// [`Self::generate`] with its working memory in `scratch`.
+    fn generate_in(
+        &self,
+        pixels: impl IntoIterator<Item = (u32, u32)>,
+        sample: u32,
+        seed: u64,
+        out: &mut CameraRays,
+        scratch: &mut Scratch,
+    ) {
         scratch.pixel.clear();
         scratch.px.clear();
         scratch.py.clear();
@@ -405,9 +426,9 @@ impl LensCamera<'_> {
         // The per-pixel loops are compiled again for wider vector units and the widest this
         // CPU has is chosen, as for the lens kernel.
         on_isa!(Isa::detect(),
-            baseline: self.generate_prepared(sample, seed, out),
-            avx2: self.generate_prepared_avx2(sample, seed, out),
-            avx512: self.generate_prepared_avx512(sample, seed, out),
+            baseline: self.generate_prepared(sample, seed, out, scratch),
+            avx2: self.generate_prepared_avx2(sample, seed, out, scratch),
+            avx512: self.generate_prepared_avx512(sample, seed, out, scratch),
         )
     }
 
@@ -417,29 +438,36 @@ impl LensCamera<'_> {
             sample: u32,
             seed: u64,
             out: &mut CameraRays,
+            scratch: &mut Scratch,
         ) {
-            self.generate_prepared(sample, seed, out)
+            self.generate_prepared(sample, seed, out, scratch)
         }
     }
 
     /// [`Self::generate`] once the pixels are in the scratch arrays and the outputs sized.
     #[inline(always)]
-    fn generate_prepared(&self, sample: u32, seed: u64, out: &mut CameraRays) {
+    fn generate_prepared(
+        &self,
+        sample: u32,
+        seed: u64,
+        out: &mut CameraRays,
+        scratch: &mut Scratch,
+    ) {
         let film_z = self.film_z();
         let sampler = self.pupil.sampler();
-        self.camera_samples(sample, seed, &mut out.scratch);
-        self.film_to_pupil(&sampler, sample, film_z, out);
-        let [film_u, film_v, ..] = &out.scratch.u;
+        self.camera_samples(sample, seed, scratch);
+        self.film_to_pupil(&sampler, sample, film_z, out, scratch);
+        let [film_u, film_v, ..] = &scratch.u;
         for ((position, &u), &v) in out.film_position.iter_mut().zip(film_u).zip(film_v) {
             *position = [quantise(u), quantise(v)];
         }
-        self.choose_ghost_samples(sample, seed, out);
+        self.choose_ghost_samples(sample, seed, out, scratch);
         match self.dispersion {
             None => trace_batch(&self.system.f32s, &mut out.rays, Travel::FilmToScene),
             Some(table) => {
                 let n = out.rays.len();
                 let count = out.wavelength.len() / n.max(1);
-                let [.., wave_u, set_inverse_density] = &mut out.scratch.u;
+                let [.., wave_u, set_inverse_density] = &mut scratch.u;
                 for (u, inverse_density) in wave_u.iter_mut().zip(set_inverse_density.iter_mut()) {
                     let set = draw_wavelength_set(*u, count as u32);
                     (*u, *inverse_density) = (set.u, set.inverse_density);
@@ -477,15 +505,15 @@ impl LensCamera<'_> {
                         film_z,
                     };
                     if self.ghosts.is_some() {
-                        let s = &mut out.scratch;
-                        s.ghost_inverse_pdf.clear();
-                        s.ghost_inverse_pdf
+                        scratch.ghost_inverse_pdf.clear();
+                        scratch
+                            .ghost_inverse_pdf
                             .extend_from_slice(&out.wavelength_weight[..n]);
                     }
                     let hero = HeroRays {
                         rays: &out.rays,
-                        px: &out.scratch.px,
-                        py: &out.scratch.py,
+                        px: &scratch.px,
+                        py: &scratch.py,
                         nm: &out.wavelength,
                     };
                     let combined = Combined {
@@ -494,9 +522,9 @@ impl LensCamera<'_> {
                         offset: &mut out.wavelength_offset,
                         position: &mut out.film_position,
                     };
-                    backward.combine(hero, combined, &mut out.scratch.backward);
+                    backward.combine(hero, combined, &mut scratch.backward);
                     // What the mask and the surfaces pass is in each wavelength's factor.
-                    self.trace_ghost_samples(&sampler, film_z, out);
+                    self.trace_ghost_samples(&sampler, film_z, out, scratch);
                     self.move_to_world(film_z, out);
                     return;
                 }
@@ -515,15 +543,14 @@ impl LensCamera<'_> {
                 *weight *= t;
             }
         }
-        self.trace_ghost_samples(&sampler, film_z, out);
+        self.trace_ghost_samples(&sampler, film_z, out, scratch);
         self.move_to_world(film_z, out);
     }
 
     /// Marks this pass's ghost samples (see [`super::ghost`]) and takes them out of the
     /// ordinary trace.
     #[inline(always)]
-    fn choose_ghost_samples(&self, sample: u32, seed: u64, out: &mut CameraRays) {
-        let s = &mut out.scratch;
+    fn choose_ghost_samples(&self, sample: u32, seed: u64, out: &mut CameraRays, s: &mut Scratch) {
         s.ghost.clear();
         if self.ghosts.is_none() {
             return;
@@ -545,7 +572,13 @@ impl LensCamera<'_> {
     /// Traces every ghost sample along a ghost path, and scales the ordinary samples by the
     /// share of samples they are (see [`super::ghost`]).
     #[inline(always)]
-    fn trace_ghost_samples(&self, sampler: &PupilSampler, film_z: f32, out: &mut CameraRays) {
+    fn trace_ghost_samples(
+        &self,
+        sampler: &PupilSampler,
+        film_z: f32,
+        out: &mut CameraRays,
+        s: &mut Scratch,
+    ) {
         let Some(ghosts) = self.ghosts else {
             return;
         };
@@ -557,7 +590,6 @@ impl LensCamera<'_> {
         let n = out.rays.len();
         let count = out.wavelength.len() / n.max(1);
         let ordinary = GHOST_EVERY as f32 / (GHOST_EVERY - 1) as f32;
-        let s = &mut out.scratch;
         let film_distance = self.pupil.film_distance as f32;
         let rear_z = film_z - film_distance;
         // The scratch keeps a tilted film's depths from earlier batches: only a tilt sets them.
@@ -676,10 +708,10 @@ impl LensCamera<'_> {
         sample: u32,
         film_z: f32,
         out: &mut CameraRays,
+        s: &mut Scratch,
     ) {
         let film = self.film.film_map();
         let tilt = FilmTilt::of(&self.film.movements);
-        let s = &mut out.scratch;
         let rays = &mut out.rays;
         let n = s.pixel.len();
         let [film_u, film_v, ..] = &s.u;
@@ -704,7 +736,6 @@ impl LensCamera<'_> {
                 s.depth[i] = film_distance + dz;
             }
         }
-        let s = &out.scratch;
         let [_, _, pupil_u, pupil_v, ..] = &s.u;
         rays.pixel.copy_from_slice(&s.pixel);
         rays.sample.fill(sample);
