@@ -248,24 +248,25 @@ if want 9; then
   # reach on this machine; the render's own rate against it is what realcam's threading loses.
   step "9. the machine's ceiling: one-thread work alone and as $THREADS_MAX copies at once, ${SIZE}², $SCALE_SPP spp"
   rm -rf /tmp/ceiling; mkdir -p /tmp/ceiling
-  copies() { # $1 label, $2 count, the rest: the command (its stdout to /tmp/ceiling/LABEL.K.out)
-    local label=$1 count=$2 pids=(); shift 2
-    for k in $(seq 1 "$count"); do "$@" >"/tmp/ceiling/$label.$k.out" 2>/dev/null & pids+=($!); done
+  at_once() { # $1 count, then a command run that many times at once, each with its index added
+    local count=$1 pids=(); shift
+    for k in $(seq 1 "$count"); do "$@" "$k" & pids+=($!); done
     wait "${pids[@]}" # by name: a bare `wait` would wait for the log's tee too
+  }
+  kernel_bench() { # $1 label, $2 index
+    "$REALCAM" bench --json --rays 65536 --rounds 3 >"/tmp/ceiling/kernel.$1.$2.out" 2>/dev/null
+  }
+  one_thread_render() { # $1 scene, $2 label, $3 index
+    SPP=$SCALE_SPP render_peer "/tmp/ceiling/$1.$2.$3.json" "$1" --threads 1
   }
   for round in 0 1; do
     [ "$(left)" -gt 60 ] || { echo "skipped: the time budget is spent"; break; }
-    copies "kernel.alone.r$round" 1 "$REALCAM" bench --json --rays 65536 --rounds 3
-    copies "kernel.copies.r$round" "$THREADS_MAX" "$REALCAM" bench --json --rays 65536 --rounds 3
+    at_once 1 kernel_bench "alone.r$round"
+    at_once "$THREADS_MAX" kernel_bench "copies.r$round"
     for scene in helmet spheres; do
       [ "$(left)" -gt 45 ] || { echo "skipped: the time budget is spent"; break 2; }
-      SPP=$SCALE_SPP render_peer "/tmp/ceiling/$scene.alone.r$round.json" "$scene" --threads 1
-      pids=()
-      for k in $(seq 1 "$THREADS_MAX"); do
-        SPP=$SCALE_SPP render_peer "/tmp/ceiling/$scene.copies.r$round.$k.json" "$scene" --threads 1 &
-        pids+=($!)
-      done
-      wait "${pids[@]}"
+      at_once 1 one_thread_render "$scene" "alone.r$round"
+      at_once "$THREADS_MAX" one_thread_render "$scene" "copies.r$round"
       SPP=$SCALE_SPP render_peer "/tmp/ceiling/$scene.threads.r$round.json" "$scene" --threads "$THREADS_MAX"
     done
   done
