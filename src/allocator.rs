@@ -4,9 +4,9 @@
 //! tiles at 640²), each allocated on the rayon worker that first renders the tile. glibc gives
 //! each worker thread an arena of its own and grows it exactly as far as each allocation needs,
 //! an `mprotect` call each time (30,000 at 640²), each taking the process's memory-map lock
-//! that the other threads' page faults wait on. On a 16-core machine, sixteen threads of one process ran at 0.79–0.87×
-//! the summed rate of sixteen one-thread processes doing the same work (which share no memory
-//! map). With mimalloc (per-thread heaps carved from large reserved regions) the 16-thread
+//! that the other threads' page faults wait on. On a 16-core machine, sixteen threads of one
+//! process ran at 0.79–0.87× the summed rate of sixteen one-thread processes doing the same
+//! work (which share no memory map). With mimalloc (per-thread heaps carved from large reserved regions) the 16-thread
 //! frames of the peer scenes ran 0.99–1.35× the glibc binary's rate in the same runs, at
 //! 0.86–0.97× the processes' rate (glibc: 0.76–0.87×), and on two cores 1.03–1.18×
 //! (BENCHMARKS.md, "The allocator", 2026-11-27).

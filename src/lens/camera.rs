@@ -272,7 +272,7 @@ pub struct CameraRays {
 /// tile: it is filled and used up within one call, so a thread reuses the same memory tile
 /// after tile. Kept per tile, it was half of a frame's batch memory (the peer helmet at 640²:
 /// 223 MB at its peak, 103 MB with one per thread).
-#[derive(Clone, Debug, Default)]
+#[derive(Default)]
 struct Scratch {
     pixel: Vec<u32>,
     px: Vec<f32>,
