@@ -46,6 +46,7 @@ WORK=${WORK:-.peers}
 SIZE=${SIZE:-640} SPP=${SPP:-64}                  # step 1
 BIG_SIZE=${BIG_SIZE:-1280} BIG_SPP=${BIG_SPP:-256}  # step 2
 SCALE_SPP=${SCALE_SPP:-16}                      # step 3, at $SIZE
+LADDER=${LADDER:-1 2 4 8 $THREADS_MAX $THREADS_MAX $THREADS_MAX}  # step 6's thread counts, in order
 STEPS=${STEPS:-0 1 2 3 4 5}
 REPEAT=${REPEAT:-1}                             # rounds per renderer in steps 1–3 (median)
 TESTS=${TESTS:-}
@@ -166,7 +167,7 @@ if want 6; then
   step "6. the CPU path's scaling stage by stage, ${SIZE}², $SPP spp"
   rm -rf /tmp/scaling; mkdir -p /tmp/scaling
   for scene in helmet spheres; do
-    for threads in 1 2 4 8 "$THREADS_MAX" "$THREADS_MAX" "$THREADS_MAX"; do
+    for threads in $LADDER; do
       [ "$(left)" -gt 30 ] || { echo "skipped: the time budget is spent"; break 2; }
       n=$(ls /tmp/scaling | grep -c "^$scene.t$threads\." || true)
       render_peer "/tmp/scaling/$scene.t$threads.$n.json" "$scene" --threads "$threads"

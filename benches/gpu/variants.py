@@ -110,7 +110,7 @@ def main():
                        "variants": args.variant}, out, indent=1)
     print(f"\n{args.size}², {args.spp} spp, medians; ratio: pass rate ÷ the first variant's")
     print(f"{'scene':<8}{'threads':>8}  {'variant':<12}{'M/s':>8}{'ratio':>7}{'user s':>8}{'sys s':>7}"
-          f"{'minflt':>9}{'invol cs':>9}  runs")
+          f"{'minflt':>9}{'invol cs':>9}{'load+bvh':>9}  runs")
     for scene in scenes:
         for count in threads:
             first = None
@@ -122,9 +122,11 @@ def main():
                 rate = statistics.median(rates)
                 first = first or rate
                 med = lambda key: statistics.median(r["usage"][key] for r in mine)
+                setup = statistics.median(r["stats"]["stage_seconds"].get("load_scene", 0)
+                                          + r["stats"]["stage_seconds"].get("build_bvh", 0) for r in mine)
                 print(f"{scene:<8}{count:>8}  {variant['name']:<12}{rate:8.2f}{rate / first:7.3f}"
                       f"{med('ru_utime'):8.2f}{med('ru_stime'):7.2f}{med('ru_minflt'):9.0f}"
-                      f"{med('ru_nivcsw'):9.0f}  {', '.join(f'{r:.2f}' for r in rates)}")
+                      f"{med('ru_nivcsw'):9.0f}{setup:9.2f}  {', '.join(f'{r:.2f}' for r in rates)}")
     return 0
 
 
