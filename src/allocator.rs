@@ -16,8 +16,9 @@
 //! fragmented, asking for them stalled page faults in the kernel's compaction, up to a second
 //! of system time on one scene load.
 //!
-//! The cost is memory: the 1M-triangle scene's peak resident size went from 413 to 610 MB
-//! (mimalloc keeps the BVH build's freed arrays in its heaps for the allocations after them).
+//! Freed memory goes back to the system at once (see [`return_freed_memory_at_once`]): with
+//! mimalloc's defaults the 1M-triangle scene's peak resident size was 555–610 MB against
+//! glibc's 390–413; returned at once, it is 380 MB.
 //!
 //! The library itself sets no allocator: its tests and benches run on the system's, and the
 //! library's allocation test installs a counting one.
@@ -26,19 +27,25 @@
 pub type Allocator = mimalloc::MiMalloc;
 
 /// mimalloc's `mi_option_purge_delay` (`mimalloc.h`, `mi_option_e`): milliseconds after which
-/// freed memory goes back to the system; −1 never.
+/// freed memory goes back to the system; 0 at once, −1 never.
 const OPTION_PURGE_DELAY: libmimalloc_sys::mi_option_t = 15;
 
-/// Keeps freed memory in the process instead of returning it to the system a second after it
-/// is freed (mimalloc 3's default): the BVH build frees and allocates arrays of tens of
-/// megabytes in turn, and memory returned comes back as fresh page faults. Freed memory is
-/// still reused by the process's next allocations; the peak resident size was the same either
-/// way (610 MB on the 1M-triangle scene). With it, that scene's load + BVH took 0.71–0.75 s on
-/// two cores against glibc's 0.77–0.86 (five rounds, interleaved).
-pub fn keep_freed_memory() {
+/// Returns memory to the system as soon as it is freed, instead of a second later (mimalloc
+/// 3's default) or never. Loading a scene and building its BVH allocate arrays of tens to
+/// hundreds of megabytes, grow them (a larger copy, the smaller one freed) and free them in
+/// turn, all within a second: memory kept for a second is still resident when the next array
+/// is allocated elsewhere, so the peak was the sum of arrays that never live together. That
+/// peak is what the scene's memory guard (`scene::gltf_loader::budget`, calibrated on glibc's
+/// peaks) must cover. Returned at once (BENCHMARKS.md, "The allocator's peak", 2026-11-27, 2
+/// threads): the 1M-triangle scene peaks at 380 MB instead of 555, a 2M-triangle, 6M-vertex
+/// mesh at 950 MB instead of 1,280 (glibc: 390–413 and 970–1,020), for 0.04–0.07 s more of
+/// the 1M-triangle BVH build and less of the 2M one. A pass allocates next to nothing once
+/// its tiles have their batches, so the render itself does not notice (16 threads: 0.98–1.03×
+/// the pass rate with memory kept).
+pub fn return_freed_memory_at_once() {
     // SAFETY: sets one of mimalloc's options, which it reads when it decides to purge; safe at
     // any time, from any thread.
-    unsafe { libmimalloc_sys::mi_option_set(OPTION_PURGE_DELAY, -1) }
+    unsafe { libmimalloc_sys::mi_option_set(OPTION_PURGE_DELAY, 0) }
 }
 
 #[cfg(test)]
@@ -47,7 +54,7 @@ mod tests {
 
     /// The option's number is mimalloc's: before it is set, it reads mimalloc 3's default
     /// (1000 ms, `options.c`; its neighbours' defaults are 0 and 1), unless the environment
-    /// overrides it; after, −1.
+    /// overrides it; after, 0.
     #[test]
     fn the_purge_delay_option_is_mimallocs() {
         // SAFETY: reads an option.
@@ -55,11 +62,11 @@ mod tests {
         if std::env::var_os("MIMALLOC_PURGE_DELAY").is_none() {
             assert_eq!(before, 1000, "mimalloc's default purge delay");
         }
-        keep_freed_memory();
+        return_freed_memory_at_once();
         // SAFETY: reads an option.
         assert_eq!(
             unsafe { libmimalloc_sys::mi_option_get(OPTION_PURGE_DELAY) },
-            -1
+            0
         );
     }
 }

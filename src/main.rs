@@ -3,7 +3,7 @@
 static ALLOCATOR: realcam::allocator::Allocator = realcam::allocator::Allocator {};
 
 fn main() -> std::process::ExitCode {
-    realcam::allocator::keep_freed_memory();
+    realcam::allocator::return_freed_memory_at_once();
     end_quietly_when_the_reader_leaves();
     realcam::cli::main()
 }

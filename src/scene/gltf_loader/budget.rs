@@ -13,7 +13,10 @@ pub const MAX_VERTICES: u64 = 3 * MAX_TRIANGLES;
 
 /// Peak memory per instanced triangle and per vertex while loading and building the BVH,
 /// rounded up from measurements: 2 M triangles over 1 M vertices peak at 0.80 GB, over 6 M
-/// vertices at 1.02 GB (mesh, world triangle soup, BVH build, shading attributes).
+/// vertices at 1.02 GB (mesh, world triangle soup, BVH build, shading attributes; glibc's
+/// malloc). The `realcam` binary's allocator peaks at 0.72 and 0.95 GB on the same meshes, since
+/// it returns freed memory at once (`crate::allocator`; keeping it, it peaked at 1.05 and 1.28
+/// GB, over these estimates); `benches/memory_peak.py` measures both.
 const BYTES_PER_TRIANGLE: u64 = 400;
 const BYTES_PER_VERTEX: u64 = 48;
 
