@@ -53,7 +53,7 @@
 
 use super::camera::{FilmMap, FilmTilt};
 use super::dispersion::DispersionTable;
-use super::pupil::{DrawnRay, PupilSampler, PupilSampling};
+use super::pupil::{DrawnRay, PupilSampler, with_sampler_kind};
 use super::system::SurfaceArrays;
 use super::trace::Travel;
 use super::trace_batch::{Wavelengths, trace_batch_spectral};
@@ -284,12 +284,9 @@ impl BackwardTrace<'_> {
     fn land(&self, scratch: &mut BackwardScratch) {
         // The sampler's kind and the film's tilt are the batch's: picked here once, so that
         // the loops below have no branches.
-        match (self.sampler.sampling, self.sampler.is_flat()) {
-            (PupilSampling::Bounds, true) => self.land_as::<true, true>(scratch),
-            (PupilSampling::Bounds, false) => self.land_as::<true, false>(scratch),
-            (PupilSampling::RearElement, true) => self.land_as::<false, true>(scratch),
-            (PupilSampling::RearElement, false) => self.land_as::<false, false>(scratch),
-        }
+        with_sampler_kind!(self.sampler, |BOUNDS, FLAT| {
+            self.land_as::<BOUNDS, FLAT>(scratch)
+        })
     }
 
     /// [`Self::land`] for one kind of pupil sampler and film (see
@@ -503,6 +500,7 @@ mod tests {
     use crate::film::filter::POSITION_STEP;
     use crate::lens::camera::{CameraRays, LensCamera};
     use crate::lens::movements::FilmMovements;
+    use crate::lens::pupil::PupilSampling;
     use crate::lens::test_lens::{PLAIN, Setup, TestLens};
 
     /// Refraction is reversible: a camera ray's scene ray traced back at the ray's own

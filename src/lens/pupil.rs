@@ -24,6 +24,39 @@ use super::trace::Travel;
 use super::trace_batch::trace_batch;
 use crate::batch::RayBatch;
 
+/// Runs `$body` with the constants `$bounds` (the sampler draws within the exit pupil's
+/// bounds, not over the rear element) and `$flat` (the film is normal to the axis) set to
+/// `$sampler`'s (a [`PupilSampler`]), so that code generic over them is picked once, for a whole
+/// batch, rather than branching per ray.
+macro_rules! with_sampler_kind {
+    ($sampler:expr, |$bounds:ident, $flat:ident| $body:expr) => {{
+        use $crate::lens::pupil::PupilSampling::{Bounds, RearElement};
+        match ($sampler.sampling, $sampler.is_flat()) {
+            (Bounds, true) => {
+                const $bounds: bool = true;
+                const $flat: bool = true;
+                $body
+            }
+            (Bounds, false) => {
+                const $bounds: bool = true;
+                const $flat: bool = false;
+                $body
+            }
+            (RearElement, true) => {
+                const $bounds: bool = false;
+                const $flat: bool = true;
+                $body
+            }
+            (RearElement, false) => {
+                const $bounds: bool = false;
+                const $flat: bool = false;
+                $body
+            }
+        }
+    }};
+}
+pub(crate) use with_sampler_kind;
+
 /// Number of radial film segments (pbrt uses 64 as well).
 pub const SEGMENTS: usize = 64;
 // A segment index is masked with SEGMENTS − 1 before a look-up (a no-op that spares a bounds
@@ -538,19 +571,9 @@ impl PupilSampler {
     /// with which the sampler makes that ray (see [`super::hero_wavelengths`]).
     #[inline(always)]
     pub fn drawn_weight(&self, film: [f32; 2], depth: f32, rear: [f32; 2]) -> f32 {
-        macro_rules! weight_as {
-            ($bounds:literal, $flat:literal) => {
-                self.weight_of_drawn::<$bounds, $flat>(
-                    self.drawn_ray::<$bounds, $flat>(film, depth, rear),
-                )
-            };
-        }
-        match (self.sampling, self.is_flat()) {
-            (PupilSampling::Bounds, true) => weight_as!(true, true),
-            (PupilSampling::Bounds, false) => weight_as!(true, false),
-            (PupilSampling::RearElement, true) => weight_as!(false, true),
-            (PupilSampling::RearElement, false) => weight_as!(false, false),
-        }
+        with_sampler_kind!(self, |BOUNDS, FLAT| {
+            self.weight_of_drawn::<BOUNDS, FLAT>(self.drawn_ray::<BOUNDS, FLAT>(film, depth, rear))
+        })
     }
 
     /// Whether the film is normal to the axis (not tilted).
