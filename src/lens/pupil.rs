@@ -29,29 +29,18 @@ use crate::batch::RayBatch;
 /// `$sampler`'s (a [`PupilSampler`]), so that code generic over them is picked once, for a whole
 /// batch, rather than branching per ray.
 macro_rules! with_sampler_kind {
+    (@as $bounds:ident = $b:literal, $flat:ident = $f:literal, $body:expr) => {{
+        const $bounds: bool = $b;
+        const $flat: bool = $f;
+        $body
+    }};
     ($sampler:expr, |$bounds:ident, $flat:ident| $body:expr) => {{
         use $crate::lens::pupil::PupilSampling::{Bounds, RearElement};
         match ($sampler.sampling, $sampler.is_flat()) {
-            (Bounds, true) => {
-                const $bounds: bool = true;
-                const $flat: bool = true;
-                $body
-            }
-            (Bounds, false) => {
-                const $bounds: bool = true;
-                const $flat: bool = false;
-                $body
-            }
-            (RearElement, true) => {
-                const $bounds: bool = false;
-                const $flat: bool = true;
-                $body
-            }
-            (RearElement, false) => {
-                const $bounds: bool = false;
-                const $flat: bool = false;
-                $body
-            }
+            (Bounds, true) => with_sampler_kind!(@as $bounds = true, $flat = true, $body),
+            (Bounds, false) => with_sampler_kind!(@as $bounds = true, $flat = false, $body),
+            (RearElement, true) => with_sampler_kind!(@as $bounds = false, $flat = true, $body),
+            (RearElement, false) => with_sampler_kind!(@as $bounds = false, $flat = false, $body),
         }
     }};
 }
