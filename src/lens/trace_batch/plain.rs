@@ -107,6 +107,35 @@ struct Lanes<'a> {
     cosines: &'a mut [f32; BLOCK],
 }
 
+impl<'a> Lanes<'a> {
+    /// The block's rays and cosines, every slice cut to the block's length: in a loop over
+    /// `0..alive.len()` the compiler then knows every index is in bounds, checks none, and
+    /// vectorises.
+    #[inline(always)]
+    fn cut(self) -> (RaySlices<'a>, &'a mut [f32]) {
+        let RaySlices {
+            ox,
+            oy,
+            oz,
+            dx,
+            dy,
+            dz,
+            alive,
+        } = self.rays;
+        let n = alive.len();
+        let rays = RaySlices {
+            ox: &mut ox[..n],
+            oy: &mut oy[..n],
+            oz: &mut oz[..n],
+            dx: &mut dx[..n],
+            dy: &mut dy[..n],
+            dz: &mut dz[..n],
+            alive,
+        };
+        (rays, &mut self.cosines[..n])
+    }
+}
+
 /// One surface over a block of rays in the plain kernel (each ray's index ratio from `etas`
 /// when `SPECTRAL`); returns whether any ray is alive.
 #[inline(always)]
@@ -118,24 +147,16 @@ fn plain_surface<const SHAPE: u8, const SPECTRAL: bool>(
     if SHAPE == POLYNOMIAL {
         return plain_polynomial_surface::<SPECTRAL>(surface, lanes, etas);
     }
-    let (rays, cosines) = (lanes.rays, lanes.cosines);
+    let (mut rays, cosines) = lanes.cut();
     let n = rays.alive.len();
-    let (ox, oy, oz) = (&mut rays.ox[..n], &mut rays.oy[..n], &mut rays.oz[..n]);
-    let (dx, dy, dz) = (&mut rays.dx[..n], &mut rays.dy[..n], &mut rays.dz[..n]);
-    let alive = &mut rays.alive[..n];
-    let cosines = &mut cosines[..n];
     let etas = if SPECTRAL { &etas[..n] } else { etas };
     let mut any_alive = false;
     for i in 0..n {
-        let mut ray = LaneRay {
-            origin: [ox[i], oy[i], oz[i]],
-            direction: [dx[i], dy[i], dz[i]],
-        };
+        let mut ray = rays.ray(i);
         let eta = if SPECTRAL { etas[i] } else { surface.eta };
-        let crossing = refract_at::<f32, SHAPE>(surface, &mut ray, alive[i], eta);
-        [ox[i], oy[i], oz[i]] = ray.origin;
-        [dx[i], dy[i], dz[i]] = ray.direction;
-        alive[i] = crossing.survives;
+        let crossing = refract_at::<f32, SHAPE>(surface, &mut ray, rays.alive[i], eta);
+        rays.set_ray(i, &ray);
+        rays.alive[i] = crossing.survives;
         cosines[i] = crossing.cosine;
         any_alive |= crossing.survives;
     }
@@ -152,23 +173,15 @@ fn plain_polynomial_surface<const SPECTRAL: bool>(
     lanes: Lanes,
     etas: &[f32],
 ) -> bool {
-    let (rays, cosines) = (lanes.rays, lanes.cosines);
+    let (mut rays, cosines) = lanes.cut();
     let n = rays.alive.len();
-    let (ox, oy, oz) = (&mut rays.ox[..n], &mut rays.oy[..n], &mut rays.oz[..n]);
-    let (dx, dy, dz) = (&mut rays.dx[..n], &mut rays.dy[..n], &mut rays.dz[..n]);
-    let alive = &mut rays.alive[..n];
-    let cosines = &mut cosines[..n];
-    let ray_at = |i: usize| LaneRay {
-        origin: [ox[i], oy[i], oz[i]],
-        direction: [dx[i], dy[i], dz[i]],
-    };
     // The iteration state as arrays (structure of arrays, so the step loop vectorises).
     let mut t = [0.0f32; BLOCK];
     let mut searching = [false; BLOCK];
     let mut converged = [false; BLOCK];
     let (t, searching, converged) = (&mut t[..n], &mut searching[..n], &mut converged[..n]);
     for i in 0..n {
-        let start = Newton::start(surface, &ray_at(i), alive[i]);
+        let start = Newton::start(surface, &rays.ray(i), rays.alive[i]);
         (t[i], searching[i], converged[i]) = (start.t, start.searching, start.converged);
     }
     for _ in 0..NEWTON_STEPS {
@@ -179,7 +192,7 @@ fn plain_polynomial_surface<const SPECTRAL: bool>(
                 searching: searching[i],
                 converged: converged[i],
             };
-            state.step(surface, &ray_at(i));
+            state.step(surface, &rays.ray(i));
             (t[i], searching[i], converged[i]) = (state.t, state.searching, state.converged);
             any_searching |= state.searching;
         }
@@ -189,10 +202,7 @@ fn plain_polynomial_surface<const SPECTRAL: bool>(
     }
     let mut any_alive = false;
     for i in 0..n {
-        let mut ray = LaneRay {
-            origin: [ox[i], oy[i], oz[i]],
-            direction: [dx[i], dy[i], dz[i]],
-        };
+        let mut ray = rays.ray(i);
         let eta = if SPECTRAL { etas[i] } else { surface.eta };
         let (t, hit) = Newton {
             t: t[i],
@@ -201,10 +211,9 @@ fn plain_polynomial_surface<const SPECTRAL: bool>(
         }
         .hit();
         let crossing =
-            refract_from_hit::<f32, POLYNOMIAL>(surface, &mut ray, alive[i], eta, t, hit);
-        [ox[i], oy[i], oz[i]] = ray.origin;
-        [dx[i], dy[i], dz[i]] = ray.direction;
-        alive[i] = crossing.survives;
+            refract_from_hit::<f32, POLYNOMIAL>(surface, &mut ray, rays.alive[i], eta, t, hit);
+        rays.set_ray(i, &ray);
+        rays.alive[i] = crossing.survives;
         cosines[i] = crossing.cosine;
         any_alive |= crossing.survives;
     }

@@ -154,6 +154,13 @@ impl RaySlices<'_> {
             direction: [self.dx[i], self.dy[i], self.dz[i]],
         }
     }
+
+    /// Writes `ray` back as ray `i`.
+    #[inline(always)]
+    pub fn set_ray(&mut self, i: usize, ray: &LaneRay<f32>) {
+        [self.ox[i], self.oy[i], self.oz[i]] = ray.origin;
+        [self.dx[i], self.dy[i], self.dz[i]] = ray.direction;
+    }
 }
 
 /// What one surface step leaves of a group of lanes.
