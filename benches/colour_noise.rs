@@ -2,23 +2,37 @@
 //!
 //! The default scene (the course's dof-dragons) through the four course lenses at 256², each
 //! rendered by the `realcam` binary: a converged reference per estimator family (spectral and
-//! RGB, 4096 spp), then at 64 spp the RGB render and the spectral one with 1, 3 and 4
-//! wavelengths per sample (`--wavelengths`), each with the tent filter (the default) and the box
-//! (`--filter`; the references with the same filter). Per render: its wall time (`--stats`), the
-//! luminance RMS error against its family's reference and the chroma RMS error (opponent
-//! axes (R−G)/√2 and (R+G−2B)/√6 of linear sRGB), both relative to the reference's mean
-//! luminance; and the equal-time luminance ratio against RGB, (e / e_rgb)·√(t / t_rgb) (errors
-//! fall as 1/√spp). Then the floor figure: the default render (512², 64 spp,
+//! RGB, 4096 spp, seed 99), then at 64 spp (seeds 3, 4 and 5) the RGB render and the spectral
+//! one with 1, 3 and 4 wavelengths per sample (`--wavelengths`), each with the tent filter (the
+//! default) and the box (`--filter`; the references with the same filter). Per estimator: its
+//! mean time, and over the three seeds the RMS of the luminance error against its family's
+//! reference and of the chroma error (opponent axes (R−G)/√2 and (R+G−2B)/√6 of linear sRGB),
+//! both relative to the reference's mean luminance; and the equal-time luminance ratio against
+//! RGB, (e / e_rgb)·√(t / t_rgb) (errors fall as 1/√spp). Then the floor figure: the default render (512², 64 spp,
 //! dgauss.50mm), mean chroma (max−min)/max over rows 330–420, columns 150–350, per filter.
 //! Prints tables (no timing asserts): `cargo bench --bench colour_noise` (about 20 minutes on 2
 //! cores; `-- --reference-spp N` for a quicker, noisier run; `-- --filter tent` for one filter's
-//! rows, `-- --lens NAME` for one lens's, `-- --no-floor` without the floor table).
+//! rows, `-- --lens NAME` for one lens's, `-- --no-floor` without the floor table,
+//! `-- --device gpu` to render every image on the GPU). `REALCAM=PATH` renders with another
+//! `realcam` binary than the one built beside the bench (a lent machine's carried copy).
+//!
+//! A render's time is its wall time on the CPU (as in BENCHMARKS.md's tables since
+//! 2026-11-26); on the GPU it is its passes' time (camera samples ÷ their rate), since a GPU
+//! process's wall time is mostly its device's start and its kernels' compilation, the same for
+//! every estimator.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
 const SIZE: u32 = 256;
 const SPP: u32 = 64;
+/// The 64-spp renders' seeds: each figure is the root mean square of their errors, each time
+/// their mean.
+const SEEDS: [&str; 3] = ["3", "4", "5"];
+/// The references' seed, none of the renders': a reference that shares a render's first 64
+/// samples (the same seed) leaves that render's error about 1.6 % smaller than an independent
+/// one would, an advantage only the estimator drawn like the reference gets.
+const REFERENCE_SEED: &str = "99";
 const LENSES: [&str; 4] = [
     "dgauss.50mm",
     "wide.22mm",
@@ -36,12 +50,21 @@ struct Render {
     seconds: f64,
 }
 
-fn render(dir: &Path, args: &[String]) -> Render {
+/// Where and how the renders run: the `realcam` binary, and the options every render adds
+/// (`--device gpu`).
+struct Renderer {
+    binary: PathBuf,
+    device: Vec<String>,
+    on_gpu: bool,
+}
+
+fn render(renderer: &Renderer, dir: &Path, args: &[String]) -> Render {
     let exr = dir.join("render.exr");
     let stats = dir.join("stats.json");
-    let output = Command::new(env!("CARGO_BIN_EXE_realcam"))
+    let output = Command::new(&renderer.binary)
         .arg("render")
         .args(args)
+        .args(&renderer.device)
         .args(["--out".as_ref(), dir.join("render.png").as_os_str()])
         .args(["--exr".as_ref(), exr.as_os_str()])
         .args(["--stats".as_ref(), stats.as_os_str()])
@@ -57,7 +80,15 @@ fn render(dir: &Path, args: &[String]) -> Render {
         serde_json::from_slice(&std::fs::read(&stats).expect("stats")).expect("stats JSON");
     Render {
         pixels: image.pixels().map(|p| p.0).collect(),
-        seconds: stats["wall_seconds"].as_f64().expect("wall_seconds"),
+        seconds: if renderer.on_gpu {
+            let samples = stats["camera_samples"].as_f64().expect("camera_samples");
+            samples
+                / stats["samples_per_second"]
+                    .as_f64()
+                    .expect("samples_per_second")
+        } else {
+            stats["wall_seconds"].as_f64().expect("wall_seconds")
+        },
     }
 }
 
@@ -132,6 +163,20 @@ fn main() {
     let lenses = chosen(&args, "--lens", &LENSES);
     // `-- --no-floor`: without the floor table.
     let floor = !args.iter().any(|a| a == "--no-floor");
+    // `-- --device gpu`: every render on the GPU.
+    let on_gpu = chosen(&args, "--device", &["cpu", "gpu"]) == ["gpu"];
+    let renderer = Renderer {
+        binary: std::env::var_os("REALCAM").map_or_else(
+            || PathBuf::from(env!("CARGO_BIN_EXE_realcam")),
+            PathBuf::from,
+        ),
+        device: if on_gpu {
+            strings(&["--device", "gpu"])
+        } else {
+            Vec::new()
+        },
+        on_gpu,
+    };
     let dir = tempfile::tempdir().expect("a temporary directory");
     let dir: PathBuf = dir.path().to_path_buf();
     println!(
@@ -144,7 +189,7 @@ fn main() {
     );
     for lens in lenses.iter().copied() {
         for filter in filters.iter().copied() {
-            let base = |spp: u32| {
+            let base = |spp: u32, seed: &str| {
                 strings(&[
                     "--lens",
                     lens,
@@ -155,28 +200,48 @@ fn main() {
                     "--spp",
                     &spp.to_string(),
                     "--seed",
-                    "3",
+                    seed,
                     "--filter",
                     filter,
                 ])
             };
-            let with = |spp: u32, extra: &[&str]| [base(spp), strings(extra)].concat();
-            let rgb_reference = render(&dir, &with(reference_spp, &["--dispersion", "off"]));
-            let spectral_reference = render(&dir, &with(reference_spp, &["--wavelengths", "4"]));
-            let rgb = render(&dir, &with(SPP, &["--dispersion", "off"]));
-            let (rgb_lum, rgb_chroma) = errors(&rgb.pixels, &rgb_reference.pixels);
+            let reference = |extra: &[&str]| {
+                let args = [base(reference_spp, REFERENCE_SEED), strings(extra)].concat();
+                render(&renderer, &dir, &args)
+            };
+            // Over the seeds: the RMS of the errors against `reference`, and the mean time.
+            let measured = |extra: &[&str], reference: &Render| {
+                let (mut lum, mut chroma, mut seconds) = (0.0, 0.0, 0.0);
+                for seed in SEEDS {
+                    let args = [base(SPP, seed), strings(extra)].concat();
+                    let image = render(&renderer, &dir, &args);
+                    let (l, c) = errors(&image.pixels, &reference.pixels);
+                    (lum, chroma, seconds) = (lum + l * l, chroma + c * c, seconds + image.seconds);
+                }
+                let seeds = SEEDS.len() as f64;
+                (
+                    (lum / seeds).sqrt(),
+                    (chroma / seeds).sqrt(),
+                    seconds / seeds,
+                )
+            };
+            let rgb_reference = reference(&["--dispersion", "off"]);
+            let spectral_reference = reference(&["--wavelengths", "4"]);
+            let (rgb_lum, rgb_chroma, rgb_seconds) =
+                measured(&["--dispersion", "off"], &rgb_reference);
             println!(
                 "{lens:<16} {filter:<9} {:<14} {:>8.2} {:>10.4} {:>10.4} {:>16}",
-                "rgb", rgb.seconds, rgb_lum, rgb_chroma, "1.00"
+                "rgb", rgb_seconds, rgb_lum, rgb_chroma, "1.00"
             );
             for n in WAVELENGTHS {
-                let spectral = render(&dir, &with(SPP, &["--wavelengths", &n.to_string()]));
-                let (lum, chroma) = errors(&spectral.pixels, &spectral_reference.pixels);
-                let equal_time = lum / rgb_lum * (spectral.seconds / rgb.seconds).sqrt();
+                let wavelengths = n.to_string();
+                let (lum, chroma, seconds) =
+                    measured(&["--wavelengths", &wavelengths], &spectral_reference);
+                let equal_time = lum / rgb_lum * (seconds / rgb_seconds).sqrt();
                 println!(
                     "{lens:<16} {filter:<9} {:<14} {:>8.2} {:>10.4} {:>10.4} {:>16.2}",
                     format!("spectral ×{n}"),
-                    spectral.seconds,
+                    seconds,
                     lum,
                     chroma,
                     equal_time
@@ -189,7 +254,11 @@ fn main() {
     }
     println!("\nthe default render's grey floor (512², 64 spp, dgauss.50mm): mean (max−min)/max");
     for filter in ["box", "tent", "gaussian"] {
-        let rgb = render(&dir, &strings(&["--dispersion", "off", "--filter", filter]));
+        let rgb = render(
+            &renderer,
+            &dir,
+            &strings(&["--dispersion", "off", "--filter", filter]),
+        );
         println!(
             "{filter:<9} {:<14} {:>8.4}  ({:.2} s)",
             "rgb",
@@ -198,6 +267,7 @@ fn main() {
         );
         for n in [1, 3, 4, 8] {
             let spectral = render(
+                &renderer,
                 &dir,
                 &strings(&["--wavelengths", &n.to_string(), "--filter", filter]),
             );
