@@ -8,8 +8,9 @@
 //! mean time, and over the three seeds the RMS of the luminance error against its family's
 //! reference and of the chroma error (opponent axes (R−G)/√2 and (R+G−2B)/√6 of linear sRGB),
 //! both relative to the reference's mean luminance; and the equal-time luminance ratio against
-//! RGB, (e / e_rgb)·√(t / t_rgb) (errors fall as 1/√spp). Then the floor figure: the default render (512², 64 spp,
-//! dgauss.50mm), mean chroma (max−min)/max over rows 330–420, columns 150–350, per filter.
+//! RGB, (e / e_rgb)·√(t / t_rgb) (errors fall as 1/√spp). Then the floor figure: the
+//! default render (512², 64 spp, dgauss.50mm), mean chroma (max−min)/max over rows 330–420,
+//! columns 150–350, per filter.
 //! Prints tables (no timing asserts): `cargo bench --bench colour_noise` (about 20 minutes on 2
 //! cores; `-- --reference-spp N` for a quicker, noisier run; `-- --filter tent` for one filter's
 //! rows, `-- --lens NAME` for one lens's, `-- --no-floor` without the floor table,
@@ -50,11 +51,9 @@ struct Render {
     seconds: f64,
 }
 
-/// Where and how the renders run: the `realcam` binary, and the options every render adds
-/// (`--device gpu`).
+/// Where the renders run: the `realcam` binary, on the CPU or (`--device gpu`) the GPU.
 struct Renderer {
     binary: PathBuf,
-    device: Vec<String>,
     on_gpu: bool,
 }
 
@@ -64,7 +63,11 @@ fn render(renderer: &Renderer, dir: &Path, args: &[String]) -> Render {
     let output = Command::new(&renderer.binary)
         .arg("render")
         .args(args)
-        .args(&renderer.device)
+        .args(if renderer.on_gpu {
+            &["--device", "gpu"][..]
+        } else {
+            &[]
+        })
         .args(["--out".as_ref(), dir.join("render.png").as_os_str()])
         .args(["--exr".as_ref(), exr.as_os_str()])
         .args(["--stats".as_ref(), stats.as_os_str()])
@@ -170,11 +173,6 @@ fn main() {
             || PathBuf::from(env!("CARGO_BIN_EXE_realcam")),
             PathBuf::from,
         ),
-        device: if on_gpu {
-            strings(&["--device", "gpu"])
-        } else {
-            Vec::new()
-        },
         on_gpu,
     };
     let dir = tempfile::tempdir().expect("a temporary directory");

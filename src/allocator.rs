@@ -6,10 +6,10 @@
 //! an `mprotect` call each time (30,000 at 640²), each taking the process's memory-map lock
 //! that the other threads' page faults wait on. On a 16-core machine, sixteen threads of one
 //! process ran at 0.79–0.87× the summed rate of sixteen one-thread processes doing the same
-//! work (which share no memory map). With mimalloc (per-thread heaps carved from large reserved regions) the 16-thread
-//! frames of the peer scenes ran 0.99–1.35× the glibc binary's rate in the same runs, at
-//! 0.86–0.97× the processes' rate (glibc: 0.76–0.87×), and on two cores 1.03–1.18×
-//! (BENCHMARKS.md, "The allocator", 2026-11-27).
+//! work (which share no memory map). With mimalloc (per-thread heaps carved from large
+//! reserved regions) the 16-thread frames of the peer scenes ran 0.99–1.35× the glibc binary's
+//! rate in the same runs, at 0.86–0.97× the processes' rate (glibc: 0.76–0.87×), and on two
+//! cores 1.03–1.18× (BENCHMARKS.md, "The allocator", 2026-11-27).
 //!
 //! Built without transparent huge pages (`no_thp`: mimalloc does not ask the kernel for them;
 //! a system that gives them to every process still does): on a machine whose memory was
@@ -36,10 +36,11 @@ const OPTION_PURGE_DELAY: libmimalloc_sys::mi_option_t = 15;
 /// turn, all within a second: memory kept for a second is still resident when the next array
 /// is allocated elsewhere, so the peak was the sum of arrays that never live together. That
 /// peak is what the scene's memory guard (`scene::gltf_loader::budget`, calibrated on glibc's
-/// peaks) must cover. Returned at once (BENCHMARKS.md, "The allocator's peak", 2026-11-27, 2
-/// threads): the 1M-triangle scene peaks at 380 MB instead of 555, a 2M-triangle, 6M-vertex
-/// mesh at 950 MB instead of 1,280 (glibc: 390–413 and 970–1,020), for 0.04–0.07 s more of
-/// the 1M-triangle BVH build and less of the 2M one. A pass allocates next to nothing once
+/// peaks) must cover. Returned at once (BENCHMARKS.md, "Sixteen threads again, and the
+/// allocator's peak", 2026-11-27, 2 threads): the 1M-triangle scene peaks at 380 MB instead of
+/// 555, a 2M-triangle, 6M-vertex mesh at 950 MB instead of 1,280 (glibc: 390–413 and
+/// 970–1,020), for 0.04–0.11 s more of the 1M-triangle load and BVH build and less of the 2M
+/// one. A pass allocates next to nothing once
 /// its tiles have their batches, so the render itself does not notice (16 threads: 0.98–1.03×
 /// the pass rate with memory kept).
 pub fn return_freed_memory_at_once() {

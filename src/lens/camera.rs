@@ -299,7 +299,8 @@ struct Scratch {
 }
 
 thread_local! {
-    static CAMERA_SCRATCH: std::cell::RefCell<Scratch> = std::cell::RefCell::new(Scratch::default());
+    static CAMERA_SCRATCH: std::cell::RefCell<Scratch> =
+        std::cell::RefCell::new(Scratch::default());
 }
 
 /// Seed key of the camera's sample patterns, apart from the shading streams.

@@ -1,3 +1,12 @@
+"""Steady pass time against the first passes', from `realcam render --stats` files.
+
+Reads FOLDER/SCENE.tTHREADS.sSPP.ROUND.json (renders of each scene and thread count at two
+sample counts, several rounds), takes the median pass time (the five pass stages' seconds) at
+each count, and prints the steady pass time, (time at the higher count − at the lower) ÷ their
+difference, beside the mean pass time of the lower count's passes, then 1 → 16 threads.
+
+    python3 benches/gpu/probes/steady.py FOLDER
+"""
 import glob, json, os, statistics, sys
 runs = {}
 for p in glob.glob(os.path.join(sys.argv[1], "*.json")):
