@@ -76,6 +76,10 @@ def main():
     parser.add_argument("--spp", type=int, default=32)
     parser.add_argument("--threads", default=str(os.cpu_count()), help="comma-separated counts")
     parser.add_argument("--repeat", type=int, default=3, help="rounds (1 for single-thread renders)")
+    parser.add_argument("--single-thread-rounds", type=int, default=1,
+                        help="rounds for single-thread renders (at most --repeat)")
+    parser.add_argument("--stages", action="store_true",
+                        help="also print each stage's median seconds (--stats' stage_seconds)")
     parser.add_argument("--variant", type=parse_variant, action="append", required=True)
     parser.add_argument("--timeout", type=float, default=120)
     parser.add_argument("--budget", type=float, default=600, help="seconds; later rounds are skipped")
@@ -88,7 +92,7 @@ def main():
     for round_ in range(args.repeat):
         for scene in scenes:
             for count in threads:
-                if count == 1 and round_ > 0:
+                if count == 1 and round_ >= args.single_thread_rounds:
                     continue
                 for variant in args.variant:
                     if time.monotonic() - start > args.budget:
@@ -127,7 +131,30 @@ def main():
                 print(f"{scene:<8}{count:>8}  {variant['name']:<12}{rate:8.2f}{rate / first:7.3f}"
                       f"{med('ru_utime'):8.2f}{med('ru_stime'):7.2f}{med('ru_minflt'):9.0f}"
                       f"{med('ru_nivcsw'):9.0f}{setup:9.2f}  {', '.join(f'{r:.2f}' for r in rates)}")
+    if args.stages:
+        print_stages(runs, scenes, threads, args.variant)
     return 0
+
+
+STAGES = ("generate_rays", "trace", "shade", "weight", "write_film")
+
+
+def print_stages(runs, scenes, threads, variants):
+    """Each pass stage's median wall seconds per variant, and its ratio to the first variant's."""
+    print(f"\nstage seconds, medians (ratio to the first variant's)")
+    print(f"{'scene':<8}{'threads':>8}  {'variant':<12}" + "".join(f"{stage:>22}" for stage in STAGES))
+    for scene in scenes:
+        for count in threads:
+            first = None
+            for variant in variants:
+                mine = [r for r in runs if (r["scene"], r["threads"], r["variant"]) == (scene, count, variant["name"])]
+                if not mine:
+                    continue
+                seconds = [statistics.median(r["stats"]["stage_seconds"].get(stage, 0) for r in mine)
+                           for stage in STAGES]
+                first = first or seconds
+                cells = "".join(f"{s:14.3f} ({s / f if f else 0:5.3f})" for s, f in zip(seconds, first))
+                print(f"{scene:<8}{count:>8}  {variant['name']:<12}{cells}")
 
 
 if __name__ == "__main__":

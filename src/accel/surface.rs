@@ -8,6 +8,41 @@ use super::{SceneAccel, SurfacePoint};
 use crate::batch::Hit;
 
 impl SceneAccel {
+    /// Asks the memory system for the triangle's primitive and record, which
+    /// [`SceneAccel::surface`] will read: a hint that never changes a result.
+    #[inline(always)]
+    pub fn prefetch_triangle(&self, triangle: u32) {
+        let index = triangle as usize;
+        if let (Some(primitive), Some(record)) =
+            (self.primitives.get(index), self.records.get(index))
+        {
+            prefetch(primitive);
+            prefetch(record);
+        }
+    }
+
+    /// Asks the memory system for the triangle's vertex attributes, which
+    /// [`SceneAccel::surface`] will read. Where they lie is in the triangle's record: call it
+    /// a while after [`SceneAccel::prefetch_triangle`], once the record is likely in cache.
+    #[inline(always)]
+    pub fn prefetch_vertices(&self, triangle: u32) {
+        let Some(record) = self.records.get(triangle as usize) else {
+            return;
+        };
+        let has = |flag: u8| record.attributes & flag != 0;
+        for i in record.vertices.map(|i| i as usize) {
+            if has(attributes::NORMALS) {
+                prefetch_at(&self.vertices.normals, i);
+            }
+            if has(attributes::UVS) {
+                prefetch_at(&self.vertices.uvs, i);
+            }
+            if has(attributes::TANGENTS) {
+                prefetch_at(&self.vertices.tangents, i);
+            }
+        }
+    }
+
     /// The surface at `hit`, seen along `ray_direction`.
     ///
     /// The position is interpolated from the vertices (more accurate than origin + t·direction).
@@ -89,6 +124,27 @@ impl SceneAccel {
                 primitive.vertices().map(|v| Vec3::from(v) / self.bvh_scale),
             ),
         }
+    }
+}
+
+/// Hints that the cache line holding `value` will be read soon.
+#[inline(always)]
+fn prefetch<T>(value: &T) {
+    #[cfg(target_arch = "x86_64")]
+    {
+        use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
+        // SAFETY: SSE is part of x86_64, and a prefetch reads nothing the program sees (it
+        // never faults); the address is a live reference's anyway.
+        unsafe { _mm_prefetch::<_MM_HINT_T0>((value as *const T).cast()) };
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = value;
+}
+
+#[inline(always)]
+fn prefetch_at<T>(values: &[T], i: usize) {
+    if let Some(value) = values.get(i) {
+        prefetch(value);
     }
 }
 
