@@ -9,7 +9,9 @@ so a drift of the machine's clock or temperature touches all alike), with compar
 settings (dgauss.50mm at an 8 mm stop, 35 mm film, from 4.5 m, white sky, depth 5). Per render
 it keeps the --stats JSON and the process's resource use (user and system CPU-seconds, page
 faults, context switches); then it prints, per scene and thread count, each variant's median
-pass rate against the first variant's, and its medians of the resource use.
+pass rate against the first variant's, and its medians of the resource use; with `--stages`,
+each pass stage's median seconds too (which stage a change moved, where a frame's rate is too
+noisy to tell).
 
     python3 benches/gpu/variants.py --work .peers --size 640 --spp 32 --threads 1,16 \\
         --repeat 3 --variant 'base|.bin/realcam||' --variant 'flat|.bin/realcam|REALCAM_NESTED_PARALLEL=0|' \\
