@@ -5,10 +5,10 @@
 //! RGB, 4096 spp, seed 99), then at 64 spp (seeds 3, 4 and 5) the RGB render and the spectral
 //! one with 1, 3 and 4 wavelengths per sample (`--wavelengths`), each with the tent filter (the
 //! default) and the box (`--filter`; the references with the same filter). Per estimator: its
-//! mean time, and over the three seeds the RMS of the luminance error against its family's
+//! mean times, and over the three seeds the RMS of the luminance error against its family's
 //! reference and of the chroma error (opponent axes (R−G)/√2 and (R+G−2B)/√6 of linear sRGB),
 //! both relative to the reference's mean luminance; and the equal-time luminance ratio against
-//! RGB, (e / e_rgb)·√(t / t_rgb) (errors fall as 1/√spp). Then the issue's floor figure: the
+//! RGB, (e / e_rgb)·√(t / t_rgb) (errors fall as 1/√spp), by either time. Then the issue's floor figure: the
 //! default render (512², 64 spp, dgauss.50mm), mean chroma (max−min)/max over rows 330–420,
 //! columns 150–350, per filter.
 //! Prints tables (no timing asserts): `cargo bench --bench colour_noise` (about 20 minutes on 2
@@ -17,10 +17,14 @@
 //! `-- --device gpu` to render every image on the GPU). `REALCAM=PATH` renders with another
 //! `realcam` binary than the one built beside the bench (a lent machine's carried copy).
 //!
-//! A render's time is its wall time on the CPU (as in BENCHMARKS.md's tables since
-//! 2026-11-26); on the GPU it is its passes' time (camera samples ÷ their rate), since a GPU
-//! process's wall time is mostly its device's start and its kernels' compilation, the same for
-//! every estimator.
+//! A render has two times. Its wall time (`--stats`' `wall_seconds`, the figure of BENCHMARKS.md's
+//! tables until the eighth session of 2026-11-27) includes what every estimator pays once, the
+//! same whatever the sample count: the scene's load, the lens's derivation, the threads' start
+//! (on the GPU, mostly the device's start and its kernels' compilation). Its passes' time
+//! (camera samples ÷ their rate) is what grows with the samples, so it is the one that says
+//! which estimator is better at equal time for a render of any length. On the CPU the fixed part
+//! of these 0.4–2 s renders is 0.04–0.06 s, so the two equal-time columns differ by a percent or
+//! so (both pulled alike by the machine's noise); on the GPU the wall time is mostly that part.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -45,10 +49,29 @@ const WAVELENGTHS: [u32; 3] = [1, 3, 4];
 /// Film filters: the default, and the box (the estimator before the filter).
 const FILTERS: [&str; 2] = ["tent", "box"];
 
-/// A linear render and its wall time.
+/// A linear render and its times (see the module docs).
 struct Render {
     pixels: Vec<[f32; 3]>,
-    seconds: f64,
+    wall_seconds: f64,
+    pass_seconds: f64,
+}
+
+/// An estimator's figures over the seeds.
+struct Measured {
+    /// RMS over the seeds of the luminance and chroma errors.
+    lum: f64,
+    chroma: f64,
+    /// Mean times.
+    wall_seconds: f64,
+    pass_seconds: f64,
+}
+
+impl Measured {
+    /// The luminance error against `rgb`'s at equal time, for times `seconds` and
+    /// `rgb_seconds` (errors fall as 1/√time).
+    fn equal_time(&self, rgb: &Measured, seconds: f64, rgb_seconds: f64) -> f64 {
+        self.lum / rgb.lum * (seconds / rgb_seconds).sqrt()
+    }
 }
 
 /// Where the renders run: the `realcam` binary, on the CPU or (`--device gpu`) the GPU.
@@ -81,17 +104,15 @@ fn render(renderer: &Renderer, dir: &Path, args: &[String]) -> Render {
     let image = image::open(&exr).expect("the EXR reads").into_rgb32f();
     let stats: serde_json::Value =
         serde_json::from_slice(&std::fs::read(&stats).expect("stats")).expect("stats JSON");
+    let number = |key: &str| {
+        stats[key]
+            .as_f64()
+            .unwrap_or_else(|| panic!("stats: {key}"))
+    };
     Render {
         pixels: image.pixels().map(|p| p.0).collect(),
-        seconds: if renderer.on_gpu {
-            let samples = stats["camera_samples"].as_f64().expect("camera_samples");
-            samples
-                / stats["samples_per_second"]
-                    .as_f64()
-                    .expect("samples_per_second")
-        } else {
-            stats["wall_seconds"].as_f64().expect("wall_seconds")
-        },
+        wall_seconds: number("wall_seconds"),
+        pass_seconds: number("camera_samples") / number("samples_per_second"),
     }
 }
 
@@ -179,11 +200,20 @@ fn main() {
     let dir: PathBuf = dir.path().to_path_buf();
     println!(
         "colour grain, default scene, {SIZE}², {SPP} spp against {reference_spp} spp references; \
-         errors relative to mean luminance; equal-time ratio = (e / e_rgb)·√(t / t_rgb)"
+         errors relative to mean luminance; equal-time ratio = (e / e_rgb)·√(t / t_rgb), \
+         t the wall time or the passes' time"
     );
     println!(
-        "{:<16} {:<9} {:<14} {:>8} {:>10} {:>10} {:>16}",
-        "lens", "filter", "estimator", "time s", "lum RMSE", "chroma RMSE", "lum equal-time"
+        "{:<16} {:<9} {:<14} {:>8} {:>8} {:>10} {:>11} {:>12} {:>14}",
+        "lens",
+        "filter",
+        "estimator",
+        "wall s",
+        "passes s",
+        "lum RMSE",
+        "chroma RMSE",
+        "lum eq. wall",
+        "lum eq. passes"
     );
     for lens in lenses.iter().copied() {
         for filter in filters.iter().copied() {
@@ -207,43 +237,44 @@ fn main() {
                 let args = [base(reference_spp, REFERENCE_SEED), strings(extra)].concat();
                 render(&renderer, &dir, &args)
             };
-            // Over the seeds: the RMS of the errors against `reference`, and the mean time.
+            // Over the seeds: the RMS of the errors against `reference`, and the mean times.
             let measured = |extra: &[&str], reference: &Render| {
-                let (mut lum, mut chroma, mut seconds) = (0.0, 0.0, 0.0);
+                let (mut lum, mut chroma, mut wall, mut passes) = (0.0, 0.0, 0.0, 0.0);
                 for seed in SEEDS {
                     let args = [base(SPP, seed), strings(extra)].concat();
                     let image = render(&renderer, &dir, &args);
                     let (l, c) = errors(&image.pixels, &reference.pixels);
-                    (lum, chroma, seconds) = (lum + l * l, chroma + c * c, seconds + image.seconds);
+                    (lum, chroma) = (lum + l * l, chroma + c * c);
+                    (wall, passes) = (wall + image.wall_seconds, passes + image.pass_seconds);
                 }
                 let seeds = SEEDS.len() as f64;
-                (
-                    (lum / seeds).sqrt(),
-                    (chroma / seeds).sqrt(),
-                    seconds / seeds,
-                )
+                Measured {
+                    lum: (lum / seeds).sqrt(),
+                    chroma: (chroma / seeds).sqrt(),
+                    wall_seconds: wall / seeds,
+                    pass_seconds: passes / seeds,
+                }
             };
             let rgb_reference = reference(&["--dispersion", "off"]);
             let spectral_reference = reference(&["--wavelengths", "4"]);
-            let (rgb_lum, rgb_chroma, rgb_seconds) =
-                measured(&["--dispersion", "off"], &rgb_reference);
-            println!(
-                "{lens:<16} {filter:<9} {:<14} {:>8.2} {:>10.4} {:>10.4} {:>16}",
-                "rgb", rgb_seconds, rgb_lum, rgb_chroma, "1.00"
-            );
+            let rgb = measured(&["--dispersion", "off"], &rgb_reference);
+            let row = |estimator: &str, m: &Measured| {
+                println!(
+                    "{lens:<16} {filter:<9} {estimator:<14} {:>8.2} {:>8.2} {:>10.4} {:>11.4} \
+                     {:>12.2} {:>14.2}",
+                    m.wall_seconds,
+                    m.pass_seconds,
+                    m.lum,
+                    m.chroma,
+                    m.equal_time(&rgb, m.wall_seconds, rgb.wall_seconds),
+                    m.equal_time(&rgb, m.pass_seconds, rgb.pass_seconds),
+                )
+            };
+            row("rgb", &rgb);
             for n in WAVELENGTHS {
                 let wavelengths = n.to_string();
-                let (lum, chroma, seconds) =
-                    measured(&["--wavelengths", &wavelengths], &spectral_reference);
-                let equal_time = lum / rgb_lum * (seconds / rgb_seconds).sqrt();
-                println!(
-                    "{lens:<16} {filter:<9} {:<14} {:>8.2} {:>10.4} {:>10.4} {:>16.2}",
-                    format!("spectral ×{n}"),
-                    seconds,
-                    lum,
-                    chroma,
-                    equal_time
-                );
+                let spectral = measured(&["--wavelengths", &wavelengths], &spectral_reference);
+                row(&format!("spectral ×{n}"), &spectral);
             }
         }
     }
@@ -258,10 +289,10 @@ fn main() {
             &strings(&["--dispersion", "off", "--filter", filter]),
         );
         println!(
-            "{filter:<9} {:<14} {:>8.4}  ({:.2} s)",
+            "{filter:<9} {:<14} {:>8.4}  ({:.2} s wall)",
             "rgb",
             floor_chroma(&rgb.pixels),
-            rgb.seconds
+            rgb.wall_seconds
         );
         for n in [1, 3, 4, 8] {
             let spectral = render(
@@ -270,10 +301,10 @@ fn main() {
                 &strings(&["--wavelengths", &n.to_string(), "--filter", filter]),
             );
             println!(
-                "{filter:<9} {:<14} {:>8.4}  ({:.2} s)",
+                "{filter:<9} {:<14} {:>8.4}  ({:.2} s wall)",
                 format!("spectral ×{n}"),
                 floor_chroma(&spectral.pixels),
-                spectral.seconds
+                spectral.wall_seconds
             );
         }
     }
