@@ -4,14 +4,15 @@
 //! rendered by the `realcam` binary: a converged reference per estimator family (spectral and
 //! RGB, 4096 spp, seed 99), then at 64 spp (seeds 3, 4 and 5) the RGB render and the spectral
 //! one with 1, 3 and 4 wavelengths per sample (`--wavelengths`), each with the tent filter (the
-//! default) and the box (`--filter`; the references with the same filter). Per estimator: its
-//! mean times, and over the three seeds the RMS of the luminance error against its family's
-//! reference and of the chroma error (opponent axes (R−G)/√2 and (R+G−2B)/√6 of linear sRGB),
-//! both relative to the reference's mean luminance; and the equal-time luminance ratio against
-//! RGB, (e / e_rgb)·√(t / t_rgb) (errors fall as 1/√spp), by either time. Then the issue's floor figure: the
-//! default render (512², 64 spp, dgauss.50mm), mean chroma (max−min)/max over rows 330–420,
-//! columns 150–350, per filter.
-//! Prints tables (no timing asserts): `cargo bench --bench colour_noise` (about 20 minutes on 2
+//! default) and the box (`--filter`; the references with the same filter), the estimators in
+//! turn round by round, and four more rounds timed only. Per estimator: its median times, and
+//! over the three seeds the RMS of the luminance error against its family's reference and of
+//! the chroma error (opponent axes (R−G)/√2 and (R+G−2B)/√6 of linear sRGB), both relative to
+//! the reference's mean luminance; and the equal-time luminance ratio against RGB,
+//! (e / e_rgb)·√(t / t_rgb) (errors fall as 1/√spp), by either time. Then the issue's floor
+//! figure: the default render (512², 64 spp, dgauss.50mm), mean chroma (max−min)/max over rows
+//! 330–420, columns 150–350, per filter.
+//! Prints tables (no timing asserts): `cargo bench --bench colour_noise` (about 22 minutes on 2
 //! cores; `-- --reference-spp N` for a quicker, noisier run; `-- --filter tent` for one filter's
 //! rows, `-- --lens NAME` for one lens's, `-- --no-floor` without the floor table,
 //! `-- --device gpu` to render every image on the GPU). `REALCAM=PATH` renders with another
@@ -31,9 +32,12 @@ use std::process::Command;
 
 const SIZE: u32 = 256;
 const SPP: u32 = 64;
-/// The 64-spp renders' seeds: each figure is the root mean square of their errors, each time
-/// their mean.
+/// The 64-spp renders' seeds: each error is the root mean square of theirs.
 const SEEDS: [&str; 3] = ["3", "4", "5"];
+/// Rounds after the seeds' in which every estimator renders again (the first seed), for its
+/// time only: each time is the median of all the rounds' (the errors are exact, the times are
+/// at the machine's mercy: a second's load moves a mean of three by several percent).
+const TIMING_ROUNDS: usize = 4;
 /// The references' seed, none of the renders': a reference that shares a render's first 64
 /// samples (the same seed) leaves that render's error about 1.6 % smaller than an independent
 /// one would, an advantage only the estimator drawn like the reference gets.
@@ -56,12 +60,46 @@ struct Render {
     pass_seconds: f64,
 }
 
-/// An estimator's figures over the seeds.
+/// What an estimator's renders gave: per scored render its luminance and chroma errors, per
+/// render its times.
+#[derive(Default)]
+struct Figures {
+    errors: Vec<(f64, f64)>,
+    wall_seconds: Vec<f64>,
+    pass_seconds: Vec<f64>,
+}
+
+impl Figures {
+    /// The RMS of the errors and the median times.
+    fn measured(&self) -> Measured {
+        let rms = |error: fn(&(f64, f64)) -> f64| {
+            (self.errors.iter().map(|e| error(e).powi(2)).sum::<f64>() / self.errors.len() as f64)
+                .sqrt()
+        };
+        Measured {
+            lum: rms(|e| e.0),
+            chroma: rms(|e| e.1),
+            wall_seconds: median(&self.wall_seconds),
+            pass_seconds: median(&self.pass_seconds),
+        }
+    }
+}
+
+fn median(values: &[f64]) -> f64 {
+    let mut sorted = values.to_vec();
+    sorted.sort_by(f64::total_cmp);
+    let middle = sorted.len() / 2;
+    if sorted.len() % 2 == 1 {
+        sorted[middle]
+    } else {
+        (sorted[middle - 1] + sorted[middle]) / 2.0
+    }
+}
+
+/// An estimator's figures: RMS errors over the seeds, median times over every round.
 struct Measured {
-    /// RMS over the seeds of the luminance and chroma errors.
     lum: f64,
     chroma: f64,
-    /// Mean times.
     wall_seconds: f64,
     pass_seconds: f64,
 }
@@ -237,28 +275,49 @@ fn main() {
                 let args = [base(reference_spp, REFERENCE_SEED), strings(extra)].concat();
                 render(&renderer, &dir, &args)
             };
-            // Over the seeds: the RMS of the errors against `reference`, and the mean times.
-            let measured = |extra: &[&str], reference: &Render| {
-                let (mut lum, mut chroma, mut wall, mut passes) = (0.0, 0.0, 0.0, 0.0);
-                for seed in SEEDS {
-                    let args = [base(SPP, seed), strings(extra)].concat();
-                    let image = render(&renderer, &dir, &args);
-                    let (l, c) = errors(&image.pixels, &reference.pixels);
-                    (lum, chroma) = (lum + l * l, chroma + c * c);
-                    (wall, passes) = (wall + image.wall_seconds, passes + image.pass_seconds);
-                }
-                let seeds = SEEDS.len() as f64;
-                Measured {
-                    lum: (lum / seeds).sqrt(),
-                    chroma: (chroma / seeds).sqrt(),
-                    wall_seconds: wall / seeds,
-                    pass_seconds: passes / seeds,
-                }
-            };
             let rgb_reference = reference(&["--dispersion", "off"]);
             let spectral_reference = reference(&["--wavelengths", "4"]);
-            let rgb = measured(&["--dispersion", "off"], &rgb_reference);
-            let row = |estimator: &str, m: &Measured| {
+            // Each estimator: its name, its options and its family's reference.
+            let wavelength_options: Vec<[String; 2]> = WAVELENGTHS
+                .iter()
+                .map(|n| ["--wavelengths".to_string(), n.to_string()])
+                .collect();
+            let mut estimators = vec![(
+                "rgb".to_string(),
+                strings(&["--dispersion", "off"]),
+                &rgb_reference,
+            )];
+            for (n, options) in WAVELENGTHS.iter().zip(&wavelength_options) {
+                estimators.push((
+                    format!("spectral ×{n}"),
+                    options.to_vec(),
+                    &spectral_reference,
+                ));
+            }
+            // Round by round, every estimator in turn, so that a change in the machine's speed
+            // touches them all alike: first the scored renders (one round per seed), then
+            // renders timed only.
+            let mut figures: Vec<Figures> = estimators.iter().map(|_| Figures::default()).collect();
+            for round in 0..SEEDS.len() + TIMING_ROUNDS {
+                let seed = SEEDS.get(round).copied().unwrap_or(SEEDS[0]);
+                for ((_, options, reference), figures) in estimators.iter().zip(&mut figures) {
+                    let image = render(
+                        &renderer,
+                        &dir,
+                        &[base(SPP, seed), options.clone()].concat(),
+                    );
+                    if round < SEEDS.len() {
+                        figures
+                            .errors
+                            .push(errors(&image.pixels, &reference.pixels));
+                    }
+                    figures.wall_seconds.push(image.wall_seconds);
+                    figures.pass_seconds.push(image.pass_seconds);
+                }
+            }
+            let measured: Vec<Measured> = figures.iter().map(Figures::measured).collect();
+            let rgb = &measured[0];
+            for ((estimator, ..), m) in estimators.iter().zip(&measured) {
                 println!(
                     "{lens:<16} {filter:<9} {estimator:<14} {:>8.2} {:>8.2} {:>10.4} {:>11.4} \
                      {:>12.2} {:>14.2}",
@@ -266,15 +325,9 @@ fn main() {
                     m.pass_seconds,
                     m.lum,
                     m.chroma,
-                    m.equal_time(&rgb, m.wall_seconds, rgb.wall_seconds),
-                    m.equal_time(&rgb, m.pass_seconds, rgb.pass_seconds),
-                )
-            };
-            row("rgb", &rgb);
-            for n in WAVELENGTHS {
-                let wavelengths = n.to_string();
-                let spectral = measured(&["--wavelengths", &wavelengths], &spectral_reference);
-                row(&format!("spectral ×{n}"), &spectral);
+                    m.equal_time(rgb, m.wall_seconds, rgb.wall_seconds),
+                    m.equal_time(rgb, m.pass_seconds, rgb.pass_seconds),
+                );
             }
         }
     }

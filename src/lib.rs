@@ -17,6 +17,7 @@ pub mod lens;
 pub mod live;
 pub mod memory;
 pub mod pipeline;
+pub(crate) mod prefetch;
 pub mod sampling;
 pub mod scene;
 pub mod server;

@@ -6,6 +6,7 @@ use super::spawn::triangle_spawn_offset;
 use super::triangles::{NO_MATERIAL, attributes};
 use super::{SceneAccel, SurfacePoint};
 use crate::batch::Hit;
+use crate::prefetch::{prefetch, prefetch_at};
 
 impl SceneAccel {
     /// Asks the memory system for the triangle's primitive and record, which
@@ -124,27 +125,6 @@ impl SceneAccel {
                 primitive.vertices().map(|v| Vec3::from(v) / self.bvh_scale),
             ),
         }
-    }
-}
-
-/// Hints that the cache line holding `value` will be read soon.
-#[inline(always)]
-fn prefetch<T>(value: &T) {
-    #[cfg(target_arch = "x86_64")]
-    {
-        use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
-        // SAFETY: SSE is part of x86_64, and a prefetch reads nothing the program sees (it
-        // never faults); the address is a live reference's anyway.
-        unsafe { _mm_prefetch::<_MM_HINT_T0>((value as *const T).cast()) };
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    let _ = value;
-}
-
-#[inline(always)]
-fn prefetch_at<T>(values: &[T], i: usize) {
-    if let Some(value) = values.get(i) {
-        prefetch(value);
     }
 }
 

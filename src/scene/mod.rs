@@ -129,6 +129,14 @@ impl Material {
     pub fn is_emissive(&self) -> bool {
         self.emissive.max_element() > 0.0
     }
+
+    /// Whether shading reads any texture of this material.
+    pub fn has_textures(&self) -> bool {
+        self.base_color_texture.is_some()
+            || self.metallic_roughness_texture.is_some()
+            || self.normal_texture.is_some()
+            || (self.emissive_texture.is_some() && self.is_emissive())
+    }
 }
 
 /// Materials and the textures they read: a resource shared by BVH building and shading.

@@ -4,6 +4,8 @@ use std::sync::LazyLock;
 
 use glam::Vec2;
 
+use crate::prefetch::prefetch_at;
+
 /// glTF sampler wrap modes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 pub enum WrapMode {
@@ -122,9 +124,41 @@ impl Texture {
     /// downwards), filtered bilinearly or by nearest texel, wrapped by the sampler's modes.
     /// Non-finite UVs read as (0,0); an empty texture reads as white.
     pub fn sample(&self, uv: Vec2) -> [f32; 4] {
-        if self.width == 0 || self.height == 0 || self.texels.is_empty() {
+        if self.is_empty() {
             return MISSING_TEXEL;
         }
+        let (x0, y0, [fx, fy]) = self.footprint(uv);
+        if self.nearest {
+            return self.texel(x0, y0);
+        }
+        // saturating_add keeps the +1 from overflowing for huge coordinates.
+        let (x1, y1) = (x0.saturating_add(1), y0.saturating_add(1));
+        let top = lerp4(self.texel(x0, y0), self.texel(x1, y0), fx);
+        let bottom = lerp4(self.texel(x0, y1), self.texel(x1, y1), fx);
+        lerp4(top, bottom, fy)
+    }
+
+    /// Asks the memory system for the texels [`Texture::sample`] reads at `uv` (a bilinear
+    /// footprint's two rows; a row's two texels share a cache line but at its edge): a hint
+    /// that changes no result.
+    pub fn prefetch(&self, uv: Vec2) {
+        if self.is_empty() {
+            return;
+        }
+        let (x0, y0, _) = self.footprint(uv);
+        let rows = if self.nearest { 1 } else { 2 };
+        for y in (0..rows).map(|k| y0.saturating_add(k)) {
+            prefetch_at(&self.texels, self.index(x0, y));
+        }
+    }
+
+    fn is_empty(&self) -> bool {
+        self.width == 0 || self.height == 0 || self.texels.is_empty()
+    }
+
+    /// The texel `sample` reads at `uv` (nearest), or the top-left one of the four it
+    /// interpolates (bilinear) with its weights' fractions.
+    fn footprint(&self, uv: Vec2) -> (i64, i64, [f32; 2]) {
         // Texel space: texel (i, j) covers [i, i+1) × [j, j+1), its centre is at +0.5.
         let scaled = uv * Vec2::new(self.width as f32, self.height as f32);
         let Vec2 { x, y } = if scaled.is_finite() {
@@ -132,27 +166,27 @@ impl Texture {
         } else {
             Vec2::ZERO
         };
+        // `as` saturates for huge coordinates.
         if self.nearest {
-            return self.texel(x.floor() as i64, y.floor() as i64);
+            return (x.floor() as i64, y.floor() as i64, [0.0; 2]);
         }
         let (x, y) = (x - 0.5, y - 0.5);
         let (x0, y0) = (x.floor(), y.floor());
-        let (fx, fy) = (x - x0, y - y0);
-        // `as` saturates for huge coordinates; saturating_add keeps the +1 from overflowing.
-        let (x0, y0) = (x0 as i64, y0 as i64);
-        let (x1, y1) = (x0.saturating_add(1), y0.saturating_add(1));
-        let top = lerp4(self.texel(x0, y0), self.texel(x1, y0), fx);
-        let bottom = lerp4(self.texel(x0, y1), self.texel(x1, y1), fx);
-        lerp4(top, bottom, fy)
+        (x0 as i64, y0 as i64, [x - x0, y - y0])
     }
 
     fn texel(&self, x: i64, y: i64) -> [f32; 4] {
-        let column = self.wrap_s.wrap(x, self.width);
-        let row = self.wrap_t.wrap(y, self.height);
         self.texels
-            .get(row * self.width as usize + column)
+            .get(self.index(x, y))
             .copied()
             .unwrap_or(MISSING_TEXEL)
+    }
+
+    /// Where texel (`x`, `y`) lies in `texels`, wrapped.
+    fn index(&self, x: i64, y: i64) -> usize {
+        let column = self.wrap_s.wrap(x, self.width);
+        let row = self.wrap_t.wrap(y, self.height);
+        row * self.width as usize + column
     }
 }
 
@@ -202,6 +236,58 @@ mod tests {
             wrap_t: WrapMode::Repeat,
             nearest: false,
         }
+    }
+
+    /// The texels a prefetch asks for are those `sample` reads, inside the texture, for every
+    /// wrap mode and filter, at ordinary, far-out and non-finite UVs alike.
+    #[test]
+    fn the_prefetched_footprint_is_the_sampled_one_and_in_bounds() {
+        let uvs = [
+            Vec2::new(0.3, 0.7),
+            Vec2::new(0.0, 1.0),
+            Vec2::new(-2.6, 17.25),
+            Vec2::new(1e30, -1e30),
+            Vec2::new(f32::NAN, f32::INFINITY),
+        ];
+        for wrap in [
+            WrapMode::Repeat,
+            WrapMode::MirroredRepeat,
+            WrapMode::ClampToEdge,
+        ] {
+            for nearest in [false, true] {
+                let texture = Texture {
+                    wrap_s: wrap,
+                    wrap_t: wrap,
+                    nearest,
+                    ..red_texture(&[&[0.0, 1.0, 2.0], &[3.0, 4.0, 5.0]])
+                };
+                for uv in uvs {
+                    let (x0, y0, _) = texture.footprint(uv);
+                    let top_left = texture.index(x0, y0);
+                    let below = texture.index(x0, y0.saturating_add(1));
+                    assert!(
+                        top_left < 6 && below < 6,
+                        "{wrap:?} {uv}: {top_left}, {below}"
+                    );
+                    if nearest {
+                        // The one texel read is the one asked for.
+                        assert_eq!(
+                            texture.sample(uv),
+                            texture.texels[top_left],
+                            "{wrap:?} {uv}"
+                        );
+                    }
+                    texture.prefetch(uv);
+                }
+            }
+        }
+        // A texture without texels has no footprint to ask for.
+        Texture {
+            width: 0,
+            texels: Vec::new(),
+            ..red_texture(&[&[0.0]])
+        }
+        .prefetch(Vec2::new(0.5, 0.5));
     }
 
     #[test]

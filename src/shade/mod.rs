@@ -239,7 +239,9 @@ impl Shader<'_> {
     }
 }
 
-/// How many paths ahead of the one it steps the wavefront asks for a hit's surface data.
+/// How many paths ahead of the one it steps [`Shader::step_paths`] asks for a hit's vertex
+/// data (twice as many for its triangle, half as many for its texels). Chosen by measurement:
+/// 2 to 8 were alike within noise (BENCHMARKS.md, "Surface data asked for ahead").
 const PREFETCH_AHEAD: usize = 4;
 
 impl Shader<'_> {
@@ -248,21 +250,23 @@ impl Shader<'_> {
     ///
     /// Which triangle a path hit is known before its step, so its surface data (scattered
     /// over a large scene's arrays: several cache misses a hit) is asked for a few paths ahead,
-    /// in two stages because the vertices' addresses are in the triangle's record.
+    /// in stages: the vertices' addresses are in the triangle's record, and the texels' depend
+    /// on the UVs at the vertices.
     fn step_paths(&self, slots: &mut [PathSlot]) -> ShadeStats {
         let mut counts = ShadeStats::default();
-        let hit_triangle = |slots: &[PathSlot], i: usize| {
-            slots
-                .get(i)
-                .and_then(|slot| slot.hit.as_ref())
-                .map(|hit| hit.triangle)
-        };
+        let hit_at = |slots: &[PathSlot], i: usize| slots.get(i).and_then(|slot| slot.hit);
+        let textured = !self.materials.textures.is_empty();
         for i in 0..slots.len() {
-            if let Some(triangle) = hit_triangle(slots, i + 2 * PREFETCH_AHEAD) {
-                self.accel.prefetch_triangle(triangle);
+            if let Some(hit) = hit_at(slots, i + 2 * PREFETCH_AHEAD) {
+                self.accel.prefetch_triangle(hit.triangle);
             }
-            if let Some(triangle) = hit_triangle(slots, i + PREFETCH_AHEAD) {
-                self.accel.prefetch_vertices(triangle);
+            if let Some(hit) = hit_at(slots, i + PREFETCH_AHEAD) {
+                self.accel.prefetch_vertices(hit.triangle);
+            }
+            if let Some(hit) = hit_at(slots, i + PREFETCH_AHEAD / 2)
+                && textured
+            {
+                self.prefetch_texels(hit);
             }
             let slot = &mut slots[i];
             let step = self.advance(
@@ -278,6 +282,19 @@ impl Shader<'_> {
             };
         }
         counts
+    }
+
+    /// Asks for the texels the hit's material reads there, once its vertices' UVs have
+    /// arrived.
+    #[inline(always)]
+    fn prefetch_texels(&self, hit: Hit) {
+        let material = self
+            .materials
+            .get(self.accel.triangle_material(hit.triangle));
+        if material.has_textures() {
+            let uv = self.accel.uv_at(hit.triangle, hit.u, hit.v);
+            material::prefetch_textures(material, &self.materials.textures, uv);
+        }
     }
 }
 
