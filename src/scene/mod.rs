@@ -130,12 +130,17 @@ impl Material {
         self.emissive.max_element() > 0.0
     }
 
-    /// Whether shading reads any texture of this material.
-    pub fn has_textures(&self) -> bool {
-        self.base_color_texture.is_some()
-            || self.metallic_roughness_texture.is_some()
-            || self.normal_texture.is_some()
-            || (self.emissive_texture.is_some() && self.is_emissive())
+    /// The textures shading reads of this material (the emissive one only where it emits).
+    pub fn shaded_textures(&self) -> impl Iterator<Item = TextureRef> {
+        let emissive = self.emissive_texture.filter(|_| self.is_emissive());
+        [
+            self.base_color_texture,
+            self.metallic_roughness_texture,
+            self.normal_texture,
+            emissive,
+        ]
+        .into_iter()
+        .flatten()
     }
 }
 

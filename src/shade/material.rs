@@ -27,25 +27,6 @@ fn texture_value(textures: &[Arc<Texture>], slot: Option<TextureRef>, uv: Vec2) 
         .map_or(Vec4::ONE, |t| Vec4::from_array(t.sample(uv)))
 }
 
-/// Asks the memory system for the texels [`shading_point`] will read of `material` at `uv`: a
-/// hint that changes no result.
-pub fn prefetch_textures(material: &Material, textures: &[Arc<Texture>], uv: Vec2) {
-    let emissive = material.emissive_texture.filter(|_| material.is_emissive());
-    let slots = [
-        material.base_color_texture,
-        material.metallic_roughness_texture,
-        material.normal_texture,
-        emissive,
-    ];
-    for texture in slots
-        .into_iter()
-        .flatten()
-        .filter_map(|r| textures.get(r.texture))
-    {
-        texture.prefetch(uv);
-    }
-}
-
 /// Radiance a material emits from its front face at `uv`: emissive factor (strength applied)
 /// × emissive texture.
 pub fn emitted_radiance(material: &Material, textures: &[Arc<Texture>], uv: Vec2) -> Vec3 {

@@ -284,16 +284,20 @@ impl Shader<'_> {
         counts
     }
 
-    /// Asks for the texels the hit's material reads there, once its vertices' UVs have
-    /// arrived.
+    /// Asks for the texels the hit's material reads there ([`material::shading_point`]'s
+    /// look-ups), once its vertices' UVs have arrived.
     #[inline(always)]
     fn prefetch_texels(&self, hit: Hit) {
         let material = self
             .materials
             .get(self.accel.triangle_material(hit.triangle));
-        if material.has_textures() {
-            let uv = self.accel.uv_at(hit.triangle, hit.u, hit.v);
-            material::prefetch_textures(material, &self.materials.textures, uv);
+        let mut textures = material.shaded_textures().peekable();
+        if textures.peek().is_none() {
+            return;
+        }
+        let uv = self.accel.uv_at(hit.triangle, hit.u, hit.v);
+        for texture in textures.filter_map(|r| self.materials.textures.get(r.texture)) {
+            texture.prefetch(uv);
         }
     }
 }
