@@ -278,19 +278,15 @@ fn main() {
             let rgb_reference = reference(&["--dispersion", "off"]);
             let spectral_reference = reference(&["--wavelengths", "4"]);
             // Each estimator: its name, its options and its family's reference.
-            let wavelength_options: Vec<[String; 2]> = WAVELENGTHS
-                .iter()
-                .map(|n| ["--wavelengths".to_string(), n.to_string()])
-                .collect();
             let mut estimators = vec![(
                 "rgb".to_string(),
                 strings(&["--dispersion", "off"]),
                 &rgb_reference,
             )];
-            for (n, options) in WAVELENGTHS.iter().zip(&wavelength_options) {
+            for n in WAVELENGTHS {
                 estimators.push((
                     format!("spectral ×{n}"),
-                    options.to_vec(),
+                    strings(&["--wavelengths", &n.to_string()]),
                     &spectral_reference,
                 ));
             }

@@ -117,25 +117,30 @@ def main():
     print(f"\n{args.size}², {args.spp} spp, medians; ratio: pass rate ÷ the first variant's")
     print(f"{'scene':<8}{'threads':>8}  {'variant':<12}{'M/s':>8}{'ratio':>7}{'user s':>8}{'sys s':>7}"
           f"{'minflt':>9}{'invol cs':>9}{'load+bvh':>9}  runs")
-    for scene in scenes:
-        for count in threads:
-            first = None
-            for variant in args.variant:
-                mine = [r for r in runs if (r["scene"], r["threads"], r["variant"]) == (scene, count, variant["name"])]
-                if not mine:
-                    continue
-                rates = [r["stats"]["samples_per_second"] / 1e6 for r in mine]
-                rate = statistics.median(rates)
-                first = first or rate
-                med = lambda key: statistics.median(r["usage"][key] for r in mine)
-                setup = statistics.median(r["stats"]["stage_seconds"].get("load_scene", 0)
-                                          + r["stats"]["stage_seconds"].get("build_bvh", 0) for r in mine)
-                print(f"{scene:<8}{count:>8}  {variant['name']:<12}{rate:8.2f}{rate / first:7.3f}"
-                      f"{med('ru_utime'):8.2f}{med('ru_stime'):7.2f}{med('ru_minflt'):9.0f}"
-                      f"{med('ru_nivcsw'):9.0f}{setup:9.2f}  {', '.join(f'{r:.2f}' for r in rates)}")
+    for scene, count, group in grouped(runs, scenes, threads, args.variant):
+        first = None
+        for variant, mine in group:
+            rates = [r["stats"]["samples_per_second"] / 1e6 for r in mine]
+            rate = statistics.median(rates)
+            first = first or rate
+            med = lambda key: statistics.median(r["usage"][key] for r in mine)
+            setup = statistics.median(r["stats"]["stage_seconds"].get("load_scene", 0)
+                                      + r["stats"]["stage_seconds"].get("build_bvh", 0) for r in mine)
+            print(f"{scene:<8}{count:>8}  {variant['name']:<12}{rate:8.2f}{rate / first:7.3f}"
+                  f"{med('ru_utime'):8.2f}{med('ru_stime'):7.2f}{med('ru_minflt'):9.0f}"
+                  f"{med('ru_nivcsw'):9.0f}{setup:9.2f}  {', '.join(f'{r:.2f}' for r in rates)}")
     if args.stages:
         print_stages(runs, scenes, threads, args.variant)
     return 0
+
+
+def grouped(runs, scenes, threads, variants):
+    """Per scene and thread count, each variant that rendered there with its runs, in order."""
+    for scene in scenes:
+        for count in threads:
+            group = [(variant, [r for r in runs if (r["scene"], r["threads"], r["variant"])
+                                == (scene, count, variant["name"])]) for variant in variants]
+            yield scene, count, [(variant, mine) for variant, mine in group if mine]
 
 
 STAGES = ("generate_rays", "trace", "shade", "weight", "write_film")
@@ -145,18 +150,14 @@ def print_stages(runs, scenes, threads, variants):
     """Each pass stage's median wall seconds per variant, and its ratio to the first variant's."""
     print(f"\nstage seconds, medians (ratio to the first variant's)")
     print(f"{'scene':<8}{'threads':>8}  {'variant':<12}" + "".join(f"{stage:>22}" for stage in STAGES))
-    for scene in scenes:
-        for count in threads:
-            first = None
-            for variant in variants:
-                mine = [r for r in runs if (r["scene"], r["threads"], r["variant"]) == (scene, count, variant["name"])]
-                if not mine:
-                    continue
-                seconds = [statistics.median(r["stats"]["stage_seconds"].get(stage, 0) for r in mine)
-                           for stage in STAGES]
-                first = first or seconds
-                cells = "".join(f"{s:14.3f} ({s / f if f else 0:5.3f})" for s, f in zip(seconds, first))
-                print(f"{scene:<8}{count:>8}  {variant['name']:<12}{cells}")
+    for scene, count, group in grouped(runs, scenes, threads, variants):
+        first = None
+        for variant, mine in group:
+            seconds = [statistics.median(r["stats"]["stage_seconds"].get(stage, 0) for r in mine)
+                       for stage in STAGES]
+            first = first or seconds
+            cells = "".join(f"{s:14.3f} ({s / f if f else 0:5.3f})" for s, f in zip(seconds, first))
+            print(f"{scene:<8}{count:>8}  {variant['name']:<12}{cells}")
 
 
 if __name__ == "__main__":

@@ -220,9 +220,8 @@ impl Shader<'_> {
             // Deep paths leave few live ones per step; tasks of fewer than 64 paths cost
             // more to split than they save (default scene, depth 8: 6 % slower at 16).
             // Each task counts into its own stats, summed (integers: in any order alike).
-            let task_len = self.parallelism.min_task_len(64).min(live.len());
             *stats += live
-                .par_chunks_mut(task_len)
+                .par_chunks_mut(self.parallelism.min_task_len(64))
                 .map(|slots| self.step_paths(slots))
                 .sum::<ShadeStats>();
             live.retain(|slot| {
