@@ -18,6 +18,9 @@ pub struct DispersionTable {
     /// Per surface (front to back), its index after the surface at each table wavelength; a
     /// surface without glass data has its fixed index at every entry.
     after: Vec<Vec<f32>>,
+    /// Per surface, its index when that is the same at every entry (air, a glass without
+    /// data): the lanes' look-ups are then that one value, with no gather.
+    constant: Vec<Option<f32>>,
 }
 
 impl DispersionTable {
@@ -34,8 +37,15 @@ impl DispersionTable {
                     .map(|i| row.index_at(LAMBDA_MIN + i as f64 / PER_NM as f64) as f32)
                     .collect()
             })
+            .collect::<Vec<Vec<f32>>>();
+        let constant = after
+            .iter()
+            .map(|entries| {
+                let first = entries[0];
+                entries.iter().all(|&n| n == first).then_some(first)
+            })
             .collect();
-        Some(DispersionTable { after })
+        Some(DispersionTable { after, constant })
     }
 
     /// The table coordinate of `wavelength_nm`: entry `i` and the fraction `t` toward `i + 1`.
@@ -58,6 +68,7 @@ impl DispersionTable {
     pub fn curve(&self, surface: usize) -> IndexCurve<'_> {
         IndexCurve {
             entries: &self.after[surface],
+            constant: self.constant[surface],
         }
     }
 
@@ -86,6 +97,7 @@ impl DispersionTable {
 #[derive(Clone, Copy, Debug)]
 pub struct IndexCurve<'a> {
     entries: &'a [f32],
+    constant: Option<f32>,
 }
 
 impl IndexCurve<'_> {
@@ -99,9 +111,14 @@ impl IndexCurve<'_> {
 
     /// [`Self::at`] for many lanes, `out[lane]` at (`cells[lane]`, `fractions[lane]`), with
     /// `isa`'s gathers (one this CPU supports): LLVM leaves a loop of table lookups scalar.
-    /// The same arithmetic, so the same bits.
+    /// The same arithmetic, so the same bits; a constant curve needs none (a + t·(a − a) is a
+    /// for every fraction t in [0, 1]).
     #[inline(always)]
     pub fn at_lanes(self, cells: &[u32], fractions: &[f32], out: &mut [f32], isa: Isa) {
+        if let Some(index) = self.constant {
+            out.fill(index);
+            return;
+        }
         let n = out.len();
         let (cells, fractions) = (&cells[..n], &fractions[..n]);
         let last_cell = self.entries.len().saturating_sub(2);
@@ -118,10 +135,13 @@ impl IndexCurve<'_> {
     }
 }
 
-/// [`IndexCurve::at`]'s arithmetic, 16 or 8 lanes at a time.
+/// [`IndexCurve::at`]'s arithmetic, 16 or 8 lanes at a time, each lane's two entries gathered
+/// as one pair ([`crate::lens::trace_batch::pairs`]).
 #[cfg(target_arch = "x86_64")]
 mod gathered {
     use std::arch::x86_64::*;
+
+    use crate::lens::trace_batch::pairs::{pairs_avx2, pairs_avx512};
 
     /// Whole groups of 16 lanes; returns how many lanes it did.
     #[target_feature(enable = "avx512f,avx512vl,avx512bw,avx512dq")]
@@ -141,13 +161,13 @@ mod gathered {
         for g in 0..groups {
             let at = g * W;
             // SAFETY: `at + W <= len` for the three slices (`cells` and `fractions` are
-            // `out`'s length), and every gathered index is at most `last_cell + 1`, the
-            // table's last entry.
+            // `out`'s length), and every gathered pair starts at most at `last_cell`, so both
+            // its entries are in the table.
             unsafe {
                 let cell = _mm512_loadu_si512(cells.as_ptr().add(at) as *const _);
                 let cell = _mm512_min_epu32(cell, last);
-                let a = _mm512_i32gather_ps::<4>(cell, entries.as_ptr());
-                let b = _mm512_i32gather_ps::<4>(cell, entries.as_ptr().add(1));
+                let bytes = _mm512_slli_epi32::<2>(cell);
+                let (a, b) = pairs_avx512(entries.as_ptr(), bytes, u16::MAX);
                 let t = _mm512_loadu_ps(fractions.as_ptr().add(at));
                 let index = _mm512_add_ps(a, _mm512_mul_ps(t, _mm512_sub_ps(b, a)));
                 _mm512_storeu_ps(out.as_mut_ptr().add(at), index);
@@ -171,14 +191,15 @@ mod gathered {
         }
         let groups = out.len() / W;
         let last = _mm256_set1_epi32(last_cell as i32);
+        let every_lane = _mm256_set1_epi32(-1);
         for g in 0..groups {
             let at = g * W;
             // SAFETY: as in `at_lanes_avx512`.
             unsafe {
                 let cell = _mm256_loadu_si256(cells.as_ptr().add(at) as *const __m256i);
                 let cell = _mm256_min_epu32(cell, last);
-                let a = _mm256_i32gather_ps::<4>(entries.as_ptr(), cell);
-                let b = _mm256_i32gather_ps::<4>(entries.as_ptr().add(1), cell);
+                let bytes = _mm256_slli_epi32::<2>(cell);
+                let (a, b) = pairs_avx2(entries.as_ptr(), bytes, every_lane);
                 let t = _mm256_loadu_ps(fractions.as_ptr().add(at));
                 let index = _mm256_add_ps(a, _mm256_mul_ps(t, _mm256_sub_ps(b, a)));
                 _mm256_storeu_ps(out.as_mut_ptr().add(at), index);

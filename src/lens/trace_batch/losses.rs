@@ -126,6 +126,7 @@ pub(super) fn attenuate_scalar(lanes: &LossLanes, transmission: &mut [f32], from
 mod gathered {
     use std::arch::x86_64::*;
 
+    use super::super::pairs::{pairs_avx2, pairs_avx512};
     use super::{COSINE_STEPS, LossLanes};
 
     /// Whole groups of 16 lanes; returns how many lanes it did.
@@ -159,33 +160,11 @@ mod gathered {
                     _mm512_setzero_si512(),
                     _mm512_add_epi32(rows, c),
                 );
-                // A cell's corners are two pairs of floats: each pair is one 64-bit load, eight
-                // lanes to a gather (half the loads of a gather per corner), then the pairs are
-                // parted into their first and second floats.
+                // A cell's corners are two pairs of floats, each gathered as one 64-bit element.
                 let bytes = _mm512_slli_epi32::<4>(cell);
-                let halves = [
-                    _mm512_castsi512_si256(bytes),
-                    _mm512_extracti64x4_epi64::<1>(bytes),
-                ];
-                let masks = [alive as u8, (alive >> 8) as u8];
-                let pair = |offset: i32, half: usize| {
-                    let index = _mm256_add_epi32(halves[half], _mm256_set1_epi32(offset));
-                    _mm512_castsi512_ps(_mm512_mask_i32gather_epi64::<1>(
-                        _mm512_setzero_si512(),
-                        masks[half],
-                        index,
-                        base as *const i64,
-                    ))
-                };
-                let firsts =
-                    _mm512_setr_epi32(0, 2, 4, 6, 8, 10, 12, 14, 16, 18, 20, 22, 24, 26, 28, 30);
-                let seconds =
-                    _mm512_setr_epi32(1, 3, 5, 7, 9, 11, 13, 15, 17, 19, 21, 23, 25, 27, 29, 31);
-                let (ab, cd) = ((pair(0, 0), pair(0, 1)), (pair(8, 0), pair(8, 1)));
-                let a = _mm512_permutex2var_ps(ab.0, firsts, ab.1);
-                let b = _mm512_permutex2var_ps(ab.0, seconds, ab.1);
-                let c0 = _mm512_permutex2var_ps(cd.0, firsts, cd.1);
-                let d = _mm512_permutex2var_ps(cd.0, seconds, cd.1);
+                let (a, b) = pairs_avx512(base, bytes, alive);
+                let (c0, d) =
+                    pairs_avx512(base, _mm512_add_epi32(bytes, _mm512_set1_epi32(8)), alive);
                 let r0 = _mm512_add_ps(a, _mm512_mul_ps(u, _mm512_sub_ps(b, a)));
                 let r1 = _mm512_add_ps(c0, _mm512_mul_ps(u, _mm512_sub_ps(d, c0)));
                 let fraction = _mm512_loadu_ps(lanes.fractions.as_ptr().add(at));
@@ -231,39 +210,11 @@ mod gathered {
                 let u = _mm256_sub_ps(x, _mm256_cvtepi32_ps(c));
                 let rows = _mm256_loadu_si256(lanes.rows.as_ptr().add(at) as *const __m256i);
                 let cell = _mm256_and_si256(alive, _mm256_add_epi32(rows, c));
-                // As for AVX-512: each corner pair one 64-bit load, four lanes to a gather, the
-                // pairs then parted (within 128-bit halves, then the halves put in order).
+                // As for AVX-512: each corner pair one 64-bit element.
                 let bytes = _mm256_slli_epi32::<4>(cell);
-                let halves = [
-                    _mm256_castsi256_si128(bytes),
-                    _mm256_extracti128_si256::<1>(bytes),
-                ];
-                let lane_masks = [
-                    _mm256_cvtepi32_epi64(_mm256_castsi256_si128(alive)),
-                    _mm256_cvtepi32_epi64(_mm256_extracti128_si256::<1>(alive)),
-                ];
-                let pair = |offset: i32, half: usize| {
-                    let index = _mm_add_epi32(halves[half], _mm_set1_epi32(offset));
-                    _mm256_castsi256_ps(_mm256_mask_i32gather_epi64::<1>(
-                        _mm256_setzero_si256(),
-                        base as *const i64,
-                        index,
-                        lane_masks[half],
-                    ))
-                };
-                // (x0 y0 x1 y1 | x2 y2 x3 y3) and the next four lanes' pairs → x0…x7, y0…y7.
-                let part = |low: __m256, high: __m256| {
-                    let firsts = _mm256_shuffle_ps::<0b10_00_10_00>(low, high);
-                    let seconds = _mm256_shuffle_ps::<0b11_01_11_01>(low, high);
-                    let order = |v: __m256| {
-                        _mm256_castpd_ps(_mm256_permute4x64_pd::<0b11_01_10_00>(_mm256_castps_pd(
-                            v,
-                        )))
-                    };
-                    (order(firsts), order(seconds))
-                };
-                let (a, b) = part(pair(0, 0), pair(0, 1));
-                let (c0, d) = part(pair(8, 0), pair(8, 1));
+                let (a, b) = pairs_avx2(base, bytes, alive);
+                let (c0, d) =
+                    pairs_avx2(base, _mm256_add_epi32(bytes, _mm256_set1_epi32(8)), alive);
                 let r0 = _mm256_add_ps(a, _mm256_mul_ps(u, _mm256_sub_ps(b, a)));
                 let r1 = _mm256_add_ps(c0, _mm256_mul_ps(u, _mm256_sub_ps(d, c0)));
                 let fraction = _mm256_loadu_ps(lanes.fractions.as_ptr().add(at));

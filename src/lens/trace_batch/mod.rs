@@ -22,6 +22,7 @@ mod clip;
 pub(crate) mod ghost;
 mod lanes;
 mod losses;
+pub(crate) mod pairs;
 mod plain;
 mod refract;
 mod simd;
