@@ -1,8 +1,9 @@
 //! The surfaces' losses for a block of lanes: each survivor of a surface keeps 1 − R of its
 //! light, R looked up in the lens's reflectance table ([`crate::lens::reflectance`]) at the
-//! lane's angle and wavelength. A table lookup is a gather: LLVM leaves the loop scalar, so on
-//! x86-64 with AVX-512 or AVX2 it runs 16 or 8 lanes at a time with the gather instructions
-//! ([`attenuate_lanes`]), the same operations in the same order, without fused multiply-adds,
+//! lane's angle and wavelength. A table lookup per lane: LLVM leaves the loop scalar, so on
+//! x86-64 with AVX-512 or AVX2 it runs 16 or 8 lanes at a time, each lane's cell one 16-byte
+//! load and the cells transposed into corners ([`attenuate_lanes`]; gathers of the same bytes
+//! cost more), the same operations in the same order, without fused multiply-adds,
 //! as the scalar loop ([`attenuate_scalar`], the reference and the tail), so every path gives
 //! the same bits. Both kernels call the same function, and so agree bit for bit too.
 
@@ -49,7 +50,7 @@ impl Losses<'_> {
 
     /// Multiplies the transmission of every lane that `survived` step `step` by 1 − R at its
     /// `cosine` and table wavelength: [`SurfaceReflectance::lookup`] (the same arithmetic on
-    /// the same entries), one cell load per lane, with the gathers of `isa` (the kernel's,
+    /// the same entries), one cell load per lane, with the vector unit of `isa` (the kernel's,
     /// supported by this CPU).
     #[inline(always)]
     pub fn attenuate(
@@ -89,15 +90,15 @@ pub(super) struct LossLanes<'a> {
     pub fractions: &'a [f32],
 }
 
-/// Multiplies `transmission` by each surviving lane's 1 − R: with `isa`'s gather instructions
+/// Multiplies `transmission` by each surviving lane's 1 − R: with `isa`'s vectors
 /// (16 or 8 lanes at a time; `isa` must be one this CPU supports), the rest by
 /// [`attenuate_scalar`].
 #[inline(always)]
 pub(super) fn attenuate_lanes(lanes: &LossLanes, transmission: &mut [f32], isa: Isa) {
     let done = super::on_isa!(isa,
         baseline: 0,
-        avx2: gathered::attenuate_avx2(lanes, transmission),
-        avx512: gathered::attenuate_avx512(lanes, transmission),
+        avx2: vectors::attenuate_avx2(lanes, transmission),
+        avx512: vectors::attenuate_avx512(lanes, transmission),
     );
     attenuate_scalar(lanes, transmission, done);
 }
@@ -123,11 +124,80 @@ pub(super) fn attenuate_scalar(lanes: &LossLanes, transmission: &mut [f32], from
 /// anything (NaN included): its index is forced to cell 0 and its factor to 1, as the scalar
 /// loop's `survived` test does.
 #[cfg(target_arch = "x86_64")]
-mod gathered {
+mod vectors {
     use std::arch::x86_64::*;
 
-    use super::super::pairs::{pairs_avx2, pairs_avx512};
     use super::{COSINE_STEPS, LossLanes};
+
+    /// The four corners of 16 lanes' cells (`cell`: each lane's index into `cells`), corner
+    /// by corner: each cell is one 16-byte load, and the loads are put four lanes to a
+    /// register so that a 4 × 4 transpose within each 128-bit lane leaves every corner's 16
+    /// values in lane order. Plain loads cost less than gathers of the same bytes here, and
+    /// read the same floats.
+    ///
+    /// # Safety
+    /// Every lane's cell is in `cells` (`base` is its start).
+    #[inline]
+    #[target_feature(enable = "avx512f,avx512vl,avx512bw,avx512dq")]
+    unsafe fn corners_avx512(base: *const [f32; 4], cell: __m512i) -> [__m512; 4] {
+        let mut index = [0u32; 16];
+        // SAFETY: `index` holds 16 u32s; every cell read is in the table (the caller's).
+        unsafe {
+            _mm512_storeu_si512(index.as_mut_ptr() as *mut _, cell);
+            let load = |lane: usize| _mm_loadu_ps(base.add(index[lane] as usize) as *const f32);
+            // Register e holds lanes e, e + 4, e + 8, e + 12 (one per 128-bit lane).
+            let quad = |e: usize| {
+                let v = _mm512_castps128_ps512(load(e));
+                let v = _mm512_insertf32x4::<1>(v, load(e + 4));
+                let v = _mm512_insertf32x4::<2>(v, load(e + 8));
+                _mm512_insertf32x4::<3>(v, load(e + 12))
+            };
+            transpose_lanes_avx512([quad(0), quad(1), quad(2), quad(3)])
+        }
+    }
+
+    /// The 4 × 4 transpose within each 128-bit lane of four registers.
+    #[inline]
+    #[target_feature(enable = "avx512f,avx512vl,avx512bw,avx512dq")]
+    fn transpose_lanes_avx512([q0, q1, q2, q3]: [__m512; 4]) -> [__m512; 4] {
+        let (t0, t1) = (_mm512_unpacklo_ps(q0, q1), _mm512_unpackhi_ps(q0, q1));
+        let (t2, t3) = (_mm512_unpacklo_ps(q2, q3), _mm512_unpackhi_ps(q2, q3));
+        let pd = _mm512_castps_pd;
+        let ps = _mm512_castpd_ps;
+        [
+            ps(_mm512_unpacklo_pd(pd(t0), pd(t2))),
+            ps(_mm512_unpackhi_pd(pd(t0), pd(t2))),
+            ps(_mm512_unpacklo_pd(pd(t1), pd(t3))),
+            ps(_mm512_unpackhi_pd(pd(t1), pd(t3))),
+        ]
+    }
+
+    /// [`corners_avx512`] for 8 lanes: register e holds lanes e and e + 4.
+    ///
+    /// # Safety
+    /// Every lane's cell is in `cells` (`base` is its start).
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    unsafe fn corners_avx2(base: *const [f32; 4], cell: __m256i) -> [__m256; 4] {
+        let mut index = [0u32; 8];
+        // SAFETY: `index` holds 8 u32s; every cell read is in the table (the caller's).
+        unsafe {
+            _mm256_storeu_si256(index.as_mut_ptr() as *mut __m256i, cell);
+            let load = |lane: usize| _mm_loadu_ps(base.add(index[lane] as usize) as *const f32);
+            let pair = |e: usize| _mm256_set_m128(load(e + 4), load(e));
+            let [q0, q1, q2, q3] = [pair(0), pair(1), pair(2), pair(3)];
+            let (t0, t1) = (_mm256_unpacklo_ps(q0, q1), _mm256_unpackhi_ps(q0, q1));
+            let (t2, t3) = (_mm256_unpacklo_ps(q2, q3), _mm256_unpackhi_ps(q2, q3));
+            let pd = _mm256_castps_pd;
+            let ps = _mm256_castpd_ps;
+            [
+                ps(_mm256_unpacklo_pd(pd(t0), pd(t2))),
+                ps(_mm256_unpackhi_pd(pd(t0), pd(t2))),
+                ps(_mm256_unpacklo_pd(pd(t1), pd(t3))),
+                ps(_mm256_unpackhi_pd(pd(t1), pd(t3))),
+            ]
+        }
+    }
 
     /// Whole groups of 16 lanes; returns how many lanes it did.
     #[target_feature(enable = "avx512f,avx512vl,avx512bw,avx512dq")]
@@ -138,7 +208,7 @@ mod gathered {
         let zero = _mm512_setzero_ps();
         let one = _mm512_set1_ps(1.0);
         let last = _mm512_set1_epi32(COSINE_STEPS as i32 - 1);
-        let base = lanes.cells.as_ptr() as *const f32;
+        let base = lanes.cells.as_ptr();
         for g in 0..groups {
             let at = g * W;
             // SAFETY: `at + W <= len` for every slice read here (all are `len` long).
@@ -160,11 +230,7 @@ mod gathered {
                     _mm512_setzero_si512(),
                     _mm512_add_epi32(rows, c),
                 );
-                // A cell's corners are two pairs of floats, each gathered as one 64-bit element.
-                let bytes = _mm512_slli_epi32::<4>(cell);
-                let (a, b) = pairs_avx512(base, bytes, alive);
-                let (c0, d) =
-                    pairs_avx512(base, _mm512_add_epi32(bytes, _mm512_set1_epi32(8)), alive);
+                let [a, b, c0, d] = corners_avx512(base, cell);
                 let r0 = _mm512_add_ps(a, _mm512_mul_ps(u, _mm512_sub_ps(b, a)));
                 let r1 = _mm512_add_ps(c0, _mm512_mul_ps(u, _mm512_sub_ps(d, c0)));
                 let fraction = _mm512_loadu_ps(lanes.fractions.as_ptr().add(at));
@@ -186,7 +252,7 @@ mod gathered {
         let zero = _mm256_setzero_ps();
         let one = _mm256_set1_ps(1.0);
         let last = _mm256_set1_epi32(COSINE_STEPS as i32 - 1);
-        let base = lanes.cells.as_ptr() as *const f32;
+        let base = lanes.cells.as_ptr();
         for g in 0..groups {
             let at = g * W;
             // SAFETY: `at + W <= len` for every slice read here (all are `len` long).
@@ -210,11 +276,7 @@ mod gathered {
                 let u = _mm256_sub_ps(x, _mm256_cvtepi32_ps(c));
                 let rows = _mm256_loadu_si256(lanes.rows.as_ptr().add(at) as *const __m256i);
                 let cell = _mm256_and_si256(alive, _mm256_add_epi32(rows, c));
-                // As for AVX-512: each corner pair one 64-bit element.
-                let bytes = _mm256_slli_epi32::<4>(cell);
-                let (a, b) = pairs_avx2(base, bytes, alive);
-                let (c0, d) =
-                    pairs_avx2(base, _mm256_add_epi32(bytes, _mm256_set1_epi32(8)), alive);
+                let [a, b, c0, d] = corners_avx2(base, cell);
                 let r0 = _mm256_add_ps(a, _mm256_mul_ps(u, _mm256_sub_ps(b, a)));
                 let r1 = _mm256_add_ps(c0, _mm256_mul_ps(u, _mm256_sub_ps(d, c0)));
                 let fraction = _mm256_loadu_ps(lanes.fractions.as_ptr().add(at));
@@ -250,11 +312,11 @@ impl LossScratch {
 mod tests {
     use super::*;
 
-    /// The gathered paths give the scalar loop's bits on every lane: live lanes with cosines
+    /// The vector paths give the scalar loop's bits on every lane: live lanes with cosines
     /// inside and outside [0, 1] (clamped), dead lanes with NaN cosines, any wavelength row, and
     /// a tail shorter than a group.
     #[test]
-    fn gathered_lanes_give_the_scalar_bits() {
+    fn vector_lanes_give_the_scalar_bits() {
         let mut state = 0x9e37_79b9_7f4a_7c15u64;
         let mut next = move || {
             state = state

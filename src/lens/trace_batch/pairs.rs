@@ -1,7 +1,7 @@
 //! Two neighbouring floats of a table per lane, gathered as one 64-bit element.
 //!
-//! The lens's tables are read with linear interpolation: a lane needs an entry and the next
-//! (the index curve's entries i and i + 1, a reflectance cell's two corners along the cosine).
+//! The index curves ([`crate::lens::dispersion`]) are read with linear interpolation: a lane
+//! needs entries i and i + 1.
 //! A gather's cost grows with its elements, so one 64-bit element per lane (a gather of 8
 //! lanes' pairs at a time) costs about half of two 32-bit gathers; the pairs are then parted
 //! into the first and the second floats, lane order kept. The same floats, so interpolating
