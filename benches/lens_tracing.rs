@@ -76,7 +76,7 @@ fn soa(bencher: Bencher, lens: &str, batch: usize, kernel: Kernel, isa: Isa) {
 
 /// The plain loop through single-coated surfaces (every survivor's losses looked up at each
 /// crossing, at the lens's own indices), 1024-ray batches, on each instruction set: what the
-/// reflectance look-ups cost with and without the gather instructions.
+/// reflectance look-ups cost on each instruction set.
 #[divan::bench(args = ["dgauss.50mm", "fisheye.10mm"], sample_count = 40)]
 fn soa_coated_baseline(bencher: Bencher, lens: &str) {
     soa_coated(bencher, lens, Isa::Baseline);
@@ -161,6 +161,33 @@ fn camera_generate_coated_with_ghosts<const PASS: u32>(bencher: Bencher, lens: &
     camera_rays(bencher, lens, PASS, CoatingModel::Single, true);
 }
 
+/// A spectral render's camera rays as the default makes them (issue 25's cost): single-coated,
+/// with ghosts, each sample with its set of `WAVELENGTHS` (1: the hero alone; 3: the default,
+/// the hero traced forward and two companions backward to their film points and combined).
+#[divan::bench(args = ["dgauss.50mm", "fisheye.10mm"], consts = [1, 3], sample_count = 40)]
+fn camera_generate_spectral<const WAVELENGTHS: u32>(bencher: Bencher, lens: &str) {
+    let w = workload(lens);
+    let reflectance =
+        SurfaceReflectance::with_model(&w.system.rows, |_| None, CoatingModel::Single);
+    let system = w.system.clone().with_reflectance(reflectance);
+    let pupil = ExitPupil::compute(
+        &system,
+        w.film_distance,
+        LensWorkload::FILM_DIAGONAL_MM,
+        PupilSampling::Bounds,
+    );
+    let camera = LensCamera {
+        system: &system,
+        pupil: &pupil,
+        film: FilmGeometry::new(512, 512, LensWorkload::FILM_DIAGONAL_MM),
+        world_from_camera: Mat4::IDENTITY,
+        dispersion: system.dispersion.as_deref(),
+        wavelengths: WAVELENGTHS,
+        ghosts: system.ghosts.as_deref(),
+    };
+    tile_rays(bencher, &camera, 0);
+}
+
 fn camera_rays(bencher: Bencher, lens: &str, pass: u32, coating: CoatingModel, ghosts: bool) {
     let w = workload(lens);
     let reflectance = SurfaceReflectance::with_model(&w.system.rows, |_| None, coating);
@@ -180,6 +207,11 @@ fn camera_rays(bencher: Bencher, lens: &str, pass: u32, coating: CoatingModel, g
         wavelengths: 1,
         ghosts: system.ghosts.as_deref().filter(|_| ghosts),
     };
+    tile_rays(bencher, &camera, pass);
+}
+
+/// `camera`'s rays for the 32 × 32 tile at (240, 240) of its film, pass `pass`, seed 7.
+fn tile_rays(bencher: Bencher, camera: &LensCamera, pass: u32) {
     let pixels: Vec<(u32, u32)> = (0..32)
         .flat_map(|y| (0..32).map(move |x| (240 + x, 240 + y)))
         .collect();
