@@ -287,9 +287,9 @@ struct Scratch {
     /// Each pixel's key of the pattern being drawn, and the Sobol batch's buffers.
     keys: Vec<u32>,
     sobol: SobolScratch,
-    /// Which rays are ghost samples, the uniform number choosing each one's pair, and the
-    /// inverse density each one's wavelength was drawn with.
-    ghost: Vec<bool>,
+    /// The rays that are ghost samples (their indices, ascending), and per ghost sample the
+    /// uniform number choosing its pair and the inverse density its wavelength was drawn with.
+    ghosts: Vec<u32>,
     ghost_u: Vec<f32>,
     ghost_inverse_pdf: Vec<f32>,
     /// This batch's ghost paths, and per ghost sample its camera weight and its pair's
@@ -507,9 +507,12 @@ impl LensCamera<'_> {
                     };
                     if self.ghosts.is_some() {
                         scratch.ghost_inverse_pdf.clear();
-                        scratch
-                            .ghost_inverse_pdf
-                            .extend_from_slice(&out.wavelength_weight[..n]);
+                        scratch.ghost_inverse_pdf.extend(
+                            scratch
+                                .ghosts
+                                .iter()
+                                .map(|&i| out.wavelength_weight[i as usize]),
+                        );
                     }
                     let hero = HeroRays {
                         rays: &out.rays,
@@ -552,21 +555,22 @@ impl LensCamera<'_> {
     /// ordinary trace.
     #[inline(always)]
     fn choose_ghost_samples(&self, sample: u32, seed: u64, out: &mut CameraRays, s: &mut Scratch) {
-        s.ghost.clear();
+        s.ghosts.clear();
+        s.ghost_u.clear();
         if self.ghosts.is_none() {
             return;
         }
         let (film_seed, _) = camera_seeds(seed);
         let key_width = self.film.pixel_keys().width as u32;
         let n = s.pixel.len();
-        s.ghost.resize(n, false);
-        s.ghost_u.resize(n, 0.0);
         for i in 0..n {
             let block = ghost_block_key(s.pixel[i], key_width, film_seed);
-            let ghost = is_ghost_sample(block, sample);
-            s.ghost[i] = ghost;
-            s.ghost_u[i] = ghost_pair_u(hash32(s.pixel[i] ^ film_seed), sample);
-            out.rays.alive[i] &= !ghost;
+            if is_ghost_sample(block, sample) {
+                s.ghosts.push(i as u32);
+                s.ghost_u
+                    .push(ghost_pair_u(hash32(s.pixel[i] ^ film_seed), sample));
+                out.rays.alive[i] = false;
+            }
         }
     }
 
@@ -595,16 +599,18 @@ impl LensCamera<'_> {
         let rear_z = film_z - film_distance;
         // The scratch keeps a tilted film's depths from earlier batches: only a tilt sets them.
         let tilted = FilmTilt::of(&self.film.movements).is_some();
-        // First each ghost sample's ray to its rear-element point, its camera weight and its
-        // pair; the ordinary samples' weights scaled by the share of samples they are.
-        s.ghost_batch.clear_with_room(n);
+        // The ordinary samples' weights scaled by the share of samples they are (the ghost
+        // samples' are set below); then each ghost sample's ray to its rear-element point, its
+        // camera weight and its pair.
+        for weight in &mut out.weight {
+            *weight *= ordinary;
+        }
+        let m = s.ghosts.len();
+        s.ghost_batch.clear_with_room(m);
         s.ghost_factor.clear();
-        s.ghost_factor.reserve(n);
-        for i in 0..n {
-            if !s.ghost[i] {
-                out.weight[i] *= ordinary;
-                continue;
-            }
+        s.ghost_factor.reserve(m);
+        for (g, &i) in s.ghosts.iter().enumerate() {
+            let i = i as usize;
             let rays = &out.rays;
             let film = [rays.ox[i], rays.oy[i], rays.oz[i]];
             let depth = if tilted { s.depth[i] } else { film_distance };
@@ -613,7 +619,7 @@ impl LensCamera<'_> {
             let weight = rear.drawn_weight([film[0], film[1]], depth, point);
             let to = [point[0] - film[0], point[1] - film[1], rear_z - film[2]];
             let length = (to[0] * to[0] + to[1] * to[1] + to[2] * to[2]).sqrt();
-            let (pair, probability) = ghosts.choose(s.ghost_u[i]);
+            let (pair, probability) = ghosts.choose(s.ghost_u[g]);
             let nm = if count > 0 {
                 out.wavelength[i]
             } else {
@@ -634,15 +640,11 @@ impl LensCamera<'_> {
             };
             s.ghost_batch.trace(&lens);
         }
-        let mut pushed = 0;
-        for i in 0..n {
-            if !s.ghost[i] {
-                continue;
-            }
+        for (g, &i) in s.ghosts.iter().enumerate() {
+            let i = i as usize;
             let rays = &mut out.rays;
-            let (weight, probability) = s.ghost_factor[pushed];
-            let traced = reflectance.and_then(|_| s.ghost_batch.traced(pushed));
-            pushed += 1;
+            let (weight, probability) = s.ghost_factor[g];
+            let traced = reflectance.and_then(|_| s.ghost_batch.traced(g));
             match traced {
                 Some((origin, direction, transmission)) if weight > 0.0 => {
                     [rays.ox[i], rays.oy[i], rays.oz[i]] = origin;
@@ -657,7 +659,7 @@ impl LensCamera<'_> {
             }
             // A ghost sample carries its hero wavelength alone.
             if count > 1 {
-                out.wavelength_weight[i] = s.ghost_inverse_pdf[i];
+                out.wavelength_weight[i] = s.ghost_inverse_pdf[g];
                 for k in 1..count {
                     out.wavelength_weight[k * n + i] = 0.0;
                     out.wavelength_offset[k * n + i] = [0, 0];
