@@ -110,9 +110,9 @@ impl IndexCurve<'_> {
     }
 
     /// [`Self::at`] for many lanes, `out[lane]` at (`cells[lane]`, `fractions[lane]`), with
-    /// `isa`'s gathers (one this CPU supports): LLVM leaves a loop of table lookups scalar.
-    /// The same arithmetic, so the same bits; a constant curve needs none (a + t·(a − a) is a
-    /// for every fraction t in [0, 1]).
+    /// `isa`'s vectors (one this CPU supports): LLVM leaves a loop of table lookups scalar.
+    /// The same arithmetic, so the same bits; a constant curve needs no look-up (a + t·(a − a)
+    /// is a for every fraction t in [0, 1]).
     #[inline(always)]
     pub fn at_lanes(self, cells: &[u32], fractions: &[f32], out: &mut [f32], isa: Isa) {
         if let Some(index) = self.constant {
@@ -135,8 +135,8 @@ impl IndexCurve<'_> {
     }
 }
 
-/// [`IndexCurve::at`]'s arithmetic, 16 or 8 lanes at a time, each lane's two entries gathered
-/// as one pair ([`crate::lens::trace_batch::pairs`]).
+/// [`IndexCurve::at`]'s arithmetic, 16 or 8 lanes at a time, each lane's two entries read as
+/// one pair ([`crate::lens::trace_batch::pairs`]).
 #[cfg(target_arch = "x86_64")]
 mod gathered {
     use std::arch::x86_64::*;
@@ -166,8 +166,7 @@ mod gathered {
             unsafe {
                 let cell = _mm512_loadu_si512(cells.as_ptr().add(at) as *const _);
                 let cell = _mm512_min_epu32(cell, last);
-                let bytes = _mm512_slli_epi32::<2>(cell);
-                let (a, b) = pairs_avx512(entries.as_ptr(), bytes, u16::MAX);
+                let (a, b) = pairs_avx512(entries.as_ptr(), cell);
                 let t = _mm512_loadu_ps(fractions.as_ptr().add(at));
                 let index = _mm512_add_ps(a, _mm512_mul_ps(t, _mm512_sub_ps(b, a)));
                 _mm512_storeu_ps(out.as_mut_ptr().add(at), index);
@@ -191,15 +190,13 @@ mod gathered {
         }
         let groups = out.len() / W;
         let last = _mm256_set1_epi32(last_cell as i32);
-        let every_lane = _mm256_set1_epi32(-1);
         for g in 0..groups {
             let at = g * W;
             // SAFETY: as in `at_lanes_avx512`.
             unsafe {
                 let cell = _mm256_loadu_si256(cells.as_ptr().add(at) as *const __m256i);
                 let cell = _mm256_min_epu32(cell, last);
-                let bytes = _mm256_slli_epi32::<2>(cell);
-                let (a, b) = pairs_avx2(entries.as_ptr(), bytes, every_lane);
+                let (a, b) = pairs_avx2(entries.as_ptr(), cell);
                 let t = _mm256_loadu_ps(fractions.as_ptr().add(at));
                 let index = _mm256_add_ps(a, _mm256_mul_ps(t, _mm256_sub_ps(b, a)));
                 _mm256_storeu_ps(out.as_mut_ptr().add(at), index);
