@@ -106,6 +106,9 @@ impl WeighTile<'_> {
         // Spectral: `count` wavelengths per ray, wavelength-major (see CameraRays).
         let count = camera.wavelength.len() / n.max(1);
         let mut shares = [Share::default(); MAX_WAVELENGTHS as usize];
+        // Ray i is the tile's pixel i (FilmTile::pixels order): its pixel, kept as the rays
+        // go by rather than divided out of i for each.
+        let (mut x, mut y) = (tile.x0, tile.y0);
         for i in 0..n {
             let w = camera.weight[i];
             let rgb = [radiance.r[i] * w, radiance.g[i] * w, radiance.b[i] * w];
@@ -134,11 +137,6 @@ impl WeighTile<'_> {
             let shares = &shares[..made];
             let finite = shares.iter().all(|s| s.rgb.iter().all(|v| v.is_finite()));
             rejected += u64::from(!finite);
-            // Ray i is the tile's pixel i (FilmTile::pixels order).
-            let (x, y) = (
-                tile.x0 + (i as u32 % tile.width),
-                tile.y0 + (i as u32 / tile.width),
-            );
             let mut own = [0.0f32; 3];
             if finite && filter.is_box() {
                 for share in shares {
@@ -163,6 +161,10 @@ impl WeighTile<'_> {
                 }
             }
             [radiance.r[i], radiance.g[i], radiance.b[i]] = own;
+            x += 1;
+            if x == tile.x0 + tile.width {
+                (x, y) = (tile.x0, y + 1);
+            }
         }
         rejected
     }
