@@ -166,29 +166,30 @@ fn camera_generate_coated_with_ghosts<const PASS: u32>(bencher: Bencher, lens: &
 /// the hero traced forward and two companions backward to their film points and combined).
 #[divan::bench(args = ["dgauss.50mm", "fisheye.10mm"], consts = [1, 3], sample_count = 40)]
 fn camera_generate_spectral<const WAVELENGTHS: u32>(bencher: Bencher, lens: &str) {
-    let w = workload(lens);
-    let reflectance =
-        SurfaceReflectance::with_model(&w.system.rows, |_| None, CoatingModel::Single);
-    let system = w.system.clone().with_reflectance(reflectance);
-    let pupil = ExitPupil::compute(
-        &system,
-        w.film_distance,
-        LensWorkload::FILM_DIAGONAL_MM,
-        PupilSampling::Bounds,
+    camera_rays_with(
+        bencher,
+        lens,
+        0,
+        CoatingModel::Single,
+        true,
+        Some(WAVELENGTHS),
     );
-    let camera = LensCamera {
-        system: &system,
-        pupil: &pupil,
-        film: FilmGeometry::new(512, 512, LensWorkload::FILM_DIAGONAL_MM),
-        world_from_camera: Mat4::IDENTITY,
-        dispersion: system.dispersion.as_deref(),
-        wavelengths: WAVELENGTHS,
-        ghosts: system.ghosts.as_deref(),
-    };
-    tile_rays(bencher, &camera, 0);
 }
 
 fn camera_rays(bencher: Bencher, lens: &str, pass: u32, coating: CoatingModel, ghosts: bool) {
+    camera_rays_with(bencher, lens, pass, coating, ghosts, None);
+}
+
+/// Camera rays for one tile ([`tile_rays`]) through `lens` coated with `coating`, with or
+/// without its ghosts, and with `wavelengths` per sample (`None`: without dispersion).
+fn camera_rays_with(
+    bencher: Bencher,
+    lens: &str,
+    pass: u32,
+    coating: CoatingModel,
+    ghosts: bool,
+    wavelengths: Option<u32>,
+) {
     let w = workload(lens);
     let reflectance = SurfaceReflectance::with_model(&w.system.rows, |_| None, coating);
     let system = w.system.clone().with_reflectance(reflectance);
@@ -203,8 +204,11 @@ fn camera_rays(bencher: Bencher, lens: &str, pass: u32, coating: CoatingModel, g
         pupil: &pupil,
         film: FilmGeometry::new(512, 512, LensWorkload::FILM_DIAGONAL_MM),
         world_from_camera: Mat4::IDENTITY,
-        dispersion: None,
-        wavelengths: 1,
+        dispersion: system
+            .dispersion
+            .as_deref()
+            .filter(|_| wavelengths.is_some()),
+        wavelengths: wavelengths.unwrap_or(1),
         ghosts: system.ghosts.as_deref().filter(|_| ghosts),
     };
     tile_rays(bencher, &camera, pass);
