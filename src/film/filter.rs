@@ -165,8 +165,33 @@ impl Filter {
     /// [`Filter::tap_table`]: the same weights, bit for bit, without evaluating the profile.
     #[inline(always)]
     pub fn grid_taps(self, position: f32, extent: u32) -> (i32, [f32; TAPS]) {
-        if self.is_box() {
-            return self.taps(position, extent);
+        self.grid().taps(position, extent)
+    }
+
+    /// The filter with its table at hand, for weighing many shares ([`GridTaps::taps`]): the
+    /// table is found once, not per share.
+    #[inline(always)]
+    pub fn grid(self) -> GridTaps {
+        GridTaps {
+            filter: self,
+            table: self.tap_table(),
+        }
+    }
+}
+
+/// A filter and its [`Filter::tap_table`], looked up once.
+#[derive(Clone, Copy, Debug)]
+pub struct GridTaps {
+    filter: Filter,
+    table: &'static [[f32; 4]],
+}
+
+impl GridTaps {
+    /// [`Filter::grid_taps`].
+    #[inline(always)]
+    pub fn taps(&self, position: f32, extent: u32) -> (i32, [f32; TAPS]) {
+        if self.filter.is_box() {
+            return self.filter.taps(position, extent);
         }
         let floor = position.floor();
         let own = floor as i32;
@@ -175,7 +200,7 @@ impl Filter {
         let inside = usize::from(own >= 1)
             | usize::from(own < extent) << 1
             | usize::from(own + 1 < extent) << 2;
-        let [a, b, c, _] = self.tap_table()[inside * STEPS + step];
+        let [a, b, c, _] = self.table[inside * STEPS + step];
         (own - 1, [a, b, c])
     }
 }

@@ -8,7 +8,7 @@
 //! ran the pass. With a reconstruction filter wider than a pixel every share, the ray's own
 //! included, spreads over the pixels around its film point instead ([`Spread`]).
 
-use super::filter::{Filter, TAPS};
+use super::filter::{GridTaps, TAPS};
 use crate::lens::hero_wavelengths::SPLAT_RADIUS;
 
 /// One share of a sample's weighted radiance for image pixel (`x`, `y`).
@@ -85,9 +85,9 @@ impl Spread {
     /// [`SPLAT_RADIUS`] of its pixel), those beyond the frame with weight 0, so the 3 × 3 taps
     /// are added without a test.
     #[inline(always)]
-    pub fn add(&mut self, filter: Filter, [x, y]: [f32; 2], size: [u32; 2], rgb: [f32; 3]) {
-        let (first_x, weights_x) = filter.grid_taps(x, size[0]);
-        let (first_y, weights_y) = filter.grid_taps(y, size[1]);
+    pub fn add(&mut self, filter: &GridTaps, [x, y]: [f32; 2], size: [u32; 2], rgb: [f32; 3]) {
+        let (first_x, weights_x) = filter.taps(x, size[0]);
+        let (first_y, weights_y) = filter.taps(y, size[1]);
         let column = (first_x - self.x0) as usize;
         for (ky, &wy) in weights_y.iter().enumerate() {
             let start = (first_y + ky as i32 - self.y0) as usize * self.width as usize + column;

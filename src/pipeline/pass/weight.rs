@@ -105,6 +105,7 @@ impl WeighTile<'_> {
         let n = camera.weight.len();
         // Spectral: `count` wavelengths per ray, wavelength-major (see CameraRays).
         let count = camera.wavelength.len() / n.max(1);
+        let taps = filter.grid();
         let mut shares = [Share::default(); MAX_WAVELENGTHS as usize];
         // Ray i is the tile's pixel i (FilmTile::pixels order): its pixel, kept as the rays
         // go by rather than divided out of i for each.
@@ -157,7 +158,7 @@ impl WeighTile<'_> {
             } else if finite {
                 for share in shares {
                     let at = [x as f32 + share.position[0], y as f32 + share.position[1]];
-                    spread.add(filter, at, size, share.rgb);
+                    spread.add(&taps, at, size, share.rgb);
                 }
             }
             [radiance.r[i], radiance.g[i], radiance.b[i]] = own;
