@@ -127,7 +127,7 @@ impl Filter {
     /// share's weights depend on nothing else (its position less those pixel centres is exact in
     /// f32), so each row is taken by `taps` itself at a position on a frame just large enough
     /// to give its pattern; patterns no share has (no pixel inside, or a gap) stay zero. The CPU
-    /// looks weights up here ([`Filter::grid_taps`]) and the GPU's gather gets the same table,
+    /// looks weights up here ([`GridTaps::taps`]) and the GPU's gather gets the same table,
     /// so both weigh every share exactly alike. Empty for the box, which weighs nothing.
     pub fn tap_table(self) -> &'static [[f32; 4]] {
         static TABLES: [std::sync::OnceLock<Vec<[f32; 4]>>; 3] =
@@ -161,13 +161,6 @@ impl Filter {
         })
     }
 
-    /// [`Filter::taps`] for a `position` on the grid ([`quantise`]), looked up in
-    /// [`Filter::tap_table`]: the same weights, bit for bit, without evaluating the profile.
-    #[inline(always)]
-    pub fn grid_taps(self, position: f32, extent: u32) -> (i32, [f32; TAPS]) {
-        self.grid().taps(position, extent)
-    }
-
     /// The filter with its table at hand, for weighing many shares ([`GridTaps::taps`]): the
     /// table is found once, not per share.
     #[inline(always)]
@@ -187,7 +180,8 @@ pub struct GridTaps {
 }
 
 impl GridTaps {
-    /// [`Filter::grid_taps`].
+    /// [`Filter::taps`] for a `position` on the grid ([`quantise`]), looked up in
+    /// [`Filter::tap_table`]: the same weights, bit for bit, without evaluating the profile.
     #[inline(always)]
     pub fn taps(&self, position: f32, extent: u32) -> (i32, [f32; TAPS]) {
         if self.filter.is_box() {
@@ -310,7 +304,7 @@ mod tests {
                         .fold(0, |bits, k| bits | (1 << k));
                     let row = table[inside * steps + at % steps];
                     assert_eq!(row[..3], weights, "{filter} at {position} of {extent}");
-                    let looked_up = filter.grid_taps(position, extent);
+                    let looked_up = filter.grid().taps(position, extent);
                     assert_eq!(
                         (looked_up.0, looked_up.1.map(f32::to_bits)),
                         (first, weights.map(f32::to_bits)),
