@@ -139,8 +139,11 @@ impl WeighTile<'_> {
             let finite = shares.iter().all(|s| s.rgb.iter().all(|v| v.is_finite()));
             rejected += u64::from(!finite);
             let mut own = [0.0f32; 3];
+            // A share with no light (a blocked ray's, a path that found none) would add zeros:
+            // most of a fisheye's frame, outside its image circle.
+            let lit = shares.iter().filter(|share| share.rgb != [0.0; 3]);
             if finite && filter.is_box() {
-                for share in shares {
+                for share in lit {
                     if share.offset == [0, 0] {
                         own = [
                             own[0] + share.rgb[0],
@@ -156,7 +159,7 @@ impl WeighTile<'_> {
                     }
                 }
             } else if finite {
-                for share in shares {
+                for share in lit {
                     let at = [x as f32 + share.position[0], y as f32 + share.position[1]];
                     spread.add(&taps, at, size, share.rgb);
                 }
