@@ -52,6 +52,14 @@ pub enum Kernel {
 /// 7 KiB as 8-lane masks) stays well inside L1.
 pub const BLOCK: usize = 256;
 
+/// Whether a block's rays are all blocked before the first surface (film points no ray leaves,
+/// such as a fisheye's frame outside its image circle): the kernels leave a blocked lane as it
+/// is, so such a block needs no work at all, not even its index and loss look-ups.
+#[inline(always)]
+fn skip_dead_block(alive: &[bool]) -> bool {
+    !alive.contains(&true)
+}
+
 /// Traces every alive ray of `rays` (lens frame, mm, unit directions) through all surfaces in
 /// the order of `travel`, in place: survivors end on the last surface crossed with their
 /// refracted direction; blocked rays get `alive = false` and keep the state they had when

@@ -8,7 +8,7 @@ use super::refract::{
     CONIC, LaneRay, NEWTON_STEPS, Newton, POLYNOMIAL, RaySlices, SPHERE, SurfaceConstants,
     normalise_direction, refract_at, refract_from_hit,
 };
-use super::{BLOCK, Plan};
+use super::{BLOCK, Plan, skip_dead_block};
 use crate::batch::RayBatch;
 
 /// The auto-vectorised kernel: in place on the batch's arrays, block by block.
@@ -21,6 +21,10 @@ pub(super) fn trace_plain(plan: &Plan, rays: &mut RayBatch, etas: &mut Vec<f32>)
     let mut start = 0;
     while start < len {
         let end = (start + BLOCK).min(len);
+        if skip_dead_block(&rays.alive[start..end]) {
+            start = end;
+            continue;
+        }
         let n = end - start;
         let spectral = plan.block_etas(start, n, etas);
         if let Some(losses) = &plan.losses {

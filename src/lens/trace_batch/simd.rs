@@ -8,7 +8,7 @@ use super::losses::LossScratch;
 use super::refract::{
     CONIC, LaneRay, POLYNOMIAL, SPHERE, SurfaceConstants, normalise_direction, refract_at,
 };
-use super::{BLOCK, Plan};
+use super::{BLOCK, Plan, skip_dead_block};
 use crate::batch::RayBatch;
 use crate::lens::diaphragm::StopClip;
 
@@ -41,6 +41,10 @@ pub(super) fn trace_simd(full_plan: &Plan, rays: &mut RayBatch, etas: &mut Vec<f
     let mut start = 0;
     while start < len {
         let end = (start + BLOCK).min(len);
+        if skip_dead_block(&rays.alive[start..end]) {
+            start = end;
+            continue;
+        }
         let chunks = (end - start).div_ceil(LANES);
         let spectral = full_plan.block_etas(start, end - start, etas);
         load_block(rays, start, end, &mut block);
