@@ -296,6 +296,8 @@ struct Scratch {
     /// probability.
     ghost_batch: GhostBatch,
     ghost_factor: Vec<(f32, f32)>,
+    /// The rays that need their wavelengths drawn: those still alive and the ghost samples.
+    needs_wavelengths: Vec<bool>,
 }
 
 thread_local! {
@@ -468,21 +470,40 @@ impl LensCamera<'_> {
             Some(table) => {
                 let n = out.rays.len();
                 let count = out.wavelength.len() / n.max(1);
+                // A ray blocked before the lens (most of a fisheye's frame) carries no light at
+                // any wavelength: it gets the d line and a factor of 0, and no draws.
+                let needs = &mut scratch.needs_wavelengths;
+                needs.clear();
+                needs.extend_from_slice(&out.rays.alive[..n]);
+                for &i in &scratch.ghosts {
+                    needs[i as usize] = true;
+                }
                 let [.., wave_u, set_inverse_density] = &mut scratch.u;
-                for (u, inverse_density) in wave_u.iter_mut().zip(set_inverse_density.iter_mut()) {
+                for ((u, inverse_density), _) in wave_u
+                    .iter_mut()
+                    .zip(set_inverse_density.iter_mut())
+                    .zip(needs.iter())
+                    .filter(|(_, needs)| **needs)
+                {
                     let set = draw_wavelength_set(*u, count as u32);
                     (*u, *inverse_density) = (set.u, set.inverse_density);
                 }
                 for k in 0..count {
                     let block = k * n..(k + 1) * n;
-                    for ((nm, weight), (&u, &inverse_density)) in out.wavelength[block.clone()]
-                        .iter_mut()
-                        .zip(&mut out.wavelength_weight[block])
-                        .zip(wave_u.iter().zip(set_inverse_density.iter()))
+                    for (((nm, weight), (&u, &inverse_density)), &needs) in out.wavelength
+                        [block.clone()]
+                    .iter_mut()
+                    .zip(&mut out.wavelength_weight[block])
+                    .zip(wave_u.iter().zip(set_inverse_density.iter()))
+                    .zip(needs.iter())
                     {
-                        let set = WavelengthSet { u, inverse_density };
-                        let sample = wavelength_of_set(set, k as u32, count as u32);
-                        (*nm, *weight) = (sample.nm, sample.inverse_pdf);
+                        (*nm, *weight) = if needs {
+                            let set = WavelengthSet { u, inverse_density };
+                            let sample = wavelength_of_set(set, k as u32, count as u32);
+                            (sample.nm, sample.inverse_pdf)
+                        } else {
+                            (FRAUNHOFER_D_NM as f32, 0.0)
+                        };
                     }
                 }
                 let wavelengths = Wavelengths {
