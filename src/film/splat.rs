@@ -64,6 +64,10 @@ pub struct Spread {
     pub height: u32,
     /// Row-major RGB sums.
     pub sums: Vec<[f32; 3]>,
+    /// Whether anything was added since the last reset: an untouched spread (a tile of a
+    /// fisheye's frame outside its image circle) is all zeros, which need neither clearing
+    /// nor adding to the film.
+    touched: bool,
 }
 
 impl Spread {
@@ -75,9 +79,17 @@ impl Spread {
             rect.y0 as i32 - border as i32,
         );
         (self.width, self.height) = (rect.width + 2 * border, rect.height + 2 * border);
-        self.sums.clear();
-        self.sums
-            .resize((self.width * self.height) as usize, [0.0; 3]);
+        let len = (self.width * self.height) as usize;
+        if self.touched || self.sums.len() != len {
+            self.sums.clear();
+            self.sums.resize(len, [0.0; 3]);
+        }
+        self.touched = false;
+    }
+
+    /// Whether any share was added since the last reset (otherwise every sum is zero).
+    pub fn touched(&self) -> bool {
+        self.touched
     }
 
     /// Adds `rgb` spread by `filter` from image position (`x`, `y`) (pixels, quantised) on a
@@ -86,6 +98,7 @@ impl Spread {
     /// are added without a test.
     #[inline(always)]
     pub fn add(&mut self, filter: &GridTaps, [x, y]: [f32; 2], size: [u32; 2], rgb: [f32; 3]) {
+        self.touched = true;
         let (first_x, weights_x) = filter.taps(x, size[0]);
         let (first_y, weights_y) = filter.taps(y, size[1]);
         let column = (first_x - self.x0) as usize;

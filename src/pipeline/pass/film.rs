@@ -66,8 +66,10 @@ pub fn write_film(
 /// WriteFilm with a filter wider than a pixel: every sum comes from the tiles' spreads, each
 /// tile taking the part of every spread that covers it, the spreads in image order.
 fn write_spreads(tiles: Vec<(Mut<FilmTile>, &TileBatch)>, stats: &mut RenderStats) {
+    // An untouched spread adds only zeros.
     let mut spreads: Vec<(PixelRect, &Spread)> = tiles
         .iter()
+        .filter(|(_, batch)| batch.spread.touched())
         .map(|(tile, batch)| (tile.rect(), &batch.spread))
         .collect();
     spreads.sort_by_key(|(rect, _)| (rect.y0, rect.x0));

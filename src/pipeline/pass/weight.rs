@@ -109,10 +109,23 @@ impl WeighTile<'_> {
         let mut shares = [Share::default(); MAX_WAVELENGTHS as usize];
         // Ray i is the tile's pixel i (FilmTile::pixels order): its pixel, kept as the rays
         // go by rather than divided out of i for each.
-        let (mut x, mut y) = (tile.x0, tile.y0);
+        let (mut next_x, mut next_y) = (tile.x0, tile.y0);
         for i in 0..n {
+            let (x, y) = (next_x, next_y);
+            next_x += 1;
+            if next_x == tile.x0 + tile.width {
+                (next_x, next_y) = (tile.x0, y + 1);
+            }
             let w = camera.weight[i];
-            let rgb = [radiance.r[i] * w, radiance.g[i] * w, radiance.b[i] * w];
+            let radiance_i = [radiance.r[i], radiance.g[i], radiance.b[i]];
+            // A ray the lens blocked (weight 0, and every wavelength's factor 0) adds nothing,
+            // which is all the loop below would find for it; a non-finite radiance still
+            // counts as rejected there.
+            if w == 0.0 && radiance_i.iter().all(|v| v.is_finite()) {
+                [radiance.r[i], radiance.g[i], radiance.b[i]] = [0.0; 3];
+                continue;
+            }
+            let rgb = radiance_i.map(|v| v * w);
             let mut made = 0;
             if count == 0 {
                 shares[0] = Share {
@@ -165,10 +178,6 @@ impl WeighTile<'_> {
                 }
             }
             [radiance.r[i], radiance.g[i], radiance.b[i]] = own;
-            x += 1;
-            if x == tile.x0 + tile.width {
-                (x, y) = (tile.x0, y + 1);
-            }
         }
         rejected
     }
