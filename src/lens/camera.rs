@@ -483,7 +483,7 @@ impl LensCamera<'_> {
                     .iter_mut()
                     .zip(set_inverse_density.iter_mut())
                     .zip(needs.iter())
-                    .filter(|(_, needs)| **needs)
+                    .filter(|(_, needed)| **needed)
                 {
                     let set = draw_wavelength_set(*u, count as u32);
                     (*u, *inverse_density) = (set.u, set.inverse_density);

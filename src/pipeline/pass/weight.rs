@@ -118,9 +118,9 @@ impl WeighTile<'_> {
             }
             let w = camera.weight[i];
             let radiance_i = [radiance.r[i], radiance.g[i], radiance.b[i]];
-            // A ray the lens blocked (weight 0, and every wavelength's factor 0) adds nothing,
-            // which is all the loop below would find for it; a non-finite radiance still
-            // counts as rejected there.
+            // A ray of weight 0 (the lens blocked it, or its hero wavelength) adds nothing:
+            // every share the loop below would make of it is its radiance times 0. A
+            // non-finite radiance still goes there, to be counted as rejected.
             if w == 0.0 && radiance_i.iter().all(|v| v.is_finite()) {
                 [radiance.r[i], radiance.g[i], radiance.b[i]] = [0.0; 3];
                 continue;
