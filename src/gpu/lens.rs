@@ -20,7 +20,7 @@ use super::compute::{Access, Bindings, storage_buffer, uniform_buffer};
 use super::context::{GpuContext, GpuUnavailable};
 use crate::film::filter::POSITION_STEP;
 use crate::glass::FRAUNHOFER_D_NM;
-use crate::lens::camera::{FilmTilt, GHOST_BLOCK, LensCamera, camera_seeds};
+use crate::lens::camera::{FilmTilt, GHOST_BLOCK, LensCamera, camera_seed};
 use crate::lens::ghost::GHOST_EVERY;
 use crate::lens::hero_wavelengths::{BACKWARD_START_MM, MAX_WAVELENGTHS, SPLAT_RADIUS};
 use crate::lens::pupil::{PupilSampling, SEGMENTS};
@@ -109,8 +109,8 @@ struct LensConstants {
     key_origin_x: u32,
     key_origin_y: u32,
     key_width: u32,
-    film_seed: u32,
-    pupil_seed: u32,
+    pattern_seed: u32,
+    wavelengths: u32,
     tilted: u32,
     spectral: u32,
     pupil_sampling: u32,
@@ -134,7 +134,6 @@ struct LensConstants {
     segments_offset: u32,
     dispersion_offset: u32,
     dispersion_lambda_min: f32,
-    wavelengths: u32,
     film_width: u32,
     film_height: u32,
     reflectance_offset: u32,
@@ -144,7 +143,7 @@ struct LensConstants {
     ghost_offset: u32,
     /// Ghost pairs; 0: no ghost samples.
     ghost_pairs: u32,
-    pad: u32,
+    pad: [u32; 2],
 }
 
 const _: () = assert!(size_of::<LensConstants>() == 288);
@@ -187,7 +186,7 @@ impl LensData {
         let keys = film.pixel_keys();
         let tilt = FilmTilt::of(&film.movements);
         let sampler = camera.pupil.sampler();
-        let (film_seed, pupil_seed) = camera_seeds(seed);
+        let pattern_seed = camera_seed(seed);
         let f32s = &camera.system.f32s;
 
         // Film to scene (camera rays), then scene to film (backward traces).
@@ -265,8 +264,8 @@ impl LensData {
             key_origin_x: keys.origin[0] as u32,
             key_origin_y: keys.origin[1] as u32,
             key_width: keys.width as u32,
-            film_seed,
-            pupil_seed,
+            pattern_seed,
+            wavelengths: camera.wavelengths_per_sample(),
             tilted: tilt.is_some() as u32,
             spectral: camera.dispersion.is_some() as u32,
             pupil_sampling: match sampler.sampling {
@@ -293,7 +292,6 @@ impl LensData {
             segments_offset: 0,
             dispersion_offset,
             dispersion_lambda_min: LAMBDA_MIN as f32,
-            wavelengths: camera.wavelengths_per_sample(),
             film_width: film.width,
             film_height: film.height,
             reflectance_offset,
@@ -301,7 +299,7 @@ impl LensData {
             indices_offset,
             ghost_offset,
             ghost_pairs: camera.ghosts.map_or(0, |g| g.pairs.len() as u32),
-            pad: 0,
+            pad: [0; 2],
         };
         LensData {
             constants,
@@ -475,7 +473,7 @@ mod tests {
     use crate::lens::movements::FilmMovements;
     use crate::lens::test_lens::{PLAIN, Setup, TestLens};
     use crate::sampling::hash32;
-    use crate::sampling::sobol::owen_sobol;
+    use crate::sampling::sobol::{DIMENSIONS, owen_sobol};
     use crate::spectral::sample_wavelength;
 
     /// The test kernels: group 3 holds their parameters and outputs, groups 1 and 2 are empty.
@@ -526,7 +524,7 @@ fn test_camera_wavelengths(@builtin(global_invocation_id) id: vec3u) {
     }
 }
 
-// Per index i: hash32(i'), then owen_sobol(i, d, key) for d = 0..3, with i' and key hashed
+// Per index i: hash32(i'), then owen_sobol(i, d, key) for d = 0..4, with i' and key hashed
 // from i so that every bit pattern occurs.
 @compute @workgroup_size(64)
 fn test_sampling(@builtin(global_invocation_id) id: vec3u) {
@@ -534,9 +532,9 @@ fn test_sampling(@builtin(global_invocation_id) id: vec3u) {
     if i >= test_params.count { return; }
     let word = i * 0x9e3779b9u;
     let key = hash32(word ^ 0x5bd1e995u);
-    test_bits[5u * i] = hash32(word);
-    for (var d = 0u; d < 4u; d++) {
-        test_bits[5u * i + 1u + d] = bitcast<u32>(owen_sobol(i, d, key));
+    test_bits[6u * i] = hash32(word);
+    for (var d = 0u; d < 5u; d++) {
+        test_bits[6u * i + 1u + d] = bitcast<u32>(owen_sobol(i, d, key));
     }
 }
 
@@ -1053,14 +1051,14 @@ fn test_spectral(@builtin(global_invocation_id) id: vec3u) {
             "test_sampling",
             params,
             1,
-            5 * COUNT as usize,
+            6 * COUNT as usize,
         );
         for i in 0..COUNT {
             let word = i.wrapping_mul(0x9e37_79b9);
             let key = hash32(word ^ 0x5bd1_e995);
-            let got = &bits[5 * i as usize..5 * i as usize + 5];
+            let got = &bits[6 * i as usize..6 * i as usize + 6];
             assert_eq!(got[0], hash32(word), "hash32({word:#x})");
-            for d in 0..4 {
+            for d in 0..DIMENSIONS {
                 assert_eq!(
                     f32::from_bits(got[1 + d]),
                     owen_sobol(i, d, key),

@@ -392,7 +392,7 @@ mod tests {
     #[test]
     fn ghost_samples_agree_with_random_reflection_at_every_surface() {
         use crate::lens::camera::{
-            CameraRays, LensCamera, camera_seeds, ghost_block_key, is_ghost_sample,
+            CameraRays, LensCamera, camera_seed, ghost_block_key, is_ghost_sample,
         };
         use crate::lens::pupil::concentric_disk;
         use crate::lens::test_lens::{PLAIN, TestLens};
@@ -410,7 +410,7 @@ mod tests {
         };
         let (x, y, seed) = (7u32, 5u32, 11u64);
         let keys = lens.film.pixel_keys();
-        let key = ghost_block_key(keys.key(x, y), keys.width as u32, camera_seeds(seed).0);
+        let key = ghost_block_key(keys.key(x, y), keys.width as u32, camera_seed(seed));
         let samples = 1u32 << 17;
         let mut out = CameraRays::default();
         let (mut sum, mut sum_sq) = (0.0f64, 0.0f64);

@@ -1,22 +1,28 @@
 //! Owen-scrambled Sobol points: samples that stay stratified jointly over several dimensions.
 //!
-//! A pixel's camera samples in a spectral render pair a pupil point with a wavelength; a lens's
-//! weight varies over the pupil (vignetting) and the film's colour weights over the wavelength,
-//! and only a pattern stratified in the three dimensions *together* keeps their product's sum
-//! from picking up the product of both variances (independently stratified dimensions, paired
-//! at random, do). Sobol's first dimensions are such a pattern; each pixel gets its own random
+//! A pixel's camera sample is a film point, a pupil point and, in a spectral render, a
+//! wavelength; what the pixel sees varies with all of them together (an edge's coverage with
+//! the film point, defocus and vignetting with the pupil point, colour with the wavelength),
+//! and only a pattern stratified in the dimensions *jointly* keeps their product's sum from
+//! picking up the product of the variances (independently stratified dimensions, paired at
+//! random, do). Sobol's first dimensions are such a pattern; each pixel gets its own random
 //! variant by nested uniform (Owen) scrambling, done with the hash-based permutation of Burley,
 //! "Practical Hash-based Owen Scrambling" (JCGT 2020).
 
 use super::hash32;
 
 /// Dimensions provided.
-pub const DIMENSIONS: usize = 4;
+pub const DIMENSIONS: usize = 5;
 
 /// Primitive polynomials (degree s, inner coefficient bits a) and initial direction numbers
-/// m₁…m_s of Sobol dimensions 2–4, from Joe & Kuo's tables; dimension 1 is van der Corput.
-const PARAMETERS: [(u32, u32, [u32; 3]); DIMENSIONS - 1] =
-    [(1, 0, [1, 0, 0]), (2, 1, [1, 3, 0]), (3, 1, [1, 3, 1])];
+/// m₁…m_s of Sobol dimensions 2–5, from Joe & Kuo's tables (new-joe-kuo-6.21201); dimension 1
+/// is van der Corput.
+const PARAMETERS: [(u32, u32, [u32; 3]); DIMENSIONS - 1] = [
+    (1, 0, [1, 0, 0]),
+    (2, 1, [1, 3, 0]),
+    (3, 1, [1, 3, 1]),
+    (3, 2, [1, 1, 1]),
+];
 
 /// Direction numbers v_k of each dimension (bit k of the index toggles v_k).
 const DIRECTIONS: [[u32; 32]; DIMENSIONS] = directions();
@@ -57,8 +63,8 @@ const fn directions() -> [[u32; 32]; DIMENSIONS] {
 
 /// XOR of the direction numbers that each byte of an index selects, per dimension and byte
 /// position: the Sobol point is linear over GF(2) in the index bits, so it is the XOR of four
-/// table entries. 4 × 4 × 256 words = 16 KiB.
-const BYTE_TABLES: [[[u32; 256]; 4]; DIMENSIONS] = byte_tables();
+/// table entries. 5 × 4 × 256 words = 20 KiB.
+static BYTE_TABLES: [[[u32; 256]; 4]; DIMENSIONS] = byte_tables();
 
 const fn byte_tables() -> [[[u32; 256]; 4]; DIMENSIONS] {
     let mut tables = [[[0u32; 256]; 4]; DIMENSIONS];
@@ -228,22 +234,60 @@ mod tests {
         let seeds: Vec<u32> = (0..1000u32).map(|i| hash32(i ^ 0x5eed)).collect();
         let mut scratch = SobolScratch::default();
         for index in [0u32, 1, 2, 7, 64, 1000, 65_535, 1 << 20, u32::MAX] {
-            let mut out = [
-                vec![0.0f32; seeds.len()],
-                vec![0.0; seeds.len()],
-                vec![0.0; 1000],
-            ];
-            let [a, b, c] = &mut out;
+            let mut out: [Vec<f32>; DIMENSIONS] = std::array::from_fn(|_| vec![0.0; seeds.len()]);
             owen_sobol_batch(
                 index,
                 &seeds,
-                [&mut a[..], &mut b[..], &mut c[..]],
+                out.each_mut().map(|v| &mut v[..]),
                 &mut scratch,
             );
             for (d, values) in out.iter().enumerate() {
                 for (&value, &seed) in values.iter().zip(&seeds) {
                     assert_eq!(value.to_bits(), owen_sobol(index, d, seed).to_bits());
                 }
+            }
+        }
+    }
+
+    /// The first 64 unscrambled points of all five dimensions, ×64, as an independent
+    /// implementation gives them: SciPy's `qmc.Sobol(d=5, scramble=False).random(64)` (Joe &
+    /// Kuo's numbers, generated in Gray-code order, so its point i is ours at i ⊕ (i ≫ 1)).
+    /// 64 points fix the first six direction numbers of each dimension: the initial ones and
+    /// three or more from each recurrence.
+    #[test]
+    fn unscrambled_points_are_scipys() {
+        const SCIPY: [[u32; 64]; DIMENSIONS] = [
+            [
+                0, 32, 48, 16, 24, 56, 40, 8, 12, 44, 60, 28, 20, 52, 36, 4, 6, 38, 54, 22, 30, 62,
+                46, 14, 10, 42, 58, 26, 18, 50, 34, 2, 3, 35, 51, 19, 27, 59, 43, 11, 15, 47, 63,
+                31, 23, 55, 39, 7, 5, 37, 53, 21, 29, 61, 45, 13, 9, 41, 57, 25, 17, 49, 33, 1,
+            ],
+            [
+                0, 32, 16, 48, 24, 56, 8, 40, 20, 52, 4, 36, 12, 44, 28, 60, 30, 62, 14, 46, 6, 38,
+                22, 54, 10, 42, 26, 58, 18, 50, 2, 34, 17, 49, 1, 33, 9, 41, 25, 57, 5, 37, 21, 53,
+                29, 61, 13, 45, 15, 47, 31, 63, 23, 55, 7, 39, 27, 59, 11, 43, 3, 35, 19, 51,
+            ],
+            [
+                0, 32, 16, 48, 40, 8, 56, 24, 60, 28, 44, 12, 20, 52, 4, 36, 30, 62, 14, 46, 54,
+                22, 38, 6, 34, 2, 50, 18, 10, 42, 26, 58, 45, 13, 61, 29, 5, 37, 21, 53, 17, 49, 1,
+                33, 57, 25, 41, 9, 51, 19, 35, 3, 27, 59, 11, 43, 15, 47, 31, 63, 39, 7, 55, 23,
+            ],
+            [
+                0, 32, 16, 48, 56, 24, 40, 8, 28, 60, 12, 44, 36, 4, 52, 20, 42, 10, 58, 26, 18,
+                50, 2, 34, 54, 22, 38, 6, 14, 46, 30, 62, 35, 3, 51, 19, 27, 59, 11, 43, 63, 31,
+                47, 15, 7, 39, 23, 55, 9, 41, 25, 57, 49, 17, 33, 1, 21, 53, 5, 37, 45, 13, 61, 29,
+            ],
+            [
+                0, 32, 48, 16, 24, 56, 40, 8, 36, 4, 20, 52, 60, 28, 12, 44, 18, 50, 34, 2, 10, 42,
+                58, 26, 54, 22, 6, 38, 46, 14, 30, 62, 9, 41, 57, 25, 17, 49, 33, 1, 45, 13, 29,
+                61, 53, 21, 5, 37, 27, 59, 43, 11, 3, 35, 51, 19, 63, 31, 15, 47, 39, 7, 23, 55,
+            ],
+        ];
+        for (dim, expected) in SCIPY.iter().enumerate() {
+            for (i, &x) in expected.iter().enumerate() {
+                let i = i as u32;
+                let ours = sobol_by_bits(i ^ (i >> 1), dim);
+                assert_eq!(ours, x << 26, "dimension {dim}, point {i}");
             }
         }
     }
@@ -257,27 +301,35 @@ mod tests {
         assert_eq!(third, [0.0, 0.5, 0.75, 0.25, 0.375, 0.875, 0.625, 0.125]);
     }
 
-    /// The first 2^m scrambled points of dimensions 1 and 2 put exactly one point in every
-    /// elementary interval of area 2^−m (a (0, m, 2)-net), for any pixel; each dimension and
-    /// every pair are stratified in 2^m equal intervals.
+    /// How a pixel's first 2^m scrambled points stratify, for any pixel (Owen scrambling keeps
+    /// the unscrambled net's properties). Dimensions 1 and 2 (the camera's pupil point) put
+    /// exactly one point in every elementary interval of area 2^−m (a (0, m, 2)-net);
+    /// dimensions 3 and 4 (its film point) two in every one of area 2^(1−m) (a (1, m,
+    /// 2)-net, the quality value of this pair of Joe & Kuo's dimensions); and every dimension
+    /// alone one point in each of 2^m equal intervals.
     #[test]
     fn scrambled_points_stay_stratified() {
         for seed in [1u32, 77, 0xdead_beef] {
             let m = 6u32;
             let n = 1u32 << m;
-            let points: Vec<[f32; 3]> = (0..n)
-                .map(|i| [0, 1, 2].map(|d| owen_sobol(i, d, seed)))
+            let points: Vec<[f32; DIMENSIONS]> = (0..n)
+                .map(|i| std::array::from_fn(|d| owen_sobol(i, d, seed)))
                 .collect();
-            for bits_x in 0..=m {
-                let (cx, cy) = (1u32 << bits_x, 1u32 << (m - bits_x));
-                let mut cells = vec![0; n as usize];
-                for p in &points {
-                    let i = (p[0] * cx as f32) as u32 + cx * (p[1] * cy as f32) as u32;
-                    cells[i as usize] += 1;
+            for ((a, b), t) in [((0, 1), 0), ((2, 3), 1)] {
+                for bits_x in 0..=m - t {
+                    let (cx, cy) = (1u32 << bits_x, 1u32 << (m - t - bits_x));
+                    let mut cells = vec![0; (n >> t) as usize];
+                    for p in &points {
+                        let i = (p[a] * cx as f32) as u32 + cx * (p[b] * cy as f32) as u32;
+                        cells[i as usize] += 1;
+                    }
+                    assert!(
+                        cells.iter().all(|&c| c == 1 << t),
+                        "seed {seed}, dimensions {a} and {b}, {cx}×{cy}"
+                    );
                 }
-                assert!(cells.iter().all(|&c| c == 1), "seed {seed}, {cx}×{cy}");
             }
-            for d in 0..3 {
+            for d in 0..DIMENSIONS {
                 let mut strata = vec![0; n as usize];
                 for p in &points {
                     strata[(p[d] * n as f32) as usize] += 1;

@@ -26,9 +26,10 @@ struct LensConstants {
     key_origin_x: u32,
     key_origin_y: u32,
     key_width: u32,
-    // The camera sample patterns' seeds (from Rng::for_sample(seed ^ CAMERA_KEY, ..)).
-    film_seed: u32,
-    pupil_seed: u32,
+    // The seed of the camera's sample patterns (camera.rs camera_seed).
+    pattern_seed: u32,
+    // Wavelengths per camera sample in a spectral render (1: the hero alone).
+    wavelengths: u32,
     tilted: u32,
     spectral: u32,
     // 0: within the exit-pupil bounds of the film point's segment; 1: over the rear element.
@@ -56,9 +57,7 @@ struct LensConstants {
     segments_offset: u32,
     dispersion_offset: u32,
     dispersion_lambda_min: f32,
-    // Wavelengths per camera sample in a spectral render (1: the hero alone), and the frame's
-    // size in pixels (where a companion wavelength's film point must land).
-    wavelengths: u32,
+    // The frame's size in pixels (where a companion wavelength's film point must land).
     film_width: u32,
     film_height: u32,
     // Where the surfaces' reflectance table starts in lens_tables (SurfaceReflectance: per
@@ -73,6 +72,7 @@ struct LensConstants {
     ghost_offset: u32,
     ghost_pairs: u32,
     pad0: u32,
+    pad1: u32,
 }
 
 // One surface in the order a camera ray meets it (film to scene): trace_batch's
@@ -133,8 +133,6 @@ const LENS_T_MIN: f32 = 1e-6;
 const LENS_NEWTON_STEPS: u32 = 16u;
 const LENS_F32_MAX: f32 = 3.40282347e38;
 const LENS_F32_EPSILON: f32 = 1.1920929e-7;
-// Mixed into a pixel's pupil key for its wavelength pattern (camera.rs WAVELENGTH_KEY).
-const LENS_WAVELENGTH_KEY: u32 = 0x57415645u;
 // camera.rs's GHOST_KEY.
 const LENS_GHOST_KEY: u32 = 0x47485354u;
 const LENS_FRAC_PI_4: f32 = 0.7853981633974483;
@@ -941,31 +939,25 @@ fn camera_ray(pixel_x: u32, pixel_y: u32, sample: u32) -> CameraRay {
 // then 1 (or 0) and the factors carry the rest.
 fn camera_ray_with(pixel_x: u32, pixel_y: u32, sample: u32,
                    wavelengths: ptr<function, CameraWavelengths>) -> CameraRay {
-    // The camera sample: film jitter, pupil point, and in a spectral render the wavelength,
-    // from the pixel's Owen-scrambled Sobol patterns (LensCamera::camera_samples).
+    // The camera sample: pupil point (dimensions 1-2), film jitter (3-4) and in a spectral
+    // render the wavelength (5) of the pixel's Owen-scrambled Sobol pattern
+    // (LensCamera::camera_samples).
     let pixel = (pixel_y + lens_constants.key_origin_y) * lens_constants.key_width + (pixel_x + lens_constants.key_origin_x);
-    let film_key = hash32(pixel ^ lens_constants.film_seed);
-    let film_u = owen_sobol(sample, 0u, film_key);
-    let film_v = owen_sobol(sample, 1u, film_key);
+    let pattern_key = hash32(pixel ^ lens_constants.pattern_seed);
+    let pupil_u = owen_sobol(sample, 0u, pattern_key);
+    let pupil_v = owen_sobol(sample, 1u, pattern_key);
+    let film_u = owen_sobol(sample, 2u, pattern_key);
+    let film_v = owen_sobol(sample, 3u, pattern_key);
     let jitter = lens_film_steps(vec2f(film_u, film_v));
     (*wavelengths).position[0] = jitter;
-    var pupil_u: f32;
-    var pupil_v: f32;
     var nm = 0.0;
     var wavelength_weight = 1.0;
     var wavelength_set = WavelengthSet(0.0, 1.0);
     if lens_constants.spectral != 0u {
-        let key = hash32(hash32(pixel ^ lens_constants.pupil_seed) ^ LENS_WAVELENGTH_KEY);
-        pupil_u = owen_sobol(sample, 0u, key);
-        pupil_v = owen_sobol(sample, 1u, key);
-        wavelength_set = draw_wavelength_set(owen_sobol(sample, 2u, key), lens_constants.wavelengths);
+        wavelength_set = draw_wavelength_set(owen_sobol(sample, 4u, pattern_key), lens_constants.wavelengths);
         let wavelength = sample_wavelength(wavelength_set.u);
         nm = wavelength.nm;
         wavelength_weight = wavelength.inverse_pdf * wavelength_set.inverse_density;
-    } else {
-        let key = hash32(film_key ^ lens_constants.pupil_seed);
-        pupil_u = owen_sobol(sample, 0u, key);
-        pupil_v = owen_sobol(sample, 1u, key);
     }
 
     // The film point (LensCamera::film_to_pupil), tilted about the frame centre.
@@ -991,7 +983,7 @@ fn camera_ray_with(pixel_x: u32, pixel_y: u32, sample: u32,
     // together.
     let block_x = (pixel % lens_constants.key_width) / GHOST_BLOCK_X;
     let block_y = (pixel / lens_constants.key_width) / GHOST_BLOCK_Y;
-    let block_key = hash32((block_y * 65536u + block_x) ^ lens_constants.film_seed);
+    let block_key = hash32((block_y * 65536u + block_x) ^ lens_constants.pattern_seed);
     if lens_constants.ghost_pairs != 0u
         && (sample + hash32(block_key ^ LENS_GHOST_KEY)) % GHOST_EVERY == 0u {
         let disk = lens_concentric_disk(pupil_u, pupil_v);
@@ -1001,7 +993,7 @@ fn camera_ray_with(pixel_x: u32, pixel_y: u32, sample: u32,
         let to = vec3f(rear.x - ox, rear.y - oy, rear_z - oz);
         let length = sqrt(to.x * to.x + to.y * to.y + to.z * to.z);
         var ray = LensRay(vec3f(ox, oy, oz), to / length, true);
-        let u = f32(hash32(hash32(film_key ^ LENS_GHOST_KEY) ^ sample) >> 8u)
+        let u = f32(hash32(hash32(pattern_key ^ LENS_GHOST_KEY) ^ sample) >> 8u)
             * (1.0 / 16777216.0);
         let passed = lens_ghost(&ray, u, nm);
         var weight = 0.0;
