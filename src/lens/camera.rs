@@ -692,7 +692,7 @@ impl LensCamera<'_> {
     /// three are stratified jointly. The pupil takes the first two, the best stratified pair
     /// (a (0, 2)-sequence): defocus, vignetting and the lens's colour all vary over it. Against
     /// a film pattern and a pupil (and wavelength) pattern of their own, this lowers the
-    /// luminance error by 6–10 % and the spectral chroma error by 2–8 % at the same spp on the
+    /// luminance error by 6–11 % and the spectral chroma error by 2–8 % at the same spp on the
     /// four course lenses (BENCHMARKS.md, "One Sobol pattern per pixel"). The sequences are
     /// progressive: sample *k* is the same whatever the target spp, so every prefix of a
     /// pixel's samples is well stratified, and a render continued to more samples (a resumed
