@@ -525,7 +525,8 @@ mod tests {
 
     /// The CPU clock resolves far finer than a measurement: read while the thread spins for
     /// 20 ms, it takes a new value at nearly every read (the scheduler-tick clock it replaced
-    /// took about five in that time), and it never runs ahead of the wall clock.
+    /// took about five in that time), and it does not run ahead of the wall clock (beyond the
+    /// two clocks' skew).
     #[cfg(unix)]
     #[test]
     fn the_thread_clock_resolves_a_measurement_finely() {
