@@ -284,7 +284,8 @@ struct Scratch {
     u: [Vec<f32>; 6],
     /// The companion wavelengths' backward traces.
     backward: BackwardScratch,
-    /// Each pixel's key of the pattern being drawn, and the Sobol batch's buffers.
+    /// Each pixel's pattern key (see [`LensCamera::camera_samples`]), and the Sobol batch's
+    /// buffers.
     keys: Vec<u32>,
     sobol: SobolScratch,
     /// The rays that are ghost samples (their indices, ascending), and per ghost sample the
@@ -584,8 +585,8 @@ impl LensCamera<'_> {
             let block = ghost_block_key(s.pixel[i], key_width, pattern_seed);
             if is_ghost_sample(block, sample) {
                 s.ghosts.push(i as u32);
-                s.ghost_u
-                    .push(ghost_pair_u(hash32(s.pixel[i] ^ pattern_seed), sample));
+                // `keys` holds each pixel's pattern key, as camera_samples made it.
+                s.ghost_u.push(ghost_pair_u(s.keys[i], sample));
                 out.rays.alive[i] = false;
             }
         }
