@@ -1,16 +1,27 @@
 //! Piecewise-constant distributions for importance sampling: 1D over weighted items or cells,
 //! 2D over image pixels (a marginal over rows, a conditional per row).
 
-/// A distribution proportional to non-negative weights. Sampling costs one binary search.
+/// A distribution proportional to non-negative weights, sampled by inverting its cdf.
+///
+/// The inversion starts from a guide table (Chen and Asau's index table): for u in the j-th of
+/// M equal bins of [0, 1) the item lies between the items of the bin's two ends, so the search
+/// is over those few entries, not all n (one or two for weights of similar size, as a
+/// light's triangles mostly are). The item drawn is the bisection's, exactly.
 #[derive(Clone, Debug, Default)]
 pub struct Distribution1D {
     /// Normalised weights.
     pub(crate) probabilities: Vec<f32>,
     /// cdf[i] = Σ_{j<i} probabilities[j]; cdf[0] = 0 and cdf[n] = 1 exactly.
     pub(crate) cdf: Vec<f32>,
+    /// guide[j] = the item drawn for u = j/M (M = guide.len() − 1, a power of two so that
+    /// u·M is exact), guide[M] = n − 1; empty when there is nothing to sample.
+    guide: Vec<u32>,
     /// Σ weights (before normalisation).
     total: f64,
 }
+
+/// The most bins a guide table has (a power of two, below 2²⁴ so that bin/M is an exact f32).
+const MAX_GUIDE_BINS: usize = 1 << 20;
 
 impl Distribution1D {
     /// Negative and non-finite weights count as zero. All-zero weights give an empty
@@ -31,6 +42,7 @@ impl Distribution1D {
             return Distribution1D {
                 probabilities: vec![0.0; weights.len()],
                 cdf: vec![0.0; weights.len() + 1],
+                guide: Vec::new(),
                 total: 0.0,
             };
         }
@@ -45,9 +57,11 @@ impl Distribution1D {
         if let Some(last) = cdf.last_mut() {
             *last = 1.0;
         }
+        let guide = guide_table(&cdf);
         Distribution1D {
             probabilities: weights.iter().map(|w| (w / total) as f32).collect(),
             cdf,
+            guide,
             total,
         }
     }
@@ -77,12 +91,16 @@ impl Distribution1D {
         if self.is_empty() {
             return None;
         }
-        let n = self.probabilities.len();
-        let index = self
-            .cdf
-            .partition_point(|&c| c <= u)
-            .saturating_sub(1)
-            .min(n - 1);
+        let index = if (0.0..1.0).contains(&u) {
+            // u·M is exact, so u lies in [bin/M, (bin + 1)/M): its item is at least the
+            // bin's start's and at most its end's, and the last of those whose cdf ≤ u.
+            let bins = self.guide.len() - 1;
+            let bin = (u * bins as f32) as usize;
+            let (first, last) = (self.guide[bin] as usize, self.guide[bin + 1] as usize);
+            first + self.cdf[first + 1..=last].partition_point(|&c| c <= u)
+        } else {
+            self.bisect(u)
+        };
         let (low, high) = (self.cdf[index], self.cdf[index + 1]);
         let within = if high > low {
             ((u - low) / (high - low)).clamp(0.0, 1.0 - f32::EPSILON / 2.0)
@@ -90,6 +108,16 @@ impl Distribution1D {
             0.0
         };
         Some((index, within))
+    }
+
+    /// The item for `u` by bisection of the whole cdf: the last whose cdf entry is ≤ u (so
+    /// never a zero-probability item), clamped to the items. What the guide table finds.
+    fn bisect(&self, u: f32) -> usize {
+        let n = self.probabilities.len();
+        self.cdf
+            .partition_point(|&c| c <= u)
+            .saturating_sub(1)
+            .min(n - 1)
     }
 
     /// Draws a point x ∈ [0, 1) of the piecewise-constant density over n equal cells:
@@ -113,6 +141,25 @@ impl Distribution1D {
         let cell = ((x * n as f32) as usize).min(n - 1);
         self.probabilities[cell] * n as f32
     }
+}
+
+/// The guide table of a distribution's `cdf` (n + 1 entries, 0 to 1): for each of M bins
+/// (the power of two at or above n, at most [`MAX_GUIDE_BINS`]) the item drawn at the bin's
+/// start, the last i < n with cdf[i] ≤ j/M; then n − 1 for u → 1. One walk along the cdf.
+fn guide_table(cdf: &[f32]) -> Vec<u32> {
+    let n = cdf.len() - 1;
+    let bins = n.next_power_of_two().min(MAX_GUIDE_BINS);
+    let mut guide = Vec::with_capacity(bins + 1);
+    let mut item = 0;
+    for bin in 0..bins {
+        let start = bin as f32 / bins as f32;
+        while item + 1 < n && cdf[item + 1] <= start {
+            item += 1;
+        }
+        guide.push(item as u32);
+    }
+    guide.push((n - 1) as u32);
+    guide
 }
 
 /// A piecewise-constant density over the unit square, given as a grid of cell weights
@@ -179,6 +226,42 @@ mod tests {
         // Edges of [0, 1).
         assert_eq!(d.sample(0.0).unwrap().0, 0);
         assert_eq!(d.sample(1.0 - f32::EPSILON).unwrap().0, 2);
+    }
+
+    /// The guide table finds the bisection's item for every u: at every bin's edges and
+    /// between them, for even, skewed and heavy-tailed weights, runs of zeros at either end
+    /// and inside, one item, and more items than bins.
+    #[test]
+    fn the_guide_table_draws_the_bisections_item() {
+        let mut rng = Rng::new(7, 3);
+        let skewed: Vec<f32> = (0..1000).map(|i| ((i % 97) as f32).powi(4)).collect();
+        let tail: Vec<f32> = (0..300).map(|i| 1e-12 + (i == 150) as u32 as f32).collect();
+        let zeros: Vec<f32> = [0.0; 5]
+            .into_iter()
+            .chain([2.0, 0.0, 0.0, 1.0, 0.5])
+            .chain([0.0; 7])
+            .collect();
+        let even = vec![1.0f32; 128];
+        let many: Vec<f32> = (0..(MAX_GUIDE_BINS + 4321))
+            .map(|i| 1.0 + (i % 3) as f32)
+            .collect();
+        for weights in [skewed, tail, zeros, even, vec![3.0], many] {
+            let d = Distribution1D::new(weights.iter().copied());
+            let bins = d.guide.len() - 1;
+            assert!(bins.is_power_of_two() && bins >= weights.len().min(MAX_GUIDE_BINS));
+            let mut us: Vec<f32> = vec![0.0, f32::MIN_POSITIVE, 0.5, 1.0 - f32::EPSILON / 2.0];
+            for bin in (0..bins).step_by((bins / 4096).max(1)) {
+                let edge = bin as f32 / bins as f32;
+                us.extend([edge, edge.next_up(), edge.next_down().max(0.0)]);
+            }
+            us.extend(d.cdf.iter().flat_map(|&c| [c, c.next_up(), c.next_down()]));
+            us.extend((0..20_000).map(|_| rng.next_f32()));
+            for u in us.into_iter().filter(|u| (0.0..1.0).contains(u)) {
+                let (index, _) = d.sample(u).unwrap();
+                assert_eq!(index, d.bisect(u), "u = {u} of {} items", weights.len());
+                assert!(d.probability(index) > 0.0, "u = {u}");
+            }
+        }
     }
 
     #[test]
