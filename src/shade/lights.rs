@@ -77,11 +77,21 @@ pub struct LightSample {
     pub target: ShadowTarget,
 }
 
-/// An emissive triangle and its area.
+/// An emissive triangle, with what a light sample on it needs, found once when the lights are
+/// prepared rather than per sample (its vertices come out of BVH space by three divisions
+/// each, twice a sample).
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct Emitter {
     pub(crate) triangle: u32,
     pub(crate) area: f32,
+    /// World-space vertices ([`SceneAccel::triangle_vertices`]).
+    vertices: [Vec3; 3],
+    /// Unit normal, (p1 − p0) × (p2 − p0) normalised.
+    normal: Vec3,
+    /// [`SceneAccel::triangle_spawn_offset`].
+    spawn_offset: f32,
+    /// [`SceneAccel::triangle_material`].
+    material: Option<usize>,
 }
 
 #[derive(Clone, Copy, Debug)]
@@ -249,14 +259,14 @@ impl LightSet {
         if accel.is_alpha_hole(emitter.triangle, u, v) {
             return None;
         }
-        let [p0, p1, p2] = accel.triangle_vertices(emitter.triangle);
+        let [p0, p1, p2] = emitter.vertices;
         let light_point = p0 * (1.0 - u - v) + p1 * u + p2 * v;
-        let normal = (p1 - p0).cross(p2 - p0).normalize_or_zero();
+        let normal = emitter.normal;
         let to_light = light_point - position;
         let distance2 = to_light.length_squared();
         let direction = to_light.normalize_or_zero();
         let cos_light = -normal.dot(direction);
-        let material = materials.get(accel.triangle_material(emitter.triangle));
+        let material = materials.get(emitter.material);
         if direction == Vec3::ZERO || !emits_towards(material, cos_light < 0.0) {
             return None;
         }
@@ -276,7 +286,7 @@ impl LightSet {
             target: ShadowTarget::Surface {
                 position: light_point,
                 normal,
-                offset: accel.triangle_spawn_offset(emitter.triangle),
+                offset: emitter.spawn_offset,
             },
         })
     }
@@ -330,11 +340,12 @@ fn emissive_triangles(accel: &SceneAccel, materials: &MaterialLibrary) -> (Vec<E
     let mut emitters = Vec::new();
     let mut weights = Vec::new();
     for triangle in 0..accel.triangle_count() as u32 {
-        let material = materials.get(accel.triangle_material(triangle));
+        let material_index = accel.triangle_material(triangle);
+        let material = materials.get(material_index);
         if !material.is_emissive() {
             continue;
         }
-        let [p0, p1, p2] = accel.triangle_vertices(triangle);
+        let vertices @ [p0, p1, p2] = accel.triangle_vertices(triangle);
         let area = 0.5 * (p1 - p0).cross(p2 - p0).length();
         if !(area > 0.0 && area.is_finite()) {
             continue;
@@ -360,7 +371,14 @@ fn emissive_triangles(accel: &SceneAccel, materials: &MaterialLibrary) -> (Vec<E
             luminance(emitted_radiance(material, &materials.textures, Vec2::ZERO))
         };
         let sides = if material.double_sided { 2.0 } else { 1.0 };
-        emitters.push(Emitter { triangle, area });
+        emitters.push(Emitter {
+            triangle,
+            area,
+            vertices,
+            normal: (p1 - p0).cross(p2 - p0).normalize_or_zero(),
+            spawn_offset: accel.triangle_spawn_offset(triangle),
+            material: material_index,
+        });
         weights.push(area * mean_luminance * sides);
     }
     (emitters, weights)
