@@ -96,6 +96,9 @@ pub struct SceneAccel {
     alpha_masks: AlphaMasks,
     /// World → BVH space scale, an exact power of two (see `triangles::bvh_space_scale`).
     pub(crate) bvh_scale: f32,
+    /// 1 / `bvh_scale`, exact: multiplying by it divides by `bvh_scale` bit for bit (both are
+    /// the correctly rounded x·2⁻ᵏ), for a fraction of a division's cost.
+    world_per_bvh_unit: f32,
     /// The same tree with float boxes, for the CPU's own traversal (`None` for an empty scene
     /// or a tree it cannot hold: see [`WideBvh::from_cwbvh`]).
     wide: Option<WideBvh>,
@@ -177,6 +180,7 @@ impl SceneAccel {
             vertices: soup.vertices,
             alpha_masks: AlphaMasks::new(materials),
             bvh_scale,
+            world_per_bvh_unit: 1.0 / bvh_scale,
             wide,
             bounds: soup.bounds,
             dropped_triangles: soup.dropped,
@@ -267,7 +271,7 @@ impl SceneAccel {
     #[inline(always)]
     fn to_hit(&self, closest: Option<(usize, TriangleHit)>) -> Option<Hit> {
         closest.map(|(index, hit)| Hit {
-            t: hit.t / self.bvh_scale,
+            t: hit.t * self.world_per_bvh_unit,
             triangle: index as u32,
             u: hit.u,
             v: hit.v,
@@ -426,7 +430,7 @@ impl SceneAccel {
                 };
                 for lane in 0..n {
                     if hits.triangle[lane] != u32::MAX {
-                        out.t[lane] = hits.t[lane] / self.bvh_scale;
+                        out.t[lane] = hits.t[lane] * self.world_per_bvh_unit;
                         out.triangle[lane] = hits.triangle[lane];
                         out.u[lane] = hits.u[lane];
                         out.v[lane] = hits.v[lane];
@@ -459,7 +463,8 @@ impl SceneAccel {
         self.primitives
             .get(triangle as usize)
             .map_or([Vec3::ZERO; 3], |p| {
-                p.vertices().map(|v| Vec3::from(v) / self.bvh_scale)
+                p.vertices()
+                    .map(|v| Vec3::from(v) * self.world_per_bvh_unit)
             })
     }
 

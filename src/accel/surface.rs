@@ -74,7 +74,7 @@ impl SceneAccel {
         };
         let (u, v) = (hit.u, hit.v);
         let w = 1.0 - u - v;
-        let position = Vec3::from(primitive.point(u, v)) / self.bvh_scale;
+        let position = Vec3::from(primitive.point(u, v)) * self.world_per_bvh_unit;
         // Zero-area triangles were dropped at build, so the winding normal is non-zero.
         let front_normal = Vec3::from(primitive.winding_normal()).normalize_or(Vec3::Z);
         let back_face = front_normal.dot(ray_direction) > 0.0;
@@ -121,9 +121,7 @@ impl SceneAccel {
             uv,
             material: (record.material != NO_MATERIAL).then_some(record.material as usize),
             back_face,
-            spawn_offset: triangle_spawn_offset(
-                primitive.vertices().map(|v| Vec3::from(v) / self.bvh_scale),
-            ),
+            spawn_offset: triangle_spawn_offset(primitive.vertices(), self.world_per_bvh_unit),
         }
     }
 }
