@@ -34,6 +34,46 @@ impl WrapMode {
         };
         wrapped as usize
     }
+
+    /// [`Self::wrap`] of `coordinate` and of the texel after it (`coordinate.saturating_add(1)`),
+    /// the two columns or rows a bilinear footprint reads: one reduction for both, and none
+    /// (a mask) for a power-of-two `size`, where x mod 2^k is x's low k bits.
+    #[inline]
+    fn wrap_pair(self, coordinate: i64, size: u32) -> (usize, usize) {
+        let size = i64::from(size);
+        // The period of the mode's pattern, and where in it the coordinate and the next lie.
+        let period = match self {
+            WrapMode::Repeat => size,
+            WrapMode::MirroredRepeat => 2 * size,
+            WrapMode::ClampToEdge => {
+                let next = coordinate.saturating_add(1);
+                return (
+                    coordinate.clamp(0, size - 1) as usize,
+                    next.clamp(0, size - 1) as usize,
+                );
+            }
+        };
+        let first = if period & (period - 1) == 0 {
+            coordinate & (period - 1)
+        } else {
+            coordinate.rem_euclid(period)
+        };
+        let second = if coordinate == i64::MAX {
+            first
+        } else if first + 1 == period {
+            0
+        } else {
+            first + 1
+        };
+        let unfold = |in_period: i64| {
+            if in_period < size {
+                in_period as usize
+            } else {
+                (2 * size - 1 - in_period) as usize
+            }
+        };
+        (unfold(first), unfold(second))
+    }
 }
 
 /// How an image's stored values encode colour.
@@ -131,10 +171,13 @@ impl Texture {
         if self.nearest {
             return self.texel(x0, y0);
         }
-        // saturating_add keeps the +1 from overflowing for huge coordinates.
-        let (x1, y1) = (x0.saturating_add(1), y0.saturating_add(1));
-        let top = lerp4(self.texel(x0, y0), self.texel(x1, y0), fx);
-        let bottom = lerp4(self.texel(x0, y1), self.texel(x1, y1), fx);
+        // The neighbours by saturating_add, which keeps the +1 from overflowing for huge
+        // coordinates, each wrapped.
+        let (column0, column1) = self.wrap_s.wrap_pair(x0, self.width);
+        let (row0, row1) = self.wrap_t.wrap_pair(y0, self.height);
+        let at = |column: usize, row: usize| self.texel_at(row * self.width as usize + column);
+        let top = lerp4(at(column0, row0), at(column1, row0), fx);
+        let bottom = lerp4(at(column0, row1), at(column1, row1), fx);
         lerp4(top, bottom, fy)
     }
 
@@ -146,9 +189,15 @@ impl Texture {
             return;
         }
         let (x0, y0, _) = self.footprint(uv);
-        let rows = if self.nearest { 1 } else { 2 };
-        for y in (0..rows).map(|k| y0.saturating_add(k)) {
-            prefetch_at(&self.texels, self.index(x0, y));
+        let column = self.wrap_s.wrap(x0, self.width);
+        let (row0, row1) = self.wrap_t.wrap_pair(y0, self.height);
+        let rows = if self.nearest {
+            &[row0][..]
+        } else {
+            &[row0, row1]
+        };
+        for &row in rows {
+            prefetch_at(&self.texels, row * self.width as usize + column);
         }
     }
 
@@ -176,10 +225,11 @@ impl Texture {
     }
 
     fn texel(&self, x: i64, y: i64) -> [f32; 4] {
-        self.texels
-            .get(self.index(x, y))
-            .copied()
-            .unwrap_or(MISSING_TEXEL)
+        self.texel_at(self.index(x, y))
+    }
+
+    fn texel_at(&self, index: usize) -> [f32; 4] {
+        self.texels.get(index).copied().unwrap_or(MISSING_TEXEL)
     }
 
     /// Where texel (`x`, `y`) lies in `texels`, wrapped.
@@ -304,6 +354,35 @@ mod tests {
         );
         assert_eq!(texture.sample(Vec2::new(0.5, 0.1))[0], 1.0);
         assert_eq!(texture.sample(Vec2::new(0.5, 0.9))[0], 0.0);
+    }
+
+    /// The pair a bilinear footprint wraps at once is the two coordinates wrapped one by one,
+    /// for every mode, sizes with and without a power of two, and coordinates far out on
+    /// both sides, up to the ones `saturating_add` stops at.
+    #[test]
+    fn a_wrapped_pair_is_each_coordinate_wrapped() {
+        let extremes = [
+            i64::MIN,
+            i64::MIN + 1,
+            i64::MAX - 1,
+            i64::MAX,
+            -(1 << 40),
+            1 << 40,
+        ];
+        let coordinates: Vec<i64> = (-300..300).chain(extremes).collect();
+        for mode in [
+            WrapMode::Repeat,
+            WrapMode::MirroredRepeat,
+            WrapMode::ClampToEdge,
+        ] {
+            for size in (1..=70).chain([255, 256, 257, 1024, 2048, 3000]) {
+                for &c in &coordinates {
+                    let pair = mode.wrap_pair(c, size);
+                    let each = (mode.wrap(c, size), mode.wrap(c.saturating_add(1), size));
+                    assert_eq!(pair, each, "{mode:?}, size {size}, coordinate {c}");
+                }
+            }
+        }
     }
 
     #[test]
