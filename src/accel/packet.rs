@@ -74,6 +74,94 @@ impl PacketRays {
     }
 }
 
+/// Eight rays of a batch in BVH space, as a packet ([`load_packet_avx2`]).
+pub(super) struct LoadedPacket {
+    pub rays: PacketRays,
+    /// Bit i: ray i can be traced (alive, finite, with a direction).
+    pub active: u32,
+    /// Bit o: some active ray heads into octant o (obvhs's `d < 0` per axis, x in bit 0).
+    pub octants: u8,
+}
+
+/// Rays `first..first + 8` of `rays` as a packet in BVH space (positions times `scale`), 8 at
+/// once: each lane's values are `Ray::new`'s for `SceneAccel::bvh_ray`'s ray, bit for bit
+/// (the same IEEE operations: the scale's product, obvhs's `safe_inverse` as both quotients and
+/// a select), and a lane is active where `bvh_ray` makes a ray (origin and direction finite,
+/// the direction not zero). Inactive lanes hold whatever their values gave.
+#[target_feature(enable = "avx2")]
+pub(super) fn load_packet_avx2(
+    rays: &crate::batch::RayBatch,
+    first: usize,
+    scale: f32,
+) -> LoadedPacket {
+    let lanes = first..first + LANES;
+    let load = |v: &[f32]| {
+        let v: &[f32; LANES] = v[lanes.clone()].try_into().expect("eight lanes");
+        // SAFETY: eight floats; unaligned load.
+        unsafe { _mm256_loadu_ps(v.as_ptr()) }
+    };
+    let origin = [load(&rays.ox), load(&rays.oy), load(&rays.oz)];
+    let direction = [load(&rays.dx), load(&rays.dy), load(&rays.dz)];
+    let zero = _mm256_setzero_ps();
+    let infinity = _mm256_set1_ps(f32::INFINITY);
+    let sign_bit = _mm256_set1_ps(-0.0);
+    // |x| < ∞ is false for ±∞ and NaN alike: `is_finite`.
+    let finite = |x: __m256| _mm256_cmp_ps::<_CMP_LT_OQ>(_mm256_andnot_ps(sign_bit, x), infinity);
+    let mut valid = _mm256_and_ps(
+        _mm256_and_ps(finite(origin[0]), finite(origin[1])),
+        _mm256_and_ps(finite(origin[2]), finite(direction[0])),
+    );
+    valid = _mm256_and_ps(
+        valid,
+        _mm256_and_ps(finite(direction[1]), finite(direction[2])),
+    );
+    // `direction != Vec3::ZERO`: some component differs from zero (−0 equals 0).
+    let nonzero = _mm256_or_ps(
+        _mm256_or_ps(
+            _mm256_cmp_ps::<_CMP_NEQ_OQ>(direction[0], zero),
+            _mm256_cmp_ps::<_CMP_NEQ_OQ>(direction[1], zero),
+        ),
+        _mm256_cmp_ps::<_CMP_NEQ_OQ>(direction[2], zero),
+    );
+    let alive = rays.alive[lanes.clone()]
+        .iter()
+        .enumerate()
+        .fold(0u32, |bits, (lane, &alive)| bits | u32::from(alive) << lane);
+    let active = _mm256_movemask_ps(_mm256_and_ps(valid, nonzero)) as u32 & alive;
+
+    let mut packet = PacketRays::default();
+    let store = |to: &mut [f32; LANES], x: __m256| {
+        // SAFETY: eight floats; unaligned store.
+        unsafe { _mm256_storeu_ps(to.as_mut_ptr(), x) }
+    };
+    let scale = _mm256_set1_ps(scale);
+    let one = _mm256_set1_ps(1.0);
+    let epsilon = _mm256_set1_ps(f32::EPSILON);
+    let mut negative = [0u32; 3];
+    for axis in 0..3 {
+        let d = direction[axis];
+        store(&mut packet.origin[axis], _mm256_mul_ps(origin[axis], scale));
+        store(&mut packet.direction[axis], d);
+        // safe_inverse: signum(d) / ε where |d| ≤ ε (signum of ±0 is ±1), else 1 / d.
+        let signum = _mm256_or_ps(_mm256_and_ps(d, sign_bit), one);
+        let tiny = _mm256_cmp_ps::<_CMP_LE_OQ>(_mm256_andnot_ps(sign_bit, d), epsilon);
+        let inverse = _mm256_blendv_ps(_mm256_div_ps(one, d), _mm256_div_ps(signum, epsilon), tiny);
+        store(&mut packet.inv_direction[axis], inverse);
+        negative[axis] = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LT_OQ>(d, zero)) as u32;
+    }
+    packet.tmax = [f32::INFINITY; LANES];
+    let mut octants = 0u8;
+    for lane in set_bits(active) {
+        let bit = |axis: usize| (negative[axis] >> lane) as u8 & 1;
+        octants |= 1 << (bit(0) | bit(1) << 1 | bit(2) << 2);
+    }
+    LoadedPacket {
+        rays: packet,
+        active,
+        octants,
+    }
+}
+
 /// A child some rays of the packet (bit i: ray i) still have to visit.
 #[derive(Clone, Copy)]
 pub(super) struct StackEntry {
@@ -343,5 +431,110 @@ impl TrianglePrimitive {
         );
         let hit = _mm256_and_si256(_mm256_castps_si256(ok), lanes_in);
         (hit, t, u, v)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use std::sync::Arc;
+
+    use glam::{Mat4, Vec3};
+
+    use super::*;
+    use crate::accel::SceneAccel;
+    use crate::batch::RayBatch;
+    use crate::sampling::Rng;
+    use crate::scene::{MaterialLibrary, Mesh, MeshInstance};
+
+    /// The vectorised packet load gives each lane what the one-ray construction gives
+    /// (`SceneAccel::bvh_ray`, then `PacketRays::set`), bit for bit, and the same active lanes
+    /// and octants: for ordinary rays and for the edge cases of `bvh_ray` and `safe_inverse`
+    /// (dead, non-finite, zero and signed-zero directions, components within ε of zero).
+    #[test]
+    fn a_packet_loaded_eight_at_once_is_the_one_ray_construction() {
+        if !std::arch::is_x86_feature_detected!("avx2") {
+            return;
+        }
+        // A scene 40 m across, so that BVH space is scaled by a power of two other than 1.
+        let mesh = Mesh {
+            positions: vec![
+                Vec3::ZERO,
+                Vec3::new(40.0, 0.0, 0.0),
+                Vec3::new(0.0, 40.0, 0.0),
+            ],
+            triangles: vec![[0, 1, 2]],
+            ..Default::default()
+        };
+        let instance = MeshInstance {
+            mesh: Arc::new(mesh),
+            world_from_local: Mat4::IDENTITY,
+            node_name: None,
+        };
+        let accel = SceneAccel::build(&[instance], &MaterialLibrary::default()).expect("build");
+        assert_ne!(accel.bvh_scale, 1.0);
+        let special = [
+            0.0,
+            -0.0,
+            f32::EPSILON,
+            -f32::EPSILON,
+            f32::EPSILON * 1.5,
+            1e-30,
+            -1e-30,
+            f32::INFINITY,
+            f32::NAN,
+            3.5,
+            -2.25,
+        ];
+        let mut rng = Rng::new(3, 4);
+        let mut pick = |rng: &mut Rng| {
+            if rng.next_f32() < 0.3 {
+                special[(rng.next_f32() * special.len() as f32) as usize % special.len()]
+            } else {
+                (rng.next_f32() - 0.5) * 20.0
+            }
+        };
+        let mut rays = RayBatch::default();
+        for _ in 0..8 * 400 {
+            let origin = [pick(&mut rng), pick(&mut rng), pick(&mut rng)];
+            let direction = [pick(&mut rng), pick(&mut rng), pick(&mut rng)];
+            rays.push(origin, direction, 0, 0);
+        }
+        for i in 0..rays.len() {
+            rays.alive[i] = rng.next_f32() < 0.9;
+        }
+        let bits = |lanes: &[[f32; LANES]; 3], lane: usize| lanes.map(|axis| axis[lane].to_bits());
+        for first in (0..rays.len()).step_by(LANES) {
+            // SAFETY: AVX2 was detected above.
+            let loaded = unsafe { load_packet_avx2(&rays, first, accel.bvh_scale) };
+            let (mut expected, mut active, mut octants) = (PacketRays::default(), 0u32, 0u8);
+            for lane in 0..LANES {
+                let i = first + lane;
+                let d = rays.direction(i);
+                let ray = accel.bvh_ray(Vec3::from(rays.origin(i)), Vec3::from(d), f32::INFINITY);
+                if let (true, Some(ray)) = (rays.alive[i], ray) {
+                    expected.set(lane, &ray);
+                    active |= 1 << lane;
+                    octants |= 1
+                        << (u8::from(d[0] < 0.0)
+                            | u8::from(d[1] < 0.0) << 1
+                            | u8::from(d[2] < 0.0) << 2);
+                }
+            }
+            assert_eq!(loaded.active, active, "rays {first}..");
+            assert_eq!(loaded.octants, octants, "rays {first}..");
+            for lane in set_bits(active) {
+                let got = &loaded.rays;
+                assert_eq!(bits(&got.origin, lane), bits(&expected.origin, lane));
+                assert_eq!(bits(&got.direction, lane), bits(&expected.direction, lane));
+                assert_eq!(
+                    bits(&got.inv_direction, lane),
+                    bits(&expected.inv_direction, lane),
+                    "ray {}: {:?}",
+                    first + lane,
+                    rays.direction(first + lane)
+                );
+                assert_eq!(got.tmax[lane].to_bits(), expected.tmax[lane].to_bits());
+            }
+        }
     }
 }
