@@ -486,7 +486,7 @@ mod tests {
             -2.25,
         ];
         let mut rng = Rng::new(3, 4);
-        let mut pick = |rng: &mut Rng| {
+        let pick = |rng: &mut Rng| {
             if rng.next_f32() < 0.3 {
                 special[(rng.next_f32() * special.len() as f32) as usize % special.len()]
             } else {
