@@ -388,33 +388,26 @@ impl SceneAccel {
         if self.obvhs_traversal == Traversal::Avx2
             && let Some(wide) = self.wide.as_ref()
         {
-            let (mut packet, active, octants) = if n == packet::LANES {
-                // SAFETY: `Traversal::fastest_obvhs` found AVX2 on this CPU.
-                let loaded = unsafe { packet::load_packet_avx2(rays, first, self.bvh_scale) };
-                (loaded.rays, loaded.active, loaded.octants)
-            } else {
-                let mut packet = packet::PacketRays::default();
-                let mut active = 0u32;
-                let mut octants = 0u8;
-                for (lane, ray) in (first..first + n).enumerate() {
-                    if !rays.alive[ray] {
-                        continue;
-                    }
-                    let d = rays.direction(ray);
-                    if let Some(r) =
-                        self.bvh_ray(Vec3::from(rays.origin(ray)), Vec3::from(d), f32::INFINITY)
-                    {
-                        packet.set(lane, &r);
-                        active |= 1 << lane;
-                        // obvhs's octant test: `d < 0` per axis.
-                        octants |= 1
-                            << (u8::from(d[0] < 0.0)
-                                | u8::from(d[1] < 0.0) << 1
-                                | u8::from(d[2] < 0.0) << 2);
-                    }
+            let mut packet = packet::PacketRays::default();
+            let mut active = 0u32;
+            let mut octants = 0u8;
+            for (lane, ray) in (first..first + n).enumerate() {
+                if !rays.alive[ray] {
+                    continue;
                 }
-                (packet, active, octants)
-            };
+                let d = rays.direction(ray);
+                if let Some(r) =
+                    self.bvh_ray(Vec3::from(rays.origin(ray)), Vec3::from(d), f32::INFINITY)
+                {
+                    packet.set(lane, &r);
+                    active |= 1 << lane;
+                    // obvhs's octant test: `d < 0` per axis.
+                    octants |= 1
+                        << (u8::from(d[0] < 0.0)
+                            | u8::from(d[1] < 0.0) << 1
+                            | u8::from(d[2] < 0.0) << 2);
+                }
+            }
             if active.count_ones() > 1 && octants.count_ones() == 1 {
                 // Lanes without a ray carry a copy of an alive one, masked off.
                 let lead = active.trailing_zeros() as usize;
