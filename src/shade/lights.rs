@@ -78,8 +78,8 @@ pub struct LightSample {
 }
 
 /// An emissive triangle, with what a light sample on it needs, found once when the lights are
-/// prepared rather than per sample (its vertices come out of BVH space by three divisions
-/// each, twice a sample).
+/// prepared rather than per sample (each sample took its vertices out of BVH space twice and
+/// made its normal with a cross product and a normalisation).
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct Emitter {
     pub(crate) triangle: u32,
