@@ -175,9 +175,16 @@ impl Texture {
         // coordinates, each wrapped.
         let (column0, column1) = self.wrap_s.wrap_pair(x0, self.width);
         let (row0, row1) = self.wrap_t.wrap_pair(y0, self.height);
-        let at = |column: usize, row: usize| self.texel_at(row * self.width as usize + column);
-        let top = lerp4(at(column0, row0), at(column1, row0), fx);
-        let bottom = lerp4(at(column0, row1), at(column1, row1), fx);
+        let top = lerp4(
+            self.texel_at(column0, row0),
+            self.texel_at(column1, row0),
+            fx,
+        );
+        let bottom = lerp4(
+            self.texel_at(column0, row1),
+            self.texel_at(column1, row1),
+            fx,
+        );
         lerp4(top, bottom, fy)
     }
 
@@ -197,7 +204,7 @@ impl Texture {
             &[row0, row1]
         };
         for &row in rows {
-            prefetch_at(&self.texels, row * self.width as usize + column);
+            prefetch_at(&self.texels, self.offset(column, row));
         }
     }
 
@@ -224,18 +231,24 @@ impl Texture {
         (x0 as i64, y0 as i64, [x - x0, y - y0])
     }
 
+    /// Texel (`x`, `y`), wrapped.
     fn texel(&self, x: i64, y: i64) -> [f32; 4] {
-        self.texel_at(self.index(x, y))
+        self.texel_at(
+            self.wrap_s.wrap(x, self.width),
+            self.wrap_t.wrap(y, self.height),
+        )
     }
 
-    fn texel_at(&self, index: usize) -> [f32; 4] {
-        self.texels.get(index).copied().unwrap_or(MISSING_TEXEL)
+    /// The texel in wrapped `column` and `row`.
+    fn texel_at(&self, column: usize, row: usize) -> [f32; 4] {
+        self.texels
+            .get(self.offset(column, row))
+            .copied()
+            .unwrap_or(MISSING_TEXEL)
     }
 
-    /// Where texel (`x`, `y`) lies in `texels`, wrapped.
-    fn index(&self, x: i64, y: i64) -> usize {
-        let column = self.wrap_s.wrap(x, self.width);
-        let row = self.wrap_t.wrap(y, self.height);
+    /// Where the texel in wrapped `column` and `row` lies in `texels`.
+    fn offset(&self, column: usize, row: usize) -> usize {
         row * self.width as usize + column
     }
 }
@@ -443,10 +456,10 @@ mod tests {
                         "{uv} {wrap:?} {sampled:?}"
                     );
                     let (x0, y0, _) = texture.footprint(uv);
-                    let rows = [
-                        texture.index(x0, y0),
-                        texture.index(x0, y0.saturating_add(1)),
-                    ];
+                    let index = |x, y| {
+                        texture.offset(wrap.wrap(x, texture.width), wrap.wrap(y, texture.height))
+                    };
+                    let rows = [index(x0, y0), index(x0, y0.saturating_add(1))];
                     assert!(rows.iter().all(|&i| i < 4), "{uv} {wrap:?}: {rows:?}");
                     if nearest {
                         assert_eq!(sampled, texture.texels[rows[0]], "{uv} {wrap:?}");
