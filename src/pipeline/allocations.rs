@@ -54,7 +54,8 @@ unsafe impl GlobalAlloc for CountingAllocator {
 static ALLOCATOR: CountingAllocator = CountingAllocator;
 
 /// Allocations a pass of the default scene may make once every tile has rendered a few: the
-/// stages' lists of tiles and of their results (11 on 2026-11-27, at any number of tiles).
+/// stages' lists of tiles and of their results (11 on 2026-11-27, 13 on 2026-11-28, at any
+/// number of tiles).
 /// Before the tiles and threads kept their working memory, a pass made about 27 a tile (1,729
 /// at 256², 64 tiles) and reallocated some arrays for many passes.
 const STEADY_STATE_PER_PASS: u64 = 16;
@@ -101,15 +102,24 @@ fn a_pass_in_the_steady_state_allocates_only_its_stage_lists() {
         for sample in 0..4 {
             renderer.render_pass(sample).unwrap();
         }
-        let before = COUNTED.load(Ordering::Relaxed);
-        let passes = 8;
-        for sample in 4..4 + passes {
-            renderer.render_pass(sample).unwrap();
-        }
-        let per_pass = (COUNTED.load(Ordering::Relaxed) - before) / passes as u64;
+        // Counted pass by pass, and judged by the median pass: a thread's scratch grows the
+        // first time that thread meets a tile that needs more (the first tile with ghost
+        // samples, about 20 allocations), and which thread meets which tile when is the
+        // scheduler's choice, so on a busy machine that can fall in any pass. An allocation
+        // made in every pass shows in the median; a one-off growth does not.
+        let mut per_pass: Vec<u64> = (4..20)
+            .map(|sample| {
+                let before = COUNTED.load(Ordering::Relaxed);
+                renderer.render_pass(sample).unwrap();
+                COUNTED.load(Ordering::Relaxed) - before
+            })
+            .collect();
+        per_pass.sort_unstable();
+        let median = per_pass[per_pass.len() / 2];
         assert!(
-            per_pass <= STEADY_STATE_PER_PASS,
-            "{per_pass} allocations a pass, more than {STEADY_STATE_PER_PASS}"
+            median <= STEADY_STATE_PER_PASS,
+            "the median pass made {median} allocations, more than {STEADY_STATE_PER_PASS} \
+             (each pass's, sorted: {per_pass:?})"
         );
         let image = renderer.image().unwrap();
         assert!(
