@@ -13,6 +13,7 @@ pub mod film;
 pub mod glass;
 pub mod gpu;
 pub mod job;
+pub(crate) mod lanes;
 pub mod lens;
 pub mod live;
 pub mod memory;

@@ -15,7 +15,8 @@ use std::f32::consts::FRAC_1_PI;
 
 use glam::Vec3;
 
-use super::ggx::{Ggx, reflect};
+use super::ggx::{self, Ggx, reflect};
+use crate::lanes::Lanes;
 use super::warp::{cosine_hemisphere, cosine_hemisphere_pdf};
 
 /// Normal-incidence reflectance of glTF's dielectric, ((ior − 1) / (ior + 1))² at ior 1.5.
@@ -28,12 +29,25 @@ pub fn luminance(rgb: Vec3) -> f32 {
 
 /// Schlick's Fresnel approximation at the cosine between the view and the microfacet normal.
 fn schlick(f0: Vec3, cos_theta: f32) -> Vec3 {
-    let m = (1.0 - cos_theta.clamp(0.0, 1.0)).powi(5);
+    let m = schlick_weight(cos_theta);
     f0 + (Vec3::ONE - f0) * m
 }
 
 fn schlick_scalar(f0: f32, cos_theta: f32) -> f32 {
-    f0 + (1.0 - f0) * (1.0 - cos_theta.clamp(0.0, 1.0)).powi(5)
+    f0 + (1.0 - f0) * schlick_weight(cos_theta)
+}
+
+/// Schlick's (1 − cos θ)⁵, cos θ clamped to [0, 1]; the fifth power as `powi(5)` computes it,
+/// x·(x²)², so every lane count gives the same bits.
+#[inline(always)]
+fn schlick_weight<L: Lanes>(cos_theta: L) -> L {
+    let (zero, one) = (L::splat(0.0), L::splat(1.0));
+    // f32::clamp, as compares and selects.
+    let cos_theta = L::select(cos_theta.lt(zero), zero, cos_theta);
+    let cos_theta = L::select(cos_theta.gt(one), one, cos_theta);
+    let x = one - cos_theta;
+    let x2 = x * x;
+    x * (x2 * x2)
 }
 
 /// A drawn incident direction with its BRDF value and density (solid angle, over both lobes).
@@ -42,6 +56,14 @@ pub struct BsdfSample {
     pub wi: Vec3,
     pub value: Vec3,
     pub pdf: f32,
+}
+
+impl BsdfSample {
+    /// The sample of direction `wi` with the BRDF's value and density there: `None` where the
+    /// density is not positive and finite (the path ends).
+    pub(crate) fn of(wi: Vec3, value: Vec3, pdf: f32) -> Option<BsdfSample> {
+        (pdf > 0.0 && pdf.is_finite()).then_some(BsdfSample { wi, value, pdf })
+    }
 }
 
 /// The glTF metallic-roughness BRDF at one surface point.
@@ -88,25 +110,25 @@ impl MetalRoughBsdf {
     }
 
     /// [`MetalRoughBsdf::eval_and_pdf`] for directions both above the surface, given the
-    /// specular lobe's selection probability at `wo`.
+    /// specular lobe's selection probability at `wo` ([`eval_and_pdf_above`] for one lane).
     fn eval_and_pdf_above(&self, wo: Vec3, wi: Vec3, p_specular: f32) -> (Vec3, f32) {
-        let h = (wo + wi).normalize_or_zero();
-        if h == Vec3::ZERO {
-            return (Vec3::ZERO, 0.0);
+        let (value, pdf) =
+            eval_and_pdf_above(&self.lanes(), wo.to_array(), wi.to_array(), p_specular);
+        (Vec3::from_array(value), pdf)
+    }
+
+    /// This BSDF's parameters as one lane of [`BsdfLanes`].
+    pub(crate) fn lanes(&self) -> BsdfLanes<f32> {
+        BsdfLanes {
+            diffuse: self.diffuse.to_array(),
+            f0: self.f0.to_array(),
+            alpha: self.ggx.alpha(),
         }
-        let cos_oh = wo.dot(h);
-        let distribution = self.ggx.distribution(h);
-        // fresnel_mix: the diffuse base sees what the dielectric coating transmits.
-        let diffuse = self.diffuse * ((1.0 - schlick_scalar(DIELECTRIC_F0, cos_oh)) * FRAC_1_PI);
-        let specular = schlick(self.f0, cos_oh) * (distribution * self.ggx.visibility(wo, wi));
-        let pdf = p_specular * self.ggx.reflection_pdf_at(wo, h, distribution)
-            + (1.0 - p_specular) * cosine_hemisphere_pdf(wi.z);
-        (diffuse + specular, pdf)
     }
 
     /// Probability of drawing from the specular lobe, by each lobe's rough share of the
     /// reflected energy at this view angle. Both lobes keep some chance while both exist.
-    fn specular_probability(&self, wo: Vec3) -> f32 {
+    pub(crate) fn specular_probability(&self, wo: Vec3) -> f32 {
         let specular = luminance(schlick(self.f0, wo.z));
         let diffuse = luminance(self.diffuse) * (1.0 - schlick_scalar(DIELECTRIC_F0, wo.z));
         if diffuse <= 0.0 {
@@ -128,18 +150,78 @@ impl MetalRoughBsdf {
             return None;
         }
         let p_specular = self.specular_probability(wo);
+        let wi = self.sample_direction(wo, p_specular, u_lobe, u)?;
+        let (value, pdf) = self.eval_and_pdf_above(wo, wi, p_specular);
+        BsdfSample::of(wi, value, pdf)
+    }
+
+    /// [`MetalRoughBsdf::sample`]'s direction, before its evaluation: a lobe by `u_lobe` (the
+    /// specular one with probability `p_specular`, [`MetalRoughBsdf::specular_probability`]
+    /// at `wo`, which must be above the surface), then a direction by `u`; `None` below the
+    /// surface.
+    pub(crate) fn sample_direction(
+        &self,
+        wo: Vec3,
+        p_specular: f32,
+        u_lobe: f32,
+        u: [f32; 2],
+    ) -> Option<Vec3> {
         let wi = if u_lobe < p_specular {
             reflect(wo, self.ggx.sample_visible_normal(wo, u))
         } else {
             cosine_hemisphere(u)
         };
-        if wi.z <= 0.0 {
-            return None;
-        }
-        let (value, pdf) = self.eval_and_pdf_above(wo, wi, p_specular);
-        if !(pdf > 0.0 && pdf.is_finite()) {
-            return None;
-        }
-        Some(BsdfSample { wi, value, pdf })
+        (wi.z > 0.0).then_some(wi)
     }
+}
+
+/// A [`MetalRoughBsdf`]'s parameters for a group of lanes (one path vertex each; see
+/// [`crate::lanes`]).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct BsdfLanes<L> {
+    /// Lambert albedo of the dielectric base.
+    pub diffuse: [L; 3],
+    /// Specular F0, mixed over dielectric and metal.
+    pub f0: [L; 3],
+    /// GGX width α.
+    pub alpha: L,
+}
+
+/// f(wo, wi) and the density of drawing wi ([`MetalRoughBsdf::eval_and_pdf`]) for directions
+/// both above the surface, given the specular lobe's selection probability at wo, for a group
+/// of lanes: the one implementation, which the scalar BSDF runs with `f32` and the wavefront's
+/// batched evaluation with eight lanes. The half vector is glam's `normalize_or_zero` (times the
+/// reciprocal length where that is finite and positive); where it is zero, so are both results.
+#[inline(always)]
+pub(crate) fn eval_and_pdf_above<L: Lanes>(
+    bsdf: &BsdfLanes<L>,
+    wo: [L; 3],
+    wi: [L; 3],
+    p_specular: L,
+) -> ([L; 3], L) {
+    let (zero, one) = (L::splat(0.0), L::splat(1.0));
+    let dot = |a: [L; 3], b: [L; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+    let sum = [wo[0] + wi[0], wo[1] + wi[1], wo[2] + wi[2]];
+    let reciprocal = one / dot(sum, sum).sqrt();
+    let normalisable = reciprocal.is_finite() & reciprocal.gt(zero);
+    let h = sum.map(|c| L::select(normalisable, c * reciprocal, zero));
+    let no_half_vector = h[0].eq(zero) & h[1].eq(zero) & h[2].eq(zero);
+    let cos_oh = dot(wo, h);
+    let distribution = ggx::distribution(bsdf.alpha, h[2]);
+    let fresnel = schlick_weight(cos_oh);
+    // fresnel_mix: the diffuse base sees what the dielectric coating transmits.
+    let dielectric = L::splat(DIELECTRIC_F0) + L::splat(1.0 - DIELECTRIC_F0) * fresnel;
+    let diffuse_factor = (one - dielectric) * L::splat(FRAC_1_PI);
+    let specular_factor = distribution * ggx::visibility(bsdf.alpha, wo[2], wi[2]);
+    let value: [L; 3] = std::array::from_fn(|c| {
+        let specular = (bsdf.f0[c] + (one - bsdf.f0[c]) * fresnel) * specular_factor;
+        L::select(
+            no_half_vector,
+            zero,
+            bsdf.diffuse[c] * diffuse_factor + specular,
+        )
+    });
+    let pdf = p_specular * ggx::reflection_pdf_at(bsdf.alpha, wo[2], cos_oh, distribution)
+        + (one - p_specular) * cosine_hemisphere_pdf(wi[2]);
+    (value, L::select(no_half_vector, zero, pdf))
 }

@@ -9,6 +9,8 @@ use std::f32::consts::{PI, TAU};
 
 use glam::Vec3;
 
+use crate::lanes::Lanes;
+
 #[derive(Clone, Copy, Debug)]
 pub struct Ggx {
     /// Width parameter α = perceptual roughness².
@@ -37,41 +39,17 @@ impl Ggx {
 
     /// Normal distribution D(h) = α² / (π ((n·h)² (α² − 1) + 1)²).
     pub fn distribution(&self, h: Vec3) -> f32 {
-        if h.z <= 0.0 {
-            return 0.0;
-        }
-        let a2 = self.alpha * self.alpha;
-        let denominator = h.z * h.z * (a2 - 1.0) + 1.0;
-        a2 / (PI * denominator * denominator)
-    }
-
-    /// Smith Λ(w) = (−1 + √(1 + α² tan²θ)) / 2, written with cos θ to stay finite at normal
-    /// incidence.
-    fn lambda(&self, w: Vec3) -> f32 {
-        let cos2 = w.z * w.z;
-        if cos2 <= 0.0 {
-            return f32::INFINITY;
-        }
-        let tan2 = ((1.0 - cos2) / cos2).max(0.0);
-        0.5 * ((1.0 + self.alpha * self.alpha * tan2).sqrt() - 1.0)
+        distribution(self.alpha, h.z)
     }
 
     /// Masking of one direction, G1 = 1 / (1 + Λ).
     pub fn masking(&self, w: Vec3) -> f32 {
-        1.0 / (1.0 + self.lambda(w))
+        masking(self.alpha, w.z)
     }
 
-    /// Height-correlated visibility V = G2 / (4 |n·wo| |n·wi|), in the finite form of glTF
-    /// Appendix B: 0.5 / (n·wi √((n·wo)²(1 − α²) + α²) + n·wo √((n·wi)²(1 − α²) + α²)).
+    /// Height-correlated visibility V = G2 / (4 |n·wo| |n·wi|) ([`visibility`]).
     pub fn visibility(&self, wo: Vec3, wi: Vec3) -> f32 {
-        let (cos_o, cos_i) = (wo.z, wi.z);
-        if cos_o <= 0.0 || cos_i <= 0.0 {
-            return 0.0;
-        }
-        let a2 = self.alpha * self.alpha;
-        let term_o = (cos_o * cos_o * (1.0 - a2) + a2).sqrt();
-        let term_i = (cos_i * cos_i * (1.0 - a2) + a2).sqrt();
-        0.5 / (cos_i * term_o + cos_o * term_i)
+        visibility(self.alpha, wo.z, wi.z)
     }
 
     /// A microfacet normal drawn from the distribution of normals visible from `wo`
@@ -114,14 +92,62 @@ impl Ggx {
     }
 
     /// [`Ggx::reflection_pdf`] given the half vector `h` of (wo, wi) and D(h), for callers that
-    /// already have them. The wo·h of the visible-normal density cancels the Jacobian's:
-    /// G1(wo) D(h) / (4 n·wo).
+    /// already have them ([`reflection_pdf_at`]).
     pub fn reflection_pdf_at(&self, wo: Vec3, h: Vec3, distribution: f32) -> f32 {
-        if wo.z <= 0.0 || wo.dot(h) <= 0.0 {
-            return 0.0;
-        }
-        self.masking(wo) * distribution / (4.0 * wo.z)
+        reflection_pdf_at(self.alpha, wo.z, wo.dot(h), distribution)
     }
+}
+
+// The distribution's terms for a group of lanes (`f32` for one direction, `f32x8` for eight;
+// see `crate::lanes`), each with the cosines to the normal it needs. Every branch of the
+// scalar form is a select, so one lane gives what `f32` gives.
+
+/// D(h) = α² / (π ((n·h)² (α² − 1) + 1)²), zero where n·h ≤ 0.
+#[inline(always)]
+pub(crate) fn distribution<L: Lanes>(alpha: L, cos_h: L) -> L {
+    let a2 = alpha * alpha;
+    let denominator = cos_h * cos_h * (a2 - L::splat(1.0)) + L::splat(1.0);
+    let d = a2 / (L::splat(PI) * denominator * denominator);
+    L::select(cos_h.le(L::splat(0.0)), L::splat(0.0), d)
+}
+
+/// Smith Λ(w) = (−1 + √(1 + α² tan²θ)) / 2, written with cos θ to stay finite at normal
+/// incidence; infinite where cos θ = 0.
+#[inline(always)]
+fn lambda<L: Lanes>(alpha: L, cos: L) -> L {
+    let cos2 = cos * cos;
+    let tan2 = ((L::splat(1.0) - cos2) / cos2).max(L::splat(0.0));
+    let lambda = L::splat(0.5) * ((L::splat(1.0) + alpha * alpha * tan2).sqrt() - L::splat(1.0));
+    L::select(cos2.le(L::splat(0.0)), L::splat(f32::INFINITY), lambda)
+}
+
+/// Masking of one direction, G1 = 1 / (1 + Λ).
+#[inline(always)]
+pub(crate) fn masking<L: Lanes>(alpha: L, cos: L) -> L {
+    L::splat(1.0) / (L::splat(1.0) + lambda(alpha, cos))
+}
+
+/// Height-correlated visibility V = G2 / (4 |n·wo| |n·wi|), in the finite form of glTF
+/// Appendix B: 0.5 / (n·wi √((n·wo)²(1 − α²) + α²) + n·wo √((n·wi)²(1 − α²) + α²)); zero unless
+/// both directions are above the surface.
+#[inline(always)]
+pub(crate) fn visibility<L: Lanes>(alpha: L, cos_o: L, cos_i: L) -> L {
+    let a2 = alpha * alpha;
+    let term_o = (cos_o * cos_o * (L::splat(1.0) - a2) + a2).sqrt();
+    let term_i = (cos_i * cos_i * (L::splat(1.0) - a2) + a2).sqrt();
+    let v = L::splat(0.5) / (cos_i * term_o + cos_o * term_i);
+    let zero = L::splat(0.0);
+    L::select(cos_o.le(zero) | cos_i.le(zero), zero, v)
+}
+
+/// Density of the direction reached by reflecting wo about a visible normal h, given n·wo,
+/// wo·h and D(h): the visible-normal density's wo·h cancels the reflection's Jacobian 1/(4 wo·h),
+/// leaving G1(wo) D(h) / (4 n·wo); zero unless n·wo and wo·h are positive.
+#[inline(always)]
+pub(crate) fn reflection_pdf_at<L: Lanes>(alpha: L, cos_o: L, cos_oh: L, distribution: L) -> L {
+    let pdf = masking(alpha, cos_o) * distribution / (L::splat(4.0) * cos_o);
+    let zero = L::splat(0.0);
+    L::select(cos_o.le(zero) | cos_oh.le(zero), zero, pdf)
 }
 
 /// Reflection of `w` about the unit normal `h`.

@@ -4,6 +4,8 @@ use std::f32::consts::{FRAC_1_PI, PI, TAU};
 
 use glam::{Vec2, Vec3};
 
+use crate::lanes::Lanes;
+
 /// Shirley–Chiu concentric map of the unit square onto the unit disk (area-preserving, low
 /// distortion, so stratification survives).
 pub fn concentric_disk(u: [f32; 2]) -> Vec2 {
@@ -26,8 +28,11 @@ pub fn cosine_hemisphere(u: [f32; 2]) -> Vec3 {
     Vec3::new(d.x, d.y, z)
 }
 
-pub fn cosine_hemisphere_pdf(cos_theta: f32) -> f32 {
-    cos_theta.max(0.0) * FRAC_1_PI
+/// Density of [`cosine_hemisphere`] (solid angle) at a direction of cosine `cos_theta` to the
+/// normal, for a group of lanes (see [`crate::lanes`]).
+#[inline(always)]
+pub fn cosine_hemisphere_pdf<L: Lanes>(cos_theta: L) -> L {
+    cos_theta.max(L::splat(0.0)) * L::splat(FRAC_1_PI)
 }
 
 /// Uniform direction on the unit sphere: density 1 / 4π.

@@ -3,7 +3,7 @@
 //! written once against [`Lanes`], so both kernels give the same bits; a mask's grey level is
 //! looked up one lane at a time (a gather), by the same scalar code in both.
 
-use super::lanes::Lanes;
+use crate::lanes::Lanes;
 use crate::lens::diaphragm::StopClip;
 
 /// Which lanes at stop-plane points (`x`, `y`) lie on the open side of every blade (all of

@@ -20,7 +20,6 @@
 
 mod clip;
 pub(crate) mod ghost;
-mod lanes;
 mod losses;
 pub(crate) mod pairs;
 mod plain;

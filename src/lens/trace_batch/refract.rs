@@ -11,7 +11,7 @@
 //!   b = c(o_x d_x + o_y d_y + κ o_z d_z) − d_z, k = c(o_x² + o_y² + κ o_z²) − 2o_z.
 //! * [`POLYNOMIAL`]: Newton's method on z − sag(ρ) from the base conic's root.
 
-use super::lanes::Lanes;
+use crate::lanes::Lanes;
 use crate::lens::shape::ASPHERIC_TERMS;
 use crate::lens::system::SurfaceArrays;
 use crate::lens::trace::Travel;

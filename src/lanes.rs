@@ -1,10 +1,11 @@
 //! The arithmetic the batch kernels are written in, over one `f32` lane or eight.
 //!
-//! [`refract_at`](super::refract::refract_at) is written once against [`Lanes`]; the plain
-//! kernel instantiates it with `f32` (one ray per loop iteration, vectorised by the compiler)
-//! and the explicit kernel with `wide::f32x8` (eight rays per iteration). Every operation here
-//! is one IEEE-754 operation with the same rounding in both (no fused multiply-add; `max` is a
-//! compare and a select), so the two kernels give bit-identical rays.
+//! The lens kernel's surface step (`lens::trace_batch`'s `refract_at`) and the BSDF's
+//! evaluation ([`crate::shade::bsdf`]) are each written once against [`Lanes`]:
+//! with `f32` they are the per-ray reference (and the plain kernel, vectorised by the compiler),
+//! with `wide::f32x8` they run eight rays or path vertices at once. Every operation here is one
+//! IEEE-754 operation with the same rounding in both (no fused multiply-add; `max` is a compare
+//! and a select), so both give bit-identical results.
 
 use std::ops::{Add, BitAnd, BitOr, Div, Mul, Neg, Not, Sub};
 
@@ -32,6 +33,9 @@ pub trait Lanes:
     fn le(self, other: Self) -> Self::Mask;
     fn gt(self, other: Self) -> Self::Mask;
     fn ge(self, other: Self) -> Self::Mask;
+    fn eq(self, other: Self) -> Self::Mask;
+    /// Neither infinite nor NaN.
+    fn is_finite(self) -> Self::Mask;
     fn select(mask: Self::Mask, if_true: Self, if_false: Self) -> Self;
 
     /// True when any lane of `mask` is set.
@@ -81,6 +85,14 @@ impl Lanes for f32 {
         self >= other
     }
     #[inline(always)]
+    fn eq(self, other: Self) -> bool {
+        self == other
+    }
+    #[inline(always)]
+    fn is_finite(self) -> bool {
+        f32::is_finite(self)
+    }
+    #[inline(always)]
     fn select(mask: bool, if_true: Self, if_false: Self) -> Self {
         if mask { if_true } else { if_false }
     }
@@ -117,6 +129,14 @@ impl Lanes for f32x8 {
     #[inline(always)]
     fn ge(self, other: Self) -> f32x8 {
         self.simd_ge(other)
+    }
+    #[inline(always)]
+    fn eq(self, other: Self) -> f32x8 {
+        self.simd_eq(other)
+    }
+    #[inline(always)]
+    fn is_finite(self) -> f32x8 {
+        f32x8::is_finite(self)
     }
     #[inline(always)]
     fn select(mask: f32x8, if_true: Self, if_false: Self) -> Self {
