@@ -16,8 +16,10 @@ use std::f32::consts::FRAC_1_PI;
 use glam::Vec3;
 
 use super::ggx::{self, Ggx, reflect};
-use crate::lanes::Lanes;
+use wide::f32x8;
+
 use super::warp::{cosine_hemisphere, cosine_hemisphere_pdf};
+use crate::lanes::Lanes;
 
 /// Normal-incidence reflectance of glTF's dielectric, ((ior − 1) / (ior + 1))² at ior 1.5.
 pub const DIELECTRIC_F0: f32 = 0.04;
@@ -111,7 +113,7 @@ impl MetalRoughBsdf {
 
     /// [`MetalRoughBsdf::eval_and_pdf`] for directions both above the surface, given the
     /// specular lobe's selection probability at `wo` ([`eval_and_pdf_above`] for one lane).
-    fn eval_and_pdf_above(&self, wo: Vec3, wi: Vec3, p_specular: f32) -> (Vec3, f32) {
+    pub(crate) fn eval_and_pdf_above(&self, wo: Vec3, wi: Vec3, p_specular: f32) -> (Vec3, f32) {
         let (value, pdf) =
             eval_and_pdf_above(&self.lanes(), wo.to_array(), wi.to_array(), p_specular);
         (Vec3::from_array(value), pdf)
@@ -224,4 +226,101 @@ pub(crate) fn eval_and_pdf_above<L: Lanes>(
     let pdf = p_specular * ggx::reflection_pdf_at(bsdf.alpha, wo[2], cos_oh, distribution)
         + (one - p_specular) * cosine_hemisphere_pdf(wi[2]);
     (value, L::select(no_half_vector, zero, pdf))
+}
+
+/// Evaluations of many path vertices' BSDFs ([`eval_and_pdf_above`]), gathered as a structure
+/// of arrays and made eight lanes at a time: the wavefront's batched half of a vertex step
+/// (see `Shader::step_paths`). Each lane computes what [`MetalRoughBsdf::eval_and_pdf`] does
+/// for its vertex, bit for bit.
+pub(crate) struct EvalBatch {
+    len: usize,
+    diffuse: [[f32; EVAL_BATCH]; 3],
+    f0: [[f32; EVAL_BATCH]; 3],
+    alpha: [f32; EVAL_BATCH],
+    wo: [[f32; EVAL_BATCH]; 3],
+    wi: [[f32; EVAL_BATCH]; 3],
+    p_specular: [f32; EVAL_BATCH],
+    value: [[f32; EVAL_BATCH]; 3],
+    pdf: [f32; EVAL_BATCH],
+}
+
+/// Evaluations an [`EvalBatch`] holds.
+pub(crate) const EVAL_BATCH: usize = 64;
+
+/// Lanes of one evaluation step.
+const EVAL_LANES: usize = 8;
+
+impl EvalBatch {
+    pub(crate) fn new() -> EvalBatch {
+        let zeros = [0.0; EVAL_BATCH];
+        EvalBatch {
+            len: 0,
+            diffuse: [zeros; 3],
+            f0: [zeros; 3],
+            alpha: zeros,
+            wo: [zeros; 3],
+            wi: [zeros; 3],
+            p_specular: zeros,
+            value: [zeros; 3],
+            pdf: zeros,
+        }
+    }
+
+    pub(crate) fn clear(&mut self) {
+        self.len = 0;
+    }
+
+    /// Asks for `bsdf`'s value and density at (`wo`, `wi`), both above the surface, with the
+    /// specular lobe's probability `p_specular` at `wo`; returns the evaluation's index.
+    /// At most [`EVAL_BATCH`] between clears.
+    pub(crate) fn push(
+        &mut self,
+        bsdf: &MetalRoughBsdf,
+        wo: Vec3,
+        wi: Vec3,
+        p_specular: f32,
+    ) -> usize {
+        let i = self.len;
+        let lanes = bsdf.lanes();
+        for c in 0..3 {
+            self.diffuse[c][i] = lanes.diffuse[c];
+            self.f0[c][i] = lanes.f0[c];
+            self.wo[c][i] = wo[c];
+            self.wi[c][i] = wi[c];
+        }
+        self.alpha[i] = lanes.alpha;
+        self.p_specular[i] = p_specular;
+        self.len += 1;
+        i
+    }
+
+    /// Makes every evaluation asked for, eight at a time (the last group's spare lanes compute
+    /// on whatever they hold, and are not read).
+    pub(crate) fn run(&mut self) {
+        let lanes = |array: &[f32; EVAL_BATCH], at: usize| {
+            f32x8::new(array[at..at + EVAL_LANES].try_into().expect("eight lanes"))
+        };
+        for at in (0..self.len).step_by(EVAL_LANES) {
+            let bsdf = BsdfLanes {
+                diffuse: self.diffuse.each_ref().map(|c| lanes(c, at)),
+                f0: self.f0.each_ref().map(|c| lanes(c, at)),
+                alpha: lanes(&self.alpha, at),
+            };
+            let wo = self.wo.each_ref().map(|c| lanes(c, at));
+            let wi = self.wi.each_ref().map(|c| lanes(c, at));
+            let (value, pdf) = eval_and_pdf_above(&bsdf, wo, wi, lanes(&self.p_specular, at));
+            for (out, lanes) in self.value.iter_mut().zip(value) {
+                out[at..at + EVAL_LANES].copy_from_slice(&lanes.to_array());
+            }
+            self.pdf[at..at + EVAL_LANES].copy_from_slice(&pdf.to_array());
+        }
+    }
+
+    /// Evaluation `i`'s value and density, once [`EvalBatch::run`] has made it.
+    pub(crate) fn result(&self, i: usize) -> (Vec3, f32) {
+        (
+            Vec3::new(self.value[0][i], self.value[1][i], self.value[2][i]),
+            self.pdf[i],
+        )
+    }
 }

@@ -47,7 +47,8 @@ impl Ggx {
         masking(self.alpha, w.z)
     }
 
-    /// Height-correlated visibility V = G2 / (4 |n·wo| |n·wi|) ([`visibility`]).
+    /// Height-correlated visibility V = G2 / (4 |n·wo| |n·wi|), in the finite form of glTF
+    /// Appendix B; zero unless both directions are above the surface.
     pub fn visibility(&self, wo: Vec3, wi: Vec3) -> f32 {
         visibility(self.alpha, wo.z, wi.z)
     }
@@ -92,7 +93,8 @@ impl Ggx {
     }
 
     /// [`Ggx::reflection_pdf`] given the half vector `h` of (wo, wi) and D(h), for callers that
-    /// already have them ([`reflection_pdf_at`]).
+    /// already have them. The wo·h of the visible-normal density cancels the Jacobian's:
+    /// G1(wo) D(h) / (4 n·wo).
     pub fn reflection_pdf_at(&self, wo: Vec3, h: Vec3, distribution: f32) -> f32 {
         reflection_pdf_at(self.alpha, wo.z, wo.dot(h), distribution)
     }

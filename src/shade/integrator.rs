@@ -17,10 +17,11 @@
 
 use glam::Vec3;
 
-use super::lights::{ShadowTarget, direction_and_distance};
-use super::material::{ShadingPoint, shading_point};
+use super::bsdf::{BsdfSample, EvalBatch, MetalRoughBsdf};
+use super::frame::Frame;
+use super::lights::{LightSample, ShadowTarget, direction_and_distance};
+use super::material::shading_point;
 use super::{ShadeStats, Shader};
-use crate::accel::SurfacePoint;
 use crate::accel::spawn::offset_along_normal;
 use crate::batch::Hit;
 use crate::sampling::Rng;
@@ -164,7 +165,9 @@ impl Shader<'_> {
     /// One path vertex: takes the closest hit of the path's current ray (`None`: it escaped),
     /// adds the emission and direct light found there, and either ends the path or turns it
     /// into the next ray, leaving from the returned origin along `path.direction`. Shadow
-    /// rays and what happened are counted into `stats`.
+    /// rays and what happened are counted into `stats`. The reference's way: the vertex's two
+    /// halves with its BSDF evaluations between them, one at a time; the wavefront makes the
+    /// evaluations of many vertices at once (`Shader::step_paths`), with the same results.
     pub(super) fn advance(
         &self,
         path: &mut Path,
@@ -173,6 +176,27 @@ impl Shader<'_> {
         stats: &mut ShadeStats,
         strategy: Strategy,
     ) -> Step {
+        let mut evaluations = OneByOne::default();
+        let Some(vertex) = self.begin_vertex(path, hit, rng, stats, strategy, &mut evaluations)
+        else {
+            return Step::Done;
+        };
+        self.finish_vertex(path, &vertex, &evaluations, rng, stats, strategy)
+    }
+
+    /// A vertex's first half: the emission and environment the path sees, everything the
+    /// vertex draws (its light sample, then the BSDF sample's direction), and the BSDF
+    /// evaluations it needs asked of `evaluator`; `None` when the path ends here (it escaped,
+    /// or has taken its last bounce).
+    pub(super) fn begin_vertex(
+        &self,
+        path: &mut Path,
+        hit: Option<Hit>,
+        rng: &mut Rng,
+        stats: &mut ShadeStats,
+        strategy: Strategy,
+        evaluator: &mut impl Evaluator,
+    ) -> Option<Vertex> {
         let direction = path.direction;
         let Some(current) = hit else {
             if path.bsdf_pdf.is_none() {
@@ -187,7 +211,7 @@ impl Shader<'_> {
                 )
             });
             path.radiance += path.throughput * self.environment.radiance(direction) * weight;
-            return Step::Done;
+            return None;
         };
         let surface = self.accel.surface(&current, direction);
         let wo = -direction;
@@ -209,18 +233,88 @@ impl Shader<'_> {
 
         path.bounces += 1;
         if path.bounces > self.max_depth {
-            return Step::Done;
+            return None;
         }
-        path.radiance +=
-            path.throughput * self.direct_light(&surface, &shading, wo, rng, stats, strategy);
+        // One light sample, weighed in the second half (a light below the surface's geometric
+        // horizon adds nothing).
+        let light = self
+            .lights
+            .sample(
+                surface.position,
+                self.accel,
+                self.materials,
+                self.environment,
+                rng,
+            )
+            .and_then(|light| {
+                stats.light_samples += 1;
+                let behind = light.direction.dot(surface.geometric_normal) <= 0.0;
+                stats.light_samples_behind += u64::from(behind);
+                (!behind).then_some(light)
+            });
+        let frame = shading.frame;
+        let wo_local = frame.to_local(wo);
+        let light_wi = light.map_or(Vec3::ZERO, |light| frame.to_local(light.direction));
+        let (u_lobe, u) = (rng.next_f32(), rng.next_2d());
+        let above = wo_local.z > 0.0;
+        let p_specular = if above {
+            shading.bsdf.specular_probability(wo_local)
+        } else {
+            0.0
+        };
+        let sample_wi = if above {
+            shading
+                .bsdf
+                .sample_direction(wo_local, p_specular, u_lobe, u)
+        } else {
+            None
+        };
+        let bsdf = &shading.bsdf;
+        // The BSDF is zero unless wo and the light's direction are both above the surface.
+        let light_asked = (light.is_some() && above && light_wi.z > 0.0)
+            .then(|| evaluator.ask(bsdf, wo_local, light_wi, p_specular));
+        let sample_asked = sample_wi.map(|wi| evaluator.ask(bsdf, wo_local, wi, p_specular));
+        Some(Vertex {
+            position: surface.position,
+            geometric_normal: surface.geometric_normal,
+            spawn_offset: surface.spawn_offset,
+            frame,
+            light,
+            light_cos: light_wi.z,
+            sample_wi,
+            light_asked,
+            sample_asked,
+        })
+    }
 
-        let wo_local = shading.frame.to_local(wo);
-        let Some(sample) = shading.bsdf.sample(wo_local, rng.next_f32(), rng.next_2d()) else {
+    /// A vertex's second half, once `evaluator` has made the evaluations its first half asked
+    /// for: the light sample's contribution (its shadow ray traced), then the BSDF sample
+    /// taken or the path ended.
+    pub(super) fn finish_vertex(
+        &self,
+        path: &mut Path,
+        vertex: &Vertex,
+        evaluator: &impl Evaluator,
+        rng: &mut Rng,
+        stats: &mut ShadeStats,
+        strategy: Strategy,
+    ) -> Step {
+        let light_evaluation = vertex
+            .light_asked
+            .map_or((Vec3::ZERO, 0.0), |i| evaluator.answer(i));
+        path.radiance +=
+            path.throughput * self.direct_light(vertex, light_evaluation, stats, strategy);
+
+        let (Some(wi_local), Some(asked)) = (vertex.sample_wi, vertex.sample_asked) else {
             return Step::Done;
         };
-        let wi = shading.frame.to_world(sample.wi);
+        let (value, pdf) = evaluator.answer(asked);
+        let Some(sample) = BsdfSample::of(wi_local, value, pdf) else {
+            return Step::Done;
+        };
+        let wi = vertex.frame.to_world(sample.wi);
         // A shading normal can send a sample under the real surface: it would leak light.
-        if wi.dot(surface.geometric_normal) <= 0.0 {
+        if wi.dot(vertex.geometric_normal) <= 0.0 {
             return Step::Done;
         }
         path.throughput *= sample.value * (sample.wi.z / sample.pdf);
@@ -237,39 +331,24 @@ impl Shader<'_> {
         path.direction = wi;
         path.bsdf_pdf = Some(sample.pdf);
         Step::Continue {
-            origin: surface.spawn_origin(wi),
+            origin: vertex.spawn_origin(wi),
         }
     }
 
-    /// One light sample at a surface point: reflected radiance towards `wo`, MIS-weighted
-    /// against BSDF sampling for area lights and the environment.
+    /// The vertex's light sample's reflected radiance towards wo, given the BSDF's value and
+    /// density there (`light`), MIS-weighted against BSDF sampling for area lights and the
+    /// environment.
     fn direct_light(
         &self,
-        surface: &SurfacePoint,
-        shading: &ShadingPoint,
-        wo: Vec3,
-        rng: &mut Rng,
+        vertex: &Vertex,
+        (value, bsdf_pdf): (Vec3, f32),
         stats: &mut ShadeStats,
         strategy: Strategy,
     ) -> Vec3 {
-        let Some(light) = self.lights.sample(
-            surface.position,
-            self.accel,
-            self.materials,
-            self.environment,
-            rng,
-        ) else {
+        let Some(light) = vertex.light else {
             return Vec3::ZERO;
         };
-        stats.light_samples += 1;
-        let wi = light.direction;
-        if wi.dot(surface.geometric_normal) <= 0.0 {
-            stats.light_samples_behind += 1;
-            return Vec3::ZERO;
-        }
-        let (wo_local, wi_local) = (shading.frame.to_local(wo), shading.frame.to_local(wi));
-        let (value, bsdf_pdf) = shading.bsdf.eval_and_pdf(wo_local, wi_local);
-        let reflected = value * light.radiance * wi_local.z;
+        let reflected = value * light.radiance * vertex.light_cos;
         if reflected.max_element() <= 0.0 {
             return Vec3::ZERO;
         }
@@ -282,7 +361,8 @@ impl Shader<'_> {
             return Vec3::ZERO;
         }
 
-        let origin = surface.spawn_origin(wi);
+        let wi = light.direction;
+        let origin = vertex.spawn_origin(wi);
         let shadow_ray = match light.target {
             ShadowTarget::Infinite => Some((wi, f32::INFINITY)),
             ShadowTarget::Point(position) => direction_and_distance(origin, position),
@@ -305,5 +385,84 @@ impl Shader<'_> {
         }
         stats.light_samples_reached += 1;
         reflected * (weight / light.pdf)
+    }
+}
+
+/// A path vertex between its two halves ([`Shader::begin_vertex`] and
+/// [`Shader::finish_vertex`]): what the second half needs of the surface and of what the first
+/// drew. Kept small: the wavefront holds a group of them between the halves.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Vertex {
+    /// Where rays leave the surface from ([`SurfacePoint::spawn_origin`](crate::accel::SurfacePoint::spawn_origin)).
+    position: Vec3,
+    geometric_normal: Vec3,
+    spawn_offset: f32,
+    /// The shading frame.
+    frame: Frame,
+    /// The light sample, when one was drawn above the surface's geometric horizon, and the
+    /// cosine of its direction to the shading normal.
+    light: Option<LightSample>,
+    light_cos: f32,
+    /// The BSDF sample's direction in the shading frame (`None`: the path ends after the
+    /// light sample).
+    sample_wi: Option<Vec3>,
+    /// The evaluations asked of the evaluator for the light sample and the BSDF sample
+    /// (`None` for the light: the BSDF is zero there).
+    light_asked: Option<u8>,
+    sample_asked: Option<u8>,
+}
+
+impl Vertex {
+    /// [`SurfacePoint::spawn_origin`](crate::accel::SurfacePoint::spawn_origin) of the vertex's surface point.
+    fn spawn_origin(&self, direction: Vec3) -> Vec3 {
+        offset_along_normal(
+            self.position,
+            self.geometric_normal,
+            self.spawn_offset,
+            direction,
+        )
+    }
+}
+
+/// Where the BSDF evaluations of path vertices are made: asked for in a vertex's first half,
+/// answered in its second.
+pub(super) trait Evaluator {
+    /// Asks for `bsdf`'s value and density at (`wo`, `wi`), both above the surface, with the
+    /// specular lobe's probability `p_specular` at `wo`; returns the answer's index.
+    fn ask(&mut self, bsdf: &MetalRoughBsdf, wo: Vec3, wi: Vec3, p_specular: f32) -> u8;
+    /// Answer `i`.
+    fn answer(&self, i: u8) -> (Vec3, f32);
+}
+
+/// The reference's evaluator: each evaluation made when it is asked for (a vertex asks for
+/// two at most).
+#[derive(Default)]
+struct OneByOne {
+    answers: [(Vec3, f32); 2],
+    len: u8,
+}
+
+impl Evaluator for OneByOne {
+    fn ask(&mut self, bsdf: &MetalRoughBsdf, wo: Vec3, wi: Vec3, p_specular: f32) -> u8 {
+        let i = self.len;
+        self.answers[usize::from(i)] = bsdf.eval_and_pdf_above(wo, wi, p_specular);
+        self.len += 1;
+        i
+    }
+
+    fn answer(&self, i: u8) -> (Vec3, f32) {
+        self.answers[usize::from(i)]
+    }
+}
+
+/// The wavefront's evaluator: the evaluations of a group of vertices made together, eight at
+/// a time, once every vertex of the group has asked ([`EvalBatch::run`]).
+impl Evaluator for EvalBatch {
+    fn ask(&mut self, bsdf: &MetalRoughBsdf, wo: Vec3, wi: Vec3, p_specular: f32) -> u8 {
+        self.push(bsdf, wo, wi, p_specular) as u8
+    }
+
+    fn answer(&self, i: u8) -> (Vec3, f32) {
+        self.result(usize::from(i))
     }
 }

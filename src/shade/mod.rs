@@ -32,7 +32,8 @@ use crate::accel::{BatchParallelism, SceneAccel};
 use crate::batch::{Hit, HitBatch, RayBatch};
 use crate::sampling::Rng;
 use crate::scene::MaterialLibrary;
-use integrator::{Path, Step, Strategy};
+use bsdf::{EVAL_BATCH, EvalBatch};
+use integrator::{Path, Step, Strategy, Vertex};
 
 pub use environment::{Environment, EnvironmentMap, load_environment};
 pub use lights::{EnvironmentSampling, LightSet};
@@ -238,13 +239,18 @@ impl Shader<'_> {
     }
 }
 
+/// Path vertices [`Shader::step_paths`] takes through their first halves before making their
+/// BSDF evaluations together (at most two each: an [`EvalBatch`]'s worth).
+const VERTEX_GROUP: usize = EVAL_BATCH / 2;
+
 /// How many paths ahead of the one it steps [`Shader::step_paths`] asks for a hit's vertex
 /// data (twice as many for its triangle, half as many for its texels). Chosen by measurement:
 /// 2 to 8 were alike within noise (BENCHMARKS.md, "Surface data asked for ahead").
 const PREFETCH_AHEAD: usize = 4;
 
 impl Shader<'_> {
-    /// Takes one step ([`Shader::advance`]) of every path in `slots`, in order; counts what
+    /// Takes one step of every path in `slots` ([`Shader::advance`]'s, with the BSDF evaluations of
+    /// [`VERTEX_GROUP`] vertices made together between their halves), in order; counts what
     /// the steps did.
     ///
     /// Which triangle a path hit is known before its step, so its surface data (scattered
@@ -255,30 +261,53 @@ impl Shader<'_> {
         let mut counts = ShadeStats::default();
         let hit_at = |slots: &[PathSlot], i: usize| slots.get(i).and_then(|slot| slot.hit);
         let textured = !self.materials.textures.is_empty();
-        for i in 0..slots.len() {
-            if let Some(hit) = hit_at(slots, i + 2 * PREFETCH_AHEAD) {
-                self.accel.prefetch_triangle(hit.triangle);
+        let mut batch = EvalBatch::new();
+        let mut vertices: [Option<Vertex>; VERTEX_GROUP] = [None; VERTEX_GROUP];
+        for group in (0..slots.len()).step_by(VERTEX_GROUP) {
+            let end = (group + VERTEX_GROUP).min(slots.len());
+            batch.clear();
+            for i in group..end {
+                if let Some(hit) = hit_at(slots, i + 2 * PREFETCH_AHEAD) {
+                    self.accel.prefetch_triangle(hit.triangle);
+                }
+                if let Some(hit) = hit_at(slots, i + PREFETCH_AHEAD) {
+                    self.accel.prefetch_vertices(hit.triangle);
+                }
+                if let Some(hit) = hit_at(slots, i + PREFETCH_AHEAD / 2)
+                    && textured
+                {
+                    self.prefetch_texels(hit);
+                }
+                let slot = &mut slots[i];
+                slot.next = None;
+                vertices[i - group] = self.begin_vertex(
+                    &mut slot.path,
+                    slot.hit.take(),
+                    &mut slot.rng,
+                    &mut counts,
+                    Strategy::Mis,
+                    &mut batch,
+                );
             }
-            if let Some(hit) = hit_at(slots, i + PREFETCH_AHEAD) {
-                self.accel.prefetch_vertices(hit.triangle);
+            batch.run();
+            for i in group..end {
+                let Some(vertex) = &vertices[i - group] else {
+                    continue;
+                };
+                let slot = &mut slots[i];
+                let step = self.finish_vertex(
+                    &mut slot.path,
+                    vertex,
+                    &batch,
+                    &mut slot.rng,
+                    &mut counts,
+                    Strategy::Mis,
+                );
+                slot.next = match step {
+                    Step::Continue { origin } => Some(origin),
+                    Step::Done => None,
+                };
             }
-            if let Some(hit) = hit_at(slots, i + PREFETCH_AHEAD / 2)
-                && textured
-            {
-                self.prefetch_texels(hit);
-            }
-            let slot = &mut slots[i];
-            let step = self.advance(
-                &mut slot.path,
-                slot.hit.take(),
-                &mut slot.rng,
-                &mut counts,
-                Strategy::Mis,
-            );
-            slot.next = match step {
-                Step::Continue { origin } => Some(origin),
-                Step::Done => None,
-            };
         }
         counts
     }
