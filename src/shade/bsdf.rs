@@ -60,6 +60,15 @@ pub struct BsdfSample {
     pub pdf: f32,
 }
 
+/// What drawing a sample of a [`MetalRoughBsdf`] begins with ([`MetalRoughBsdf::begin_sample`]).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct SampleStart {
+    /// The specular lobe's selection probability at wo.
+    pub p_specular: f32,
+    /// The direction drawn; `None` below the surface (the path ends).
+    pub wi: Option<Vec3>,
+}
+
 impl BsdfSample {
     /// The sample of direction `wi` with the BRDF's value and density there: `None` where the
     /// density is not positive and finite (the path ends).
@@ -148,32 +157,29 @@ impl MetalRoughBsdf {
     /// `u`. `None` when the draw leaves the hemisphere (the path ends: the energy the
     /// single-scattering model does not reflect).
     pub fn sample(&self, wo: Vec3, u_lobe: f32, u: [f32; 2]) -> Option<BsdfSample> {
+        let start = self.begin_sample(wo, u_lobe, u)?;
+        let wi = start.wi?;
+        let (value, pdf) = self.eval_and_pdf_above(wo, wi, start.p_specular);
+        BsdfSample::of(wi, value, pdf)
+    }
+
+    /// [`MetalRoughBsdf::sample`] before its evaluation: the specular lobe's probability at
+    /// `wo`, and the direction drawn (a lobe by `u_lobe`, then a direction by `u`); `None`
+    /// with `wo` below the surface, where the BSDF is zero.
+    pub(crate) fn begin_sample(&self, wo: Vec3, u_lobe: f32, u: [f32; 2]) -> Option<SampleStart> {
         if wo.z <= 0.0 {
             return None;
         }
         let p_specular = self.specular_probability(wo);
-        let wi = self.sample_direction(wo, p_specular, u_lobe, u)?;
-        let (value, pdf) = self.eval_and_pdf_above(wo, wi, p_specular);
-        BsdfSample::of(wi, value, pdf)
-    }
-
-    /// [`MetalRoughBsdf::sample`]'s direction, before its evaluation: a lobe by `u_lobe` (the
-    /// specular one with probability `p_specular`, [`MetalRoughBsdf::specular_probability`]
-    /// at `wo`, which must be above the surface), then a direction by `u`; `None` below the
-    /// surface.
-    pub(crate) fn sample_direction(
-        &self,
-        wo: Vec3,
-        p_specular: f32,
-        u_lobe: f32,
-        u: [f32; 2],
-    ) -> Option<Vec3> {
         let wi = if u_lobe < p_specular {
             reflect(wo, self.ggx.sample_visible_normal(wo, u))
         } else {
             cosine_hemisphere(u)
         };
-        (wi.z > 0.0).then_some(wi)
+        Some(SampleStart {
+            p_specular,
+            wi: (wi.z > 0.0).then_some(wi),
+        })
     }
 }
 

@@ -254,36 +254,30 @@ impl Shader<'_> {
             });
         let frame = shading.frame;
         let wo_local = frame.to_local(wo);
-        let light_wi = light.map_or(Vec3::ZERO, |light| frame.to_local(light.direction));
         let (u_lobe, u) = (rng.next_f32(), rng.next_2d());
-        let above = wo_local.z > 0.0;
-        let p_specular = if above {
-            shading.bsdf.specular_probability(wo_local)
-        } else {
-            0.0
-        };
-        let sample_wi = if above {
-            shading
-                .bsdf
-                .sample_direction(wo_local, p_specular, u_lobe, u)
-        } else {
-            None
-        };
         let bsdf = &shading.bsdf;
-        // The BSDF is zero unless wo and the light's direction are both above the surface.
-        let light_asked = (light.is_some() && above && light_wi.z > 0.0)
-            .then(|| evaluator.ask(bsdf, wo_local, light_wi, p_specular));
-        let sample_asked = sample_wi.map(|wi| evaluator.ask(bsdf, wo_local, wi, p_specular));
+        // Without a start wo is below the surface, where the BSDF is zero: no light is
+        // reflected and no sample drawn.
+        let start = bsdf.begin_sample(wo_local, u_lobe, u);
+        let light = light.map(|light| {
+            let wi = frame.to_local(light.direction);
+            // The BSDF is zero with the light's direction below the shading surface too.
+            let asked = start
+                .filter(|_| wi.z > 0.0)
+                .map(|start| evaluator.ask(bsdf, wo_local, wi, start.p_specular));
+            (light, wi.z, asked)
+        });
+        let sample = start.and_then(|start| {
+            let wi = start.wi?;
+            Some((wi, evaluator.ask(bsdf, wo_local, wi, start.p_specular)))
+        });
         Some(Vertex {
             position: surface.position,
             geometric_normal: surface.geometric_normal,
             spawn_offset: surface.spawn_offset,
             frame,
             light,
-            light_cos: light_wi.z,
-            sample_wi,
-            light_asked,
-            sample_asked,
+            sample,
         })
     }
 
@@ -299,13 +293,9 @@ impl Shader<'_> {
         stats: &mut ShadeStats,
         strategy: Strategy,
     ) -> Step {
-        let light_evaluation = vertex
-            .light_asked
-            .map_or((Vec3::ZERO, 0.0), |i| evaluator.answer(i));
-        path.radiance +=
-            path.throughput * self.direct_light(vertex, light_evaluation, stats, strategy);
+        path.radiance += path.throughput * self.direct_light(vertex, evaluator, stats, strategy);
 
-        let (Some(wi_local), Some(asked)) = (vertex.sample_wi, vertex.sample_asked) else {
+        let Some((wi_local, asked)) = vertex.sample else {
             return Step::Done;
         };
         let (value, pdf) = evaluator.answer(asked);
@@ -335,20 +325,21 @@ impl Shader<'_> {
         }
     }
 
-    /// The vertex's light sample's reflected radiance towards wo, given the BSDF's value and
-    /// density there (`light`), MIS-weighted against BSDF sampling for area lights and the
-    /// environment.
+    /// The vertex's light sample's reflected radiance towards wo (the BSDF's value and density
+    /// there answered by `evaluator`), MIS-weighted against BSDF sampling for area lights and
+    /// the environment.
     fn direct_light(
         &self,
         vertex: &Vertex,
-        (value, bsdf_pdf): (Vec3, f32),
+        evaluator: &impl Evaluator,
         stats: &mut ShadeStats,
         strategy: Strategy,
     ) -> Vec3 {
-        let Some(light) = vertex.light else {
+        let Some((light, cos_light, asked)) = vertex.light else {
             return Vec3::ZERO;
         };
-        let reflected = value * light.radiance * vertex.light_cos;
+        let (value, bsdf_pdf) = asked.map_or((Vec3::ZERO, 0.0), |i| evaluator.answer(i));
+        let reflected = value * light.radiance * cos_light;
         if reflected.max_element() <= 0.0 {
             return Vec3::ZERO;
         }
@@ -399,17 +390,13 @@ pub(super) struct Vertex {
     spawn_offset: f32,
     /// The shading frame.
     frame: Frame,
-    /// The light sample, when one was drawn above the surface's geometric horizon, and the
-    /// cosine of its direction to the shading normal.
-    light: Option<LightSample>,
-    light_cos: f32,
-    /// The BSDF sample's direction in the shading frame (`None`: the path ends after the
-    /// light sample).
-    sample_wi: Option<Vec3>,
-    /// The evaluations asked of the evaluator for the light sample and the BSDF sample
-    /// (`None` for the light: the BSDF is zero there).
-    light_asked: Option<u8>,
-    sample_asked: Option<u8>,
+    /// The light sample, when one was drawn above the surface's geometric horizon: with its
+    /// direction's cosine to the shading normal, and its evaluation asked of the evaluator
+    /// (`None` where the BSDF is zero: wo or that direction below the shading surface).
+    light: Option<(LightSample, f32, Option<u8>)>,
+    /// The BSDF sample's direction in the shading frame and its evaluation asked of the
+    /// evaluator (`None`: the path ends after the light sample).
+    sample: Option<(Vec3, u8)>,
 }
 
 impl Vertex {
