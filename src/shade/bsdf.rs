@@ -15,9 +15,9 @@ use std::f32::consts::FRAC_1_PI;
 
 use glam::Vec3;
 
-use super::ggx::{self, Ggx, reflect};
 use wide::f32x8;
 
+use super::ggx::{self, Ggx, reflect};
 use super::warp::{cosine_hemisphere, cosine_hemisphere_pdf};
 use crate::lanes::Lanes;
 
@@ -31,12 +31,18 @@ pub fn luminance(rgb: Vec3) -> f32 {
 
 /// Schlick's Fresnel approximation at the cosine between the view and the microfacet normal.
 fn schlick(f0: Vec3, cos_theta: f32) -> Vec3 {
-    let m = schlick_weight(cos_theta);
-    f0 + (Vec3::ONE - f0) * m
+    let weight = schlick_weight(cos_theta);
+    Vec3::from_array(f0.to_array().map(|f0| schlick_mix(f0, weight)))
 }
 
 fn schlick_scalar(f0: f32, cos_theta: f32) -> f32 {
-    f0 + (1.0 - f0) * schlick_weight(cos_theta)
+    schlick_mix(f0, schlick_weight(cos_theta))
+}
+
+/// Schlick's F = F0 + (1 − F0)·w, given w = [`schlick_weight`].
+#[inline(always)]
+fn schlick_mix<L: Lanes>(f0: L, weight: L) -> L {
+    f0 + (L::splat(1.0) - f0) * weight
 }
 
 /// Schlick's (1 − cos θ)⁵, cos θ clamped to [0, 1]; the fifth power as `powi(5)` computes it,
@@ -218,11 +224,11 @@ pub(crate) fn eval_and_pdf_above<L: Lanes>(
     let distribution = ggx::distribution(bsdf.alpha, h[2]);
     let fresnel = schlick_weight(cos_oh);
     // fresnel_mix: the diffuse base sees what the dielectric coating transmits.
-    let dielectric = L::splat(DIELECTRIC_F0) + L::splat(1.0 - DIELECTRIC_F0) * fresnel;
+    let dielectric = schlick_mix(L::splat(DIELECTRIC_F0), fresnel);
     let diffuse_factor = (one - dielectric) * L::splat(FRAC_1_PI);
     let specular_factor = distribution * ggx::visibility(bsdf.alpha, wo[2], wi[2]);
     let value: [L; 3] = std::array::from_fn(|c| {
-        let specular = (bsdf.f0[c] + (one - bsdf.f0[c]) * fresnel) * specular_factor;
+        let specular = schlick_mix(bsdf.f0[c], fresnel) * specular_factor;
         L::select(
             no_half_vector,
             zero,
