@@ -21,7 +21,8 @@
 //! default (the fastest).
 //!
 //! `anchor` puts Embree 3 (a yardstick, opened at run time when `libembree3.so.3` is
-//! installed; see `common/embree.rs`) beside realcam's single-ray and packet traversals: the
+//! installed; see `common/embree.rs`) beside realcam's single-ray traversal, its packets, and the
+//! renderer's batch (packets where they run full enough to pay, single rays elsewhere): the
 //! same world triangles, the same ray sets (camera rays in tile order, first diffuse bounces),
 //! closest hit, one thread. `build_embree` times Embree's own BVH build (one thread).
 
@@ -39,7 +40,7 @@ use glam::{Vec3, Vec3A};
 use obvhs::BvhBuildParams;
 use obvhs::cwbvh::builder::build_cwbvh_from_tris;
 use obvhs::ray::{Ray, RayHit};
-use realcam::accel::{SceneAccel, Traversal};
+use realcam::accel::{BatchParallelism, PacketUse, SceneAccel, Traversal};
 use realcam::batch::{HitBatch, RayBatch};
 
 /// Primary rays per side of the image: 256² = 65,536 primary rays.
@@ -387,8 +388,12 @@ enum AnchorRays {
 enum Tracer {
     /// realcam, one ray at a time (the renderer's single-ray traversal, AVX2 where present).
     RealcamSingle,
-    /// realcam's batch call (8-ray packets where a packet's rays share an octant).
+    /// realcam's batch call with every packet walking as one (8-ray packets where a packet's
+    /// rays share an octant).
     RealcamPackets,
+    /// realcam's batch call as the renderer makes it: packets where they run full enough to
+    /// pay, single rays elsewhere (`realcam::accel::PacketUse::WherePaying`).
+    RealcamBatch,
     /// Embree 3, `rtcIntersect1`.
     Embree1,
     /// Embree 3, `rtcIntersect8` on 8 consecutive rays.
@@ -411,6 +416,7 @@ impl std::fmt::Display for AnchorCase {
         let tracer = match self.tracer {
             Tracer::RealcamSingle => "realcam single",
             Tracer::RealcamPackets => "realcam packets",
+            Tracer::RealcamBatch => "realcam batch (packets where they pay)",
             Tracer::Embree1 => "embree rtcIntersect1",
             Tracer::Embree8 => "embree rtcIntersect8",
         };
@@ -425,6 +431,7 @@ fn anchor_cases() -> Vec<AnchorCase> {
             for tracer in [
                 Tracer::RealcamSingle,
                 Tracer::RealcamPackets,
+                Tracer::RealcamBatch,
                 Tracer::Embree1,
                 Tracer::Embree8,
             ] {
@@ -528,12 +535,20 @@ fn anchor(bencher: Bencher, case: AnchorCase) {
                 .counter(counter)
                 .bench_local(|| trace_each(accel, traversal, black_box(&rays), Kind::Primary));
         }
-        Tracer::RealcamPackets => {
+        Tracer::RealcamPackets | Tracer::RealcamBatch => {
             let batch = ray_batch(&rays);
             let mut hits = HitBatch::default();
             let pool = thread_pool(1);
+            // The batch as the renderer traces a tile's: on the thread that holds it.
+            let (parallelism, packets) = if case.tracer == Tracer::RealcamPackets {
+                (BatchParallelism::Spread, PacketUse::Always)
+            } else {
+                (BatchParallelism::OneThread, PacketUse::WherePaying)
+            };
             bencher.counter(counter).bench_local(|| {
-                pool.install(|| accel.intersect_batch(black_box(&batch), &mut hits));
+                pool.install(|| {
+                    accel.intersect_batch_using(black_box(&batch), &mut hits, parallelism, packets)
+                });
                 hits.triangle.len()
             });
         }

@@ -12,7 +12,8 @@
 //! The CPU traverses its own copy of that tree (`wide`): the same nodes and leaves with the
 //! child boxes decoded once to floats, tested eight at a time with a rounding margin, nearest
 //! child first (`wide_traversal`), and batches of camera and bounce rays eight at a time
-//! (module `packet`). obvhs's own traversal of its compressed nodes (and the same loop with an
+//! (module `packet`; bounce rays one at a time where their packets run too sparse to pay,
+//! module `packet_use`). obvhs's own traversal of its compressed nodes (and the same loop with an
 //! AVX2 node test, `traversal.rs`) stays as the reference: the wide traversals give its
 //! closest hits, up to which of two triangles at exactly the same distance is reported
 //! ([`SceneAccel::intersect_with`]; the tests in `tests.rs`). The GPU backend uploads the
@@ -21,6 +22,7 @@
 mod alpha_mask;
 #[cfg(target_arch = "x86_64")]
 mod packet;
+mod packet_use;
 pub mod spawn;
 mod surface;
 mod traversal;
@@ -54,6 +56,8 @@ mod packet_stack {
     #[cfg(not(target_arch = "x86_64"))]
     pub type Entry = ();
 }
+use packet_use::Walk;
+pub use packet_use::{PacketGauge, PacketUse};
 pub use traversal::Traversal;
 use triangles::TriangleHit;
 pub(crate) use triangles::{
@@ -333,17 +337,74 @@ impl SceneAccel {
         hits: &mut HitBatch,
         parallelism: BatchParallelism,
     ) {
+        self.intersect_batch_using(rays, hits, parallelism, PacketUse::Always);
+    }
+
+    /// [`SceneAccel::intersect_batch_with`], its rays walking the tree in packets as
+    /// `packets` says (the same hits whichever way: see [`PacketUse`]), a
+    /// [`PacketUse::WherePaying`] batch measured from scratch. Spread over the threads, a
+    /// task's 64 rays are too few to measure, so there every packet walks as one.
+    pub fn intersect_batch_using(
+        &self,
+        rays: &RayBatch,
+        hits: &mut HitBatch,
+        parallelism: BatchParallelism,
+        packets: PacketUse,
+    ) {
+        self.trace_batch(
+            rays,
+            hits,
+            parallelism,
+            packets,
+            &mut PacketGauge::default(),
+        );
+    }
+
+    /// [`SceneAccel::intersect_batch_with`] on this thread alone, packets walking where they
+    /// pay ([`PacketUse::WherePaying`]) by `gauge`'s measure, which the caller keeps from one
+    /// batch of a kind to the next (a thread's bounce rays): small batches then need no
+    /// measure of their own.
+    pub fn intersect_batch_gauged(
+        &self,
+        rays: &RayBatch,
+        hits: &mut HitBatch,
+        gauge: &mut PacketGauge,
+    ) {
+        gauge.fade();
+        self.trace_batch(
+            rays,
+            hits,
+            BatchParallelism::OneThread,
+            PacketUse::WherePaying,
+            gauge,
+        );
+    }
+
+    /// The batch calls' work; `gauge` measures a one-thread [`PacketUse::WherePaying`] batch.
+    fn trace_batch(
+        &self,
+        rays: &RayBatch,
+        hits: &mut HitBatch,
+        parallelism: BatchParallelism,
+        packets: PacketUse,
+        gauge: &mut PacketGauge,
+    ) {
         const CHUNK: usize = 64;
+        let packets = match (parallelism, packets) {
+            (BatchParallelism::Spread, PacketUse::WherePaying) => PacketUse::Always,
+            (_, packets) => packets,
+        };
         hits.resize(rays.len());
         let HitBatch { t, triangle, u, v } = hits;
         // Rays first.. of the batch, packet by packet, their hits written in place.
         let trace_packets = |stack: &mut Vec<packet_stack::Entry>,
+                             gauge: &mut PacketGauge,
                              first: usize,
                              t: &mut [f32],
                              triangle: &mut [u32],
                              u: &mut [f32],
                              v: &mut [f32]| {
-            for p in (0..t.len()).step_by(PACKET_RAYS) {
+            for (index, p) in (0..t.len()).step_by(PACKET_RAYS).enumerate() {
                 let end = (p + PACKET_RAYS).min(t.len());
                 let out = HitSlices {
                     t: &mut t[p..end],
@@ -351,14 +412,14 @@ impl SceneAccel {
                     u: &mut u[p..end],
                     v: &mut v[p..end],
                 };
-                self.intersect_packet(rays, first + p, out, stack);
+                let walk = gauge.walk(packets, index);
+                self.intersect_packet(rays, first + p, out, stack, walk, gauge);
             }
         };
         match parallelism {
             // The thread's own stack, kept from call to call: nothing allocated per batch.
-            BatchParallelism::OneThread => {
-                PACKET_STACK.with_borrow_mut(|stack| trace_packets(stack, 0, t, triangle, u, v))
-            }
+            BatchParallelism::OneThread => PACKET_STACK
+                .with_borrow_mut(|stack| trace_packets(stack, gauge, 0, t, triangle, u, v)),
             // Packets never straddle tasks (the chunk length is a multiple of the packet
             // size), so the packets, and the hits, are those of one thread.
             BatchParallelism::Spread => t
@@ -368,13 +429,16 @@ impl SceneAccel {
                 .zip(v.par_chunks_mut(CHUNK))
                 .enumerate()
                 .for_each_init(Vec::new, |stack, (chunk, (((t, triangle), u), v))| {
-                    trace_packets(stack, chunk * CHUNK, t, triangle, u, v)
+                    // Every packet walks (see above): nothing to measure.
+                    let mut unused = PacketGauge::default();
+                    trace_packets(stack, &mut unused, chunk * CHUNK, t, triangle, u, v)
                 }),
         }
     }
 
     /// Closest hits of rays `first..first + out.len()` (at most eight) of the batch, written
-    /// to `out` (which holds misses on entry).
+    /// to `out` (which holds misses on entry): as one packet unless `walk` says single rays
+    /// (or the rays cannot go as one), a probe counting into `gauge` how full it ran.
     #[cfg_attr(not(target_arch = "x86_64"), allow(unused_variables))]
     fn intersect_packet(
         &self,
@@ -382,10 +446,13 @@ impl SceneAccel {
         first: usize,
         out: HitSlices,
         stack: &mut Vec<packet_stack::Entry>,
+        walk: Walk,
+        gauge: &mut PacketGauge,
     ) {
         let n = out.t.len();
         #[cfg(target_arch = "x86_64")]
         if self.obvhs_traversal == Traversal::Avx2
+            && walk != Walk::Single
             && let Some(wide) = self.wide.as_ref()
         {
             let mut packet = packet::PacketRays::default();
@@ -423,11 +490,14 @@ impl SceneAccel {
                         &self.primitives,
                         &packet,
                         active,
-                        self.alpha_masks.any(),
-                        |index, u, v| self.is_alpha_hole(index as u32, u, v),
+                        self.alpha_masks
+                            .any()
+                            .then_some(|index, u, v| self.is_alpha_hole(index as u32, u, v)),
                         stack,
+                        walk == Walk::Probe,
                     )
                 };
+                gauge.add(hits.visits, hits.rays_at_visits);
                 for lane in 0..n {
                     if hits.triangle[lane] != u32::MAX {
                         out.t[lane] = hits.t[lane] * self.world_per_bvh_unit;

@@ -38,6 +38,10 @@ pub(super) struct PacketHits {
     pub triangle: [u32; LANES],
     pub u: [f32; LANES],
     pub v: [f32; LANES],
+    /// Interior nodes the packet visited, and the rays it held at those visits, summed: how
+    /// full it ran (see `packet_use`); counted only when asked.
+    pub visits: u32,
+    pub rays_at_visits: u32,
 }
 
 /// The rays of a packet in BVH space, one lane each, as obvhs's `Ray`s hold them: rays built
@@ -91,8 +95,8 @@ struct Lanes {
 
 /// Closest hits of `rays` (BVH space, `tmin` = 0) for the lanes set in `active` (bit i = ray
 /// i); other lanes report no hit. All active rays must share the direction octant (by
-/// `d < 0` per axis). `is_hole(triangle, u, v)` is the alpha check, asked only when
-/// `check_holes` and only for geometric hits closer than the ray's closest so far.
+/// `d < 0` per axis). `holes(triangle, u, v)` is the alpha check, where the scene has alpha
+/// masks, asked only for geometric hits closer than the ray's closest so far.
 /// `stack` is scratch space (kept by the caller to spare an allocation per packet).
 /// Callable where the CPU supports AVX2.
 #[target_feature(enable = "avx2,bmi1,bmi2,lzcnt,popcnt")]
@@ -101,15 +105,17 @@ pub(super) fn intersect_packet_avx2(
     primitives: &[TrianglePrimitive],
     rays: &PacketRays,
     active: u32,
-    check_holes: bool,
-    is_hole: impl Fn(usize, f32, f32) -> bool,
+    holes: Option<impl Fn(usize, f32, f32) -> bool>,
     stack: &mut Vec<StackEntry>,
+    count: bool,
 ) -> PacketHits {
     let mut hits = PacketHits {
         t: [f32::INFINITY; LANES],
         triangle: [u32::MAX; LANES],
         u: [0.0; LANES],
         v: [0.0; LANES],
+        visits: 0,
+        rays_at_visits: 0,
     };
     let active = active & 0xff;
     if active == 0 || bvh.nodes.is_empty() {
@@ -143,6 +149,7 @@ pub(super) fn intersect_packet_avx2(
     let epsilon = _mm256_set1_ps(ENTRY_EPSILON);
     let margin = _mm256_set1_ps(EXIT_MARGIN);
 
+    let (mut visits, mut rays_at_visits) = (0, 0);
     stack.clear();
     let mut next = Some(StackEntry {
         child: ChildRef(0),
@@ -157,7 +164,7 @@ pub(super) fn intersect_packet_avx2(
                 if found == 0 {
                     continue;
                 }
-                if check_holes {
+                if let Some(is_hole) = &holes {
                     let (u_lane, v_lane) = (to_array(u), to_array(v));
                     let mut kept = found;
                     for lane in set_bits(found) {
@@ -174,6 +181,10 @@ pub(super) fn intersect_packet_avx2(
                 triangle = _mm256_blendv_epi8(triangle, _mm256_set1_epi32(index as i32), hit);
             }
             continue;
+        }
+        if count {
+            visits += 1;
+            rays_at_visits += bits.count_ones();
         }
         let node = &bvh.nodes[child.node_index()];
         // Every child against every ray still in this node: each lane's arithmetic is the
@@ -234,6 +245,7 @@ pub(super) fn intersect_packet_avx2(
         }
     }
 
+    (hits.visits, hits.rays_at_visits) = (visits, rays_at_visits);
     let triangle = to_array(_mm256_castsi256_ps(triangle)).map(f32::to_bits);
     let (t, u, v) = (to_array(lanes.tmax), to_array(hit_u), to_array(hit_v));
     for lane in 0..LANES {

@@ -796,12 +796,38 @@ fn traversals_agree_on_random_soup() {
     assert!(hits > 400, "only {hits} hits");
 }
 
-/// `intersect_batch` (packets) gives every ray exactly the renderer's single-ray hit (ties
-/// too: both break them by triangle index), obvhs's to exact ties, and brute force's to
-/// rounding. Returns the number of hits.
+/// The batch call gives every ray exactly the renderer's single-ray hit (ties too: both break
+/// them by triangle index), obvhs's to exact ties, and brute force's to rounding, whether its
+/// packets all walk as packets, none do, or the renderer's measure picks; the same hits all
+/// three ways. Returns the number of hits.
 fn assert_batch_agrees(accel: &SceneAccel, rays: &RayBatch) -> usize {
-    let mut hits = HitBatch::default();
-    accel.intersect_batch(rays, &mut hits);
+    let trace = |parallelism, packets| {
+        let mut hits = HitBatch::default();
+        accel.intersect_batch_using(rays, &mut hits, parallelism, packets);
+        hits
+    };
+    let hits = trace(BatchParallelism::Spread, PacketUse::Always);
+    for packets in [PacketUse::Always, PacketUse::Never, PacketUse::WherePaying] {
+        // On one thread: the whole batch one task, the way the renderer's measure runs.
+        let other = trace(BatchParallelism::OneThread, packets);
+        assert_eq!(
+            (&other.t, &other.triangle, &other.u, &other.v),
+            (&hits.t, &hits.triangle, &hits.u, &hits.v),
+            "{packets:?} against every packet walking"
+        );
+    }
+    // A gauge carried from batch to batch, as the renderer's bounce rays keep one: the second
+    // batch walks by the first's measure.
+    let mut gauge = PacketGauge::default();
+    for round in 0..2 {
+        let mut other = HitBatch::default();
+        accel.intersect_batch_gauged(rays, &mut other, &mut gauge);
+        assert_eq!(
+            (&other.t, &other.triangle, &other.u, &other.v),
+            (&hits.t, &hits.triangle, &hits.u, &hits.v),
+            "a gauged batch, round {round}"
+        );
+    }
     assert_eq!(hits.len(), rays.len());
     let mut found = 0;
     for i in 0..rays.len() {
@@ -938,6 +964,50 @@ fn packets_agree_on_random_soup_with_random_rays() {
     assert!(assert_batch_agrees(&accel, &rays) > 400);
     let rays = camera_rays(&accel, Vec3::new(1.0, 1.0, 0.5), 48, 0.1, &mut rng);
     assert!(assert_batch_agrees(&accel, &rays) > 500);
+}
+
+/// How full a packet ran, as the packet traversal counts it for [`PacketUse::WherePaying`]:
+/// eight copies of one ray hold all eight at every node they visit, a lone ray one, and both
+/// visit the nodes that ray visits.
+#[cfg(target_arch = "x86_64")]
+#[test]
+fn packets_count_the_rays_at_each_visit() {
+    if !std::arch::is_x86_feature_detected!("avx2") {
+        return;
+    }
+    let mut rng = Rng::new(5, 9);
+    let accel = build(&random_soup(3000, &mut rng));
+    let wide = accel.wide.as_ref().expect("wide tree");
+    let mut stack = Vec::new();
+    let mut visited = 0;
+    for (origin, direction) in probe_rays(&accel, 200, &mut rng) {
+        let Some(ray) = accel.bvh_ray(origin, direction, f32::INFINITY) else {
+            continue;
+        };
+        let mut packet = super::packet::PacketRays::default();
+        for lane in 0..super::packet::LANES {
+            packet.set(lane, &ray);
+        }
+        // SAFETY: AVX2 was detected above.
+        let mut walk = |active| unsafe {
+            super::packet::intersect_packet_avx2(
+                wide,
+                &accel.primitives,
+                &packet,
+                active,
+                None::<fn(usize, f32, f32) -> bool>,
+                &mut stack,
+                true,
+            )
+        };
+        let (full, alone) = (walk(0xff), walk(0b100));
+        assert_eq!(full.visits, alone.visits);
+        assert_eq!(full.rays_at_visits, 8 * full.visits);
+        assert_eq!(alone.rays_at_visits, alone.visits);
+        assert_eq!(full.triangle, [alone.triangle[2]; 8]);
+        visited += full.visits;
+    }
+    assert!(visited > 200, "only {visited} node visits");
 }
 
 #[test]

@@ -28,7 +28,7 @@ pub(crate) mod tests;
 use glam::Vec3;
 use rayon::prelude::*;
 
-use crate::accel::{BatchParallelism, SceneAccel};
+use crate::accel::{BatchParallelism, PacketGauge, SceneAccel};
 use crate::batch::{Hit, HitBatch, RayBatch};
 use crate::sampling::Rng;
 use crate::scene::MaterialLibrary;
@@ -366,6 +366,10 @@ struct BounceRays {
     order: Vec<u32>,
     rays: RayBatch,
     hits: HitBatch,
+    /// How full this thread's bounce packets have run lately (see
+    /// [`SceneAccel::intersect_batch_gauged`]): kept with the thread's scratch, from batch to
+    /// batch.
+    gauge: PacketGauge,
 }
 
 impl BounceRays {
@@ -382,7 +386,9 @@ impl BounceRays {
     /// Traces the next ray of every path in `live` (all have one) and hands each its hit.
     /// The rays are grouped by direction octant, stably (a counting sort), so that within an
     /// octant they stay in pixel order: the 8-ray packets then hold one octant's rays from
-    /// neighbouring pixels.
+    /// neighbouring pixels. On one thread they walk as packets where the thread's gauge says
+    /// packets pay (on a scene of a million small triangles bounce rays part ways, and go one by
+    /// one: see [`crate::accel::PacketUse`]).
     fn trace(&mut self, accel: &SceneAccel, live: &mut [PathSlot], parallelism: BatchParallelism) {
         let octant = |slot: &PathSlot| {
             let d = slot.path.direction;
@@ -410,7 +416,14 @@ impl BounceRays {
             (rays.ox[j], rays.oy[j], rays.oz[j]) = (origin.x, origin.y, origin.z);
             (rays.dx[j], rays.dy[j], rays.dz[j]) = (direction.x, direction.y, direction.z);
         }
-        accel.intersect_batch_with(rays, &mut self.hits, parallelism);
+        match parallelism {
+            BatchParallelism::OneThread => {
+                accel.intersect_batch_gauged(rays, &mut self.hits, &mut self.gauge)
+            }
+            BatchParallelism::Spread => {
+                accel.intersect_batch_with(rays, &mut self.hits, parallelism)
+            }
+        }
         for (j, &k) in self.order.iter().enumerate() {
             live[k as usize].hit = self.hits.hit(j);
         }
