@@ -23,8 +23,8 @@ pub enum PacketUse {
     Always,
     /// One ray at a time.
     Never,
-    /// As packets where they run full enough to pay, measured batch by batch (module docs):
-    /// the renderer's choice.
+    /// As packets where they run full enough to pay, by a [`PacketGauge`]'s measure (module
+    /// docs): the renderer's choice for bounce rays.
     WherePaying,
 }
 
@@ -47,7 +47,7 @@ pub(super) const MIN_RAYS_PER_VISIT: f32 = 2.3;
 /// How one packet of a batch walks the tree.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(super) enum Walk {
-    /// As a packet, counting how full it runs into the batch's [`PacketGauge`].
+    /// As a packet, counting how full it runs into the [`PacketGauge`] in use.
     Probe,
     /// As a packet.
     Packet,
