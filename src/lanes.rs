@@ -1,9 +1,10 @@
-//! The arithmetic the batch kernels are written in, over one `f32` lane or eight.
+//! The arithmetic the batch kernels are written in, over one `f32` lane, two or eight.
 //!
 //! The lens kernel's surface step (`lens::trace_batch`'s `refract_at`) and the BSDF's
 //! evaluation ([`crate::shade::bsdf`]) are each written once against [`Lanes`]:
 //! with `f32` they are the per-ray reference (and the plain kernel, vectorised by the compiler),
-//! with `wide::f32x8` they run eight rays or path vertices at once. Every operation here is one
+//! with [`Pair`] the plain kernel's two interleaved rays, with `wide::f32x8` they run eight
+//! rays or path vertices at once. Every operation here is one
 //! IEEE-754 operation with the same rounding in both (no fused multiply-add; `max` is a compare
 //! and a select), so both give bit-identical results.
 
@@ -145,5 +146,169 @@ impl Lanes for f32x8 {
     #[inline(always)]
     fn any(mask: f32x8) -> bool {
         mask.any()
+    }
+}
+
+/// Two `f32` lanes side by side, each operation done for both at once: a loop over rays in
+/// `Pair`s, vectorised by the compiler, runs two independent vectors through every operation in
+/// turn, so that a long chain of dependent operations (the lens kernel's surface step, square
+/// roots and a division among them) keeps the core busy with the other chain while one waits.
+/// Each lane sees exactly the `f32` operations, so the bits are `f32`'s.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Pair(pub f32, pub f32);
+
+/// [`Pair`]'s mask: one `bool` per lane.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct PairMask(pub bool, pub bool);
+
+impl LaneMask for PairMask {}
+
+impl BitAnd for PairMask {
+    type Output = Self;
+    #[inline(always)]
+    fn bitand(self, other: Self) -> Self {
+        PairMask(self.0 & other.0, self.1 & other.1)
+    }
+}
+
+impl BitOr for PairMask {
+    type Output = Self;
+    #[inline(always)]
+    fn bitor(self, other: Self) -> Self {
+        PairMask(self.0 | other.0, self.1 | other.1)
+    }
+}
+
+impl Not for PairMask {
+    type Output = Self;
+    #[inline(always)]
+    fn not(self) -> Self {
+        PairMask(!self.0, !self.1)
+    }
+}
+
+/// `Pair`'s arithmetic operators, lane by lane.
+macro_rules! pair_operators {
+    ($($trait:ident $method:ident $op:tt),*) => {$(
+        impl $trait for Pair {
+            type Output = Self;
+            #[inline(always)]
+            fn $method(self, other: Self) -> Self {
+                Pair(self.0 $op other.0, self.1 $op other.1)
+            }
+        }
+    )*};
+}
+
+pair_operators!(Add add +, Sub sub -, Mul mul *, Div div /);
+
+impl Neg for Pair {
+    type Output = Self;
+    #[inline(always)]
+    fn neg(self) -> Self {
+        Pair(-self.0, -self.1)
+    }
+}
+
+/// `Pair`'s comparisons, lane by lane.
+macro_rules! pair_comparisons {
+    ($($method:ident),*) => {$(
+        #[inline(always)]
+        fn $method(self, other: Self) -> PairMask {
+            PairMask(
+                <f32 as Lanes>::$method(self.0, other.0),
+                <f32 as Lanes>::$method(self.1, other.1),
+            )
+        }
+    )*};
+}
+
+impl Lanes for Pair {
+    type Mask = PairMask;
+    #[inline(always)]
+    fn splat(value: f32) -> Self {
+        Pair(value, value)
+    }
+    #[inline(always)]
+    fn sqrt(self) -> Self {
+        Pair(self.0.sqrt(), self.1.sqrt())
+    }
+    pair_comparisons!(lt, le, gt, ge, eq);
+    #[inline(always)]
+    fn is_finite(self) -> PairMask {
+        PairMask(self.0.is_finite(), self.1.is_finite())
+    }
+    #[inline(always)]
+    fn select(mask: PairMask, if_true: Self, if_false: Self) -> Self {
+        Pair(
+            <f32 as Lanes>::select(mask.0, if_true.0, if_false.0),
+            <f32 as Lanes>::select(mask.1, if_true.1, if_false.1),
+        )
+    }
+    #[inline(always)]
+    fn any(mask: PairMask) -> bool {
+        mask.0 | mask.1
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Awkward values: signed zeros, subnormals, infinities, NaN, and ordinary ones.
+    const VALUES: [f32; 10] = [
+        0.0,
+        -0.0,
+        1.0e-40,
+        -2.5,
+        3.0,
+        0.1,
+        f32::MAX,
+        f32::INFINITY,
+        f32::NEG_INFINITY,
+        f32::NAN,
+    ];
+
+    /// Every `Pair` operation is the `f32` one in each lane, to the bit (the lens kernel's
+    /// paired loop relies on it to give the reference's rays).
+    #[test]
+    fn a_pair_computes_each_lane_as_f32_does() {
+        let bits = |p: Pair| [p.0.to_bits(), p.1.to_bits()];
+        for &a in &VALUES {
+            for &b in &VALUES {
+                // The second lane gets the operands the other way round, so the lanes differ.
+                let (x, y) = (Pair(a, b), Pair(b, a));
+                let each = |f: fn(f32, f32) -> f32| [f(a, b).to_bits(), f(b, a).to_bits()];
+                assert_eq!(bits(x + y), each(|p, q| p + q));
+                assert_eq!(bits(x - y), each(|p, q| p - q));
+                assert_eq!(bits(x * y), each(|p, q| p * q));
+                assert_eq!(bits(x / y), each(|p, q| p / q));
+                assert_eq!(bits(x.max(y)), each(<f32 as Lanes>::max));
+                assert_eq!(bits(-x), [(-a).to_bits(), (-b).to_bits()]);
+                assert_eq!(bits(x.sqrt()), [a.sqrt().to_bits(), b.sqrt().to_bits()]);
+                assert_eq!(
+                    bits(x.abs()),
+                    [Lanes::abs(a).to_bits(), Lanes::abs(b).to_bits()]
+                );
+                let masks = |f: fn(f32, f32) -> bool| PairMask(f(a, b), f(b, a));
+                assert_eq!(x.lt(y), masks(<f32 as Lanes>::lt));
+                assert_eq!(x.le(y), masks(<f32 as Lanes>::le));
+                assert_eq!(x.gt(y), masks(<f32 as Lanes>::gt));
+                assert_eq!(x.ge(y), masks(<f32 as Lanes>::ge));
+                assert_eq!(x.eq(y), masks(<f32 as Lanes>::eq));
+                assert_eq!(x.is_finite(), PairMask(a.is_finite(), b.is_finite()));
+                let mask = x.lt(y);
+                assert_eq!(
+                    bits(Pair::select(mask, x, y)),
+                    [
+                        <f32 as Lanes>::select(mask.0, a, b).to_bits(),
+                        <f32 as Lanes>::select(mask.1, b, a).to_bits()
+                    ]
+                );
+                assert_eq!(Pair::any(mask), mask.0 || mask.1);
+                assert_eq!(!mask & mask, PairMask(false, false));
+                assert_eq!(!mask | mask, PairMask(true, true));
+            }
+        }
     }
 }
