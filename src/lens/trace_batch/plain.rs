@@ -118,6 +118,13 @@ impl<'a> Lanes<'a> {
     /// vectorises.
     #[inline(always)]
     fn cut(self) -> (RaySlices<'a>, &'a mut [f32]) {
+        let n = self.rays.alive.len();
+        self.cut_to(n)
+    }
+
+    /// [`Self::cut`] to `n` rays, a constant where the caller knows the block is whole.
+    #[inline(always)]
+    fn cut_to(self, n: usize) -> (RaySlices<'a>, &'a mut [f32]) {
         let RaySlices {
             ox,
             oy,
@@ -127,7 +134,6 @@ impl<'a> Lanes<'a> {
             dz,
             alive,
         } = self.rays;
-        let n = alive.len();
         let rays = RaySlices {
             ox: &mut ox[..n],
             oy: &mut oy[..n],
@@ -135,7 +141,7 @@ impl<'a> Lanes<'a> {
             dx: &mut dx[..n],
             dy: &mut dy[..n],
             dz: &mut dz[..n],
-            alive,
+            alive: &mut alive[..n],
         };
         (rays, &mut self.cosines[..n])
     }
@@ -183,7 +189,7 @@ fn paired_surface<const SHAPE: u8, const SPECTRAL: bool>(
     etas: &[f32],
 ) -> bool {
     const HALF: usize = BLOCK / 2;
-    let (rays, cosines) = lanes.cut();
+    let (rays, cosines) = lanes.cut_to(BLOCK);
     let RaySlices {
         ox,
         oy,
@@ -193,9 +199,6 @@ fn paired_surface<const SHAPE: u8, const SPECTRAL: bool>(
         dz,
         alive,
     } = rays;
-    let (ox, oy, oz) = (&mut ox[..BLOCK], &mut oy[..BLOCK], &mut oz[..BLOCK]);
-    let (dx, dy, dz) = (&mut dx[..BLOCK], &mut dy[..BLOCK], &mut dz[..BLOCK]);
-    let (alive, cosines) = (&mut alive[..BLOCK], &mut cosines[..BLOCK]);
     let etas = if SPECTRAL { &etas[..BLOCK] } else { etas };
     let paired = surface.splat::<Pair>();
     let mut any_alive = false;
