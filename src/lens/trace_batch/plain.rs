@@ -189,42 +189,55 @@ fn paired_surface<const SHAPE: u8, const SPECTRAL: bool>(
     etas: &[f32],
 ) -> bool {
     const HALF: usize = BLOCK / 2;
-    let (rays, cosines) = lanes.cut_to(BLOCK);
-    let RaySlices {
-        ox,
-        oy,
-        oz,
-        dx,
-        dy,
-        dz,
-        alive,
-    } = rays;
+    let (mut rays, cosines) = lanes.cut_to(BLOCK);
     let etas = if SPECTRAL { &etas[..BLOCK] } else { etas };
     let paired = surface.splat::<Pair>();
     let mut any_alive = false;
     for i in 0..HALF {
         let j = i + HALF;
-        let mut ray = LaneRay {
-            origin: [Pair(ox[i], ox[j]), Pair(oy[i], oy[j]), Pair(oz[i], oz[j])],
-            direction: [Pair(dx[i], dx[j]), Pair(dy[i], dy[j]), Pair(dz[i], dz[j])],
-        };
+        let mut ray = side_by_side(&rays.ray(i), &rays.ray(j));
         let eta = if SPECTRAL {
             Pair(etas[i], etas[j])
         } else {
             paired.eta
         };
-        let crossing =
-            refract_at::<Pair, SHAPE>(&paired, &mut ray, PairMask(alive[i], alive[j]), eta);
-        let [Pair(oxi, oxj), Pair(oyi, oyj), Pair(ozi, ozj)] = ray.origin;
-        let [Pair(dxi, dxj), Pair(dyi, dyj), Pair(dzi, dzj)] = ray.direction;
-        (ox[i], oy[i], oz[i], dx[i], dy[i], dz[i]) = (oxi, oyi, ozi, dxi, dyi, dzi);
-        (ox[j], oy[j], oz[j], dx[j], dy[j], dz[j]) = (oxj, oyj, ozj, dxj, dyj, dzj);
+        let alive = PairMask(rays.alive[i], rays.alive[j]);
+        let crossing = refract_at::<Pair, SHAPE>(&paired, &mut ray, alive, eta);
+        let (ray_i, ray_j) = apart(&ray);
+        rays.set_ray(i, &ray_i);
+        rays.set_ray(j, &ray_j);
         let PairMask(survives_i, survives_j) = crossing.survives;
-        (alive[i], alive[j]) = (survives_i, survives_j);
+        (rays.alive[i], rays.alive[j]) = (survives_i, survives_j);
         (cosines[i], cosines[j]) = (crossing.cosine.0, crossing.cosine.1);
         any_alive |= survives_i | survives_j;
     }
     any_alive
+}
+
+/// Rays `a` and `b` side by side as one [`Pair`] ray.
+#[inline(always)]
+fn side_by_side(a: &LaneRay<f32>, b: &LaneRay<f32>) -> LaneRay<Pair> {
+    let (ao, ad, bo, bd) = (a.origin, a.direction, b.origin, b.direction);
+    LaneRay {
+        origin: [Pair(ao[0], bo[0]), Pair(ao[1], bo[1]), Pair(ao[2], bo[2])],
+        direction: [Pair(ad[0], bd[0]), Pair(ad[1], bd[1]), Pair(ad[2], bd[2])],
+    }
+}
+
+/// A [`Pair`] ray's two rays.
+#[inline(always)]
+fn apart(ray: &LaneRay<Pair>) -> (LaneRay<f32>, LaneRay<f32>) {
+    let ([ox, oy, oz], [dx, dy, dz]) = (ray.origin, ray.direction);
+    (
+        LaneRay {
+            origin: [ox.0, oy.0, oz.0],
+            direction: [dx.0, dy.0, dz.0],
+        },
+        LaneRay {
+            origin: [ox.1, oy.1, oz.1],
+            direction: [dx.1, dy.1, dz.1],
+        },
+    )
 }
 
 /// [`plain_surface`] for a polynomial asphere: the Newton iterations run as steps over the whole
