@@ -4,9 +4,9 @@
 //! evaluation ([`crate::shade::bsdf`]) are each written once against [`Lanes`]:
 //! with `f32` they are the per-ray reference (and the plain kernel, vectorised by the compiler),
 //! with [`Pair`] the plain kernel's two interleaved rays, with `wide::f32x8` they run eight
-//! rays or path vertices at once. Every operation here is one
-//! IEEE-754 operation with the same rounding in both (no fused multiply-add; `max` is a compare
-//! and a select), so both give bit-identical results.
+//! rays or path vertices at once. Every operation here is one IEEE-754 operation with the same
+//! rounding in each (no fused multiply-add; `max` is a compare and a select), so all three give
+//! bit-identical results.
 
 use std::ops::{Add, BitAnd, BitOr, Div, Mul, Neg, Not, Sub};
 
