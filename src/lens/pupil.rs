@@ -853,35 +853,46 @@ fn passing_bounds(
     traced: &mut u64,
 ) -> Rect {
     let rear_z = system.rear_z() as f32;
-    let mut batch = RayBatch::with_capacity(grid[0] * grid[1] * points.len());
     let step = [
         (window.max[0] - window.min[0]) / grid[0] as f64,
         (window.max[1] - window.min[1]) / grid[1] as f64,
     ];
     let centre = |i: usize, axis: usize| window.min[axis] + (i as f64 + 0.5) * step[axis];
-    for &[r, film_z] in points {
-        for iy in 0..grid[1] {
-            for ix in 0..grid[0] {
-                let (x, y) = (centre(ix, 0) as f32, centre(iy, 1) as f32);
-                let d = [x - r as f32, y, rear_z - film_z as f32];
-                let len = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
-                batch.push(
-                    [r as f32, 0.0, film_z as f32],
-                    [d[0] / len, d[1] / len, d[2] / len],
-                    0,
-                    0,
-                );
-            }
+    let xs: Vec<f64> = (0..grid[0]).map(|ix| centre(ix, 0)).collect();
+    let ys: Vec<f64> = (0..grid[1]).map(|iy| centre(iy, 1)).collect();
+    // Ray (point, iy, ix) in that order; every array is written in place, so the batch is
+    // made in one pass over each.
+    let per_film_point = grid[0] * grid[1];
+    let mut batch = RayBatch::default();
+    batch.resize(per_film_point * points.len());
+    for (p, &[r, film_z]) in points.iter().enumerate() {
+        let (r, film_z) = (r as f32, film_z as f32);
+        let rays = p * per_film_point..(p + 1) * per_film_point;
+        batch.ox[rays.clone()].fill(r);
+        batch.oz[rays.clone()].fill(film_z);
+        let directions = batch.dx[rays.clone()]
+            .iter_mut()
+            .zip(&mut batch.dy[rays.clone()])
+            .zip(&mut batch.dz[rays]);
+        let cells = ys
+            .iter()
+            .flat_map(|&y| xs.iter().map(move |&x| (x as f32, y as f32)));
+        for (((dx, dy), dz), (x, y)) in directions.zip(cells) {
+            let d = [x - r, y, rear_z - film_z];
+            let len = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+            (*dx, *dy, *dz) = (d[0] / len, d[1] / len, d[2] / len);
         }
     }
     *traced += batch.len() as u64;
     trace_batch(&system.f32s, &mut batch, Travel::FilmToScene);
     let mut bounds = Rect::EMPTY;
-    let per_film_point = grid[0] * grid[1];
-    for (i, &alive) in batch.alive.iter().enumerate() {
-        if alive {
-            let cell = i % per_film_point;
-            bounds.include(centre(cell % grid[0], 0), centre(cell / grid[0], 1));
+    for film_point in batch.alive.chunks_exact(per_film_point) {
+        for (row, &y) in film_point.chunks_exact(grid[0]).zip(&ys) {
+            for (&alive, &x) in row.iter().zip(&xs) {
+                if alive {
+                    bounds.include(x, y);
+                }
+            }
         }
     }
     bounds
