@@ -23,7 +23,7 @@ use glam::Mat4;
 use super::dispersion::DispersionTable;
 use super::ghost::{GHOST_EVERY, Ghosts};
 use super::hero_wavelengths::{
-    BackwardScratch, BackwardTrace, Combined, HeroRays, MAX_WAVELENGTHS, wavelength_of_set,
+    BackwardScratch, BackwardTrace, Combined, HeroRays, MAX_WAVELENGTHS, wavelength_of_set_from,
 };
 use super::movements::FilmMovements;
 use super::pupil::{ExitPupil, FilmRays, PupilSampler, PupilSampling, concentric_disk};
@@ -36,7 +36,7 @@ use crate::film::filter::quantise;
 use crate::glass::FRAUNHOFER_D_NM;
 use crate::sampling::sobol::{SobolScratch, owen_sobol_batch};
 use crate::sampling::{Rng, hash32};
-use crate::spectral::{WavelengthSet, draw_wavelength_set};
+use crate::spectral::{WavelengthSet, draw_wavelength_set_from, set_knots, wavelength_knots};
 
 /// Where the camera stands: the rigid transform from the camera frame (see above) to the world.
 #[derive(Resource, Clone, Copy, Debug, PartialEq)]
@@ -475,16 +475,21 @@ impl LensCamera<'_> {
                 for &i in &scratch.ghosts {
                     needs[i as usize] = true;
                 }
+                // Every ray's set and wavelengths are drawn, then the blocked rays' replaced:
+                // a loop without a branch, so its table look-ups go eight or sixteen at a time.
                 let [.., wave_u, set_inverse_density] = &mut scratch.u;
-                for ((u, inverse_density), _) in wave_u
-                    .iter_mut()
-                    .zip(set_inverse_density.iter_mut())
-                    .zip(needs.iter())
-                    .filter(|(_, needed)| **needed)
-                {
-                    let set = draw_wavelength_set(*u, count as u32);
-                    (*u, *inverse_density) = (set.u, set.inverse_density);
+                if count > 1 {
+                    let knots = set_knots(count as u32);
+                    for (u, inverse_density) in
+                        wave_u.iter_mut().zip(set_inverse_density.iter_mut())
+                    {
+                        let set = draw_wavelength_set_from(knots, *u, count as u32);
+                        (*u, *inverse_density) = (set.u, set.inverse_density);
+                    }
+                } else {
+                    set_inverse_density.fill(1.0);
                 }
+                let knots = wavelength_knots();
                 for k in 0..count {
                     let block = k * n..(k + 1) * n;
                     for (((nm, weight), (&u, &inverse_density)), &needs) in out.wavelength
@@ -494,9 +499,9 @@ impl LensCamera<'_> {
                     .zip(wave_u.iter().zip(set_inverse_density.iter()))
                     .zip(needs.iter())
                     {
+                        let set = WavelengthSet { u, inverse_density };
+                        let sample = wavelength_of_set_from(knots, set, k as u32, count as u32);
                         (*nm, *weight) = if needs {
-                            let set = WavelengthSet { u, inverse_density };
-                            let sample = wavelength_of_set(set, k as u32, count as u32);
                             (sample.nm, sample.inverse_pdf)
                         } else {
                             (FRAUNHOFER_D_NM as f32, 0.0)

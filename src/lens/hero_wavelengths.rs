@@ -59,7 +59,10 @@ use super::trace::Travel;
 use super::trace_batch::{Wavelengths, trace_batch_spectral};
 use crate::batch::RayBatch;
 use crate::film::filter::quantise;
-use crate::spectral::{MAX_SET_SIZE, WavelengthSample, WavelengthSet, sample_wavelength};
+use crate::spectral::{
+    MAX_SET_SIZE, WavelengthKnots, WavelengthSample, WavelengthSet, sample_wavelength_from,
+    wavelength_knots,
+};
 
 /// Wavelengths per camera sample a spectral render traces by default (see BENCHMARKS.md,
 /// "Colour grain": the colour noise against the lens-tracing cost). With the film's tent
@@ -81,12 +84,27 @@ pub(crate) const BACKWARD_START_MM: f32 = 0.01;
 /// set's own inverse density.
 #[inline(always)]
 pub fn wavelength_of_set(set: WavelengthSet, k: u32, count: u32) -> WavelengthSample {
+    wavelength_of_set_from(wavelength_knots(), set, k, count)
+}
+
+/// [`wavelength_of_set`] with the wavelength sampler's `knots` looked up by the caller: once
+/// for a whole loop of draws.
+#[inline(always)]
+pub fn wavelength_of_set_from(
+    knots: &WavelengthKnots,
+    set: WavelengthSet,
+    k: u32,
+    count: u32,
+) -> WavelengthSample {
     let shifted = set.u + k as f32 / count as f32;
-    let sample = sample_wavelength(if shifted >= 1.0 {
-        shifted - 1.0
-    } else {
-        shifted
-    });
+    let sample = sample_wavelength_from(
+        knots,
+        if shifted >= 1.0 {
+            shifted - 1.0
+        } else {
+            shifted
+        },
+    );
     WavelengthSample {
         nm: sample.nm,
         inverse_pdf: sample.inverse_pdf * set.inverse_density,

@@ -21,7 +21,10 @@ pub mod wavelengths;
 
 pub use observer::{SRGB_FROM_XYZ, XYZ_FROM_SRGB, cmf, d65};
 pub use upsample::{SpectralFilm, spectral_film};
-pub use wavelength_sets::{MAX_SET_SIZE, WavelengthSet, draw_wavelength_set, set_knots};
+pub use wavelength_sets::{
+    MAX_SET_SIZE, SetKnots, WavelengthSet, draw_wavelength_set, draw_wavelength_set_from, set_knots,
+};
 pub use wavelengths::{
-    LAMBDA_MAX, LAMBDA_MIN, WavelengthSample, sample_wavelength, wavelength_knots, wavelength_pdf,
+    LAMBDA_MAX, LAMBDA_MIN, WavelengthKnots, WavelengthSample, sample_wavelength,
+    sample_wavelength_from, wavelength_knots, wavelength_pdf,
 };

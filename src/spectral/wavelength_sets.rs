@@ -67,20 +67,30 @@ pub fn draw_wavelength_set(u: f32, count: u32) -> WavelengthSet {
             inverse_density: 1.0,
         };
     }
+    draw_wavelength_set_from(set_knots(count), u, count)
+}
+
+/// [`draw_wavelength_set`] for `count` ≥ 2 with the set's `knots` ([`set_knots`]) looked up by
+/// the caller: once for a whole loop of draws.
+#[inline(always)]
+pub fn draw_wavelength_set_from(knots: &SetKnots, u: f32, count: u32) -> WavelengthSet {
     let scaled = u * count as f32;
     let stratum = (scaled as u32).min(count - 1);
-    let (warped, inverse_density) = between_knots(set_knots(count), scaled - stratum as f32);
+    let (warped, inverse_density) = between_knots(knots, scaled - stratum as f32);
     WavelengthSet {
         u: ((stratum as f32 + warped) / count as f32).min(1.0 - f32::EPSILON / 2.0),
         inverse_density,
     }
 }
 
+/// v′ at cumulative probability j/[`SET_STEPS`], j = 0 ..= SET_STEPS (see [`set_knots`]).
+pub type SetKnots = [f32; SET_STEPS + 1];
+
 /// v′ at cumulative probability j/[`SET_STEPS`], j = 0 ..= SET_STEPS, for sets of `count`
 /// (2 ..= [`MAX_SET_SIZE`]) wavelengths: what [`draw_wavelength_set`] interpolates between
 /// (and what the GPU backend uploads).
-pub fn set_knots(count: u32) -> &'static [f32] {
-    static TABLES: [OnceLock<Vec<f32>>; MAX_SET_SIZE as usize + 1] =
+pub fn set_knots(count: u32) -> &'static SetKnots {
+    static TABLES: [OnceLock<Box<SetKnots>>; MAX_SET_SIZE as usize + 1] =
         [const { OnceLock::new() }; MAX_SET_SIZE as usize + 1];
     assert!(
         (2..=MAX_SET_SIZE).contains(&count),
@@ -105,7 +115,7 @@ pub fn set_luminance(v: f64, count: u32) -> f64 {
         / count as f64
 }
 
-fn knots_for(count: u32) -> Vec<f32> {
+fn knots_for(count: u32) -> Box<SetKnots> {
     let cells = SET_STEPS * CELLS_PER_STEP;
     let h = 1.0 / cells as f64;
     let mut cdf = Vec::with_capacity(cells + 1);
@@ -134,7 +144,9 @@ fn knots_for(count: u32) -> Vec<f32> {
             j if j == SET_STEPS => 1.0,
             _ => v,
         })
-        .collect()
+        .collect::<Vec<f32>>()
+        .try_into()
+        .expect("SET_STEPS + 1 knots")
 }
 
 #[cfg(test)]

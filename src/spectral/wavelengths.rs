@@ -32,11 +32,16 @@ struct Sampler {
     /// Its integral up to there.
     cdf: Vec<f64>,
     /// λ at cumulative probabilities k/KNOTS.
-    knots: Vec<f32>,
+    knots: Box<WavelengthKnots>,
 }
 
 /// Equal-probability steps of the sampler.
 const KNOTS: usize = 4096;
+
+/// λ (nm) at the cumulative probabilities k/4096, k = 0..=4096 (see [`wavelength_knots`]). A
+/// fixed size, so that a look-up between two knots needs no bounds check and a loop of draws
+/// vectorises.
+pub type WavelengthKnots = [f32; KNOTS + 1];
 
 fn sampler() -> &'static Sampler {
     static SAMPLER: OnceLock<Sampler> = OnceLock::new();
@@ -63,11 +68,12 @@ fn sampler() -> &'static Sampler {
         let mut sampler = Sampler {
             pdf,
             cdf,
-            knots: Vec::new(),
+            knots: Box::new([0.0; KNOTS + 1]),
         };
-        sampler.knots = (0..=KNOTS)
+        let knots: Vec<f32> = (0..=KNOTS)
             .map(|k| sampler.invert_exactly(k as f64 / KNOTS as f64) as f32)
             .collect();
+        sampler.knots.copy_from_slice(&knots);
         sampler
     })
 }
@@ -104,7 +110,14 @@ pub struct WavelengthSample {
 /// The wavelength for uniform `u` ∈ [0, 1).
 #[inline]
 pub fn sample_wavelength(u: f32) -> WavelengthSample {
-    let (nm, inverse_pdf) = between_knots(&sampler().knots, u);
+    sample_wavelength_from(wavelength_knots(), u)
+}
+
+/// [`sample_wavelength`] with the sampler's `knots` ([`wavelength_knots`]) looked up by the
+/// caller: once for a whole loop of draws.
+#[inline(always)]
+pub fn sample_wavelength_from(knots: &WavelengthKnots, u: f32) -> WavelengthSample {
+    let (nm, inverse_pdf) = between_knots(knots, u);
     WavelengthSample { nm, inverse_pdf }
 }
 
@@ -112,18 +125,21 @@ pub fn sample_wavelength(u: f32) -> WavelengthSample {
 /// cumulative probability (linear between them), and the inverse of the density it was drawn
 /// with: the number of steps times the width of the step it falls in.
 #[inline(always)]
-pub(crate) fn between_knots(knots: &[f32], u: f32) -> (f32, f32) {
-    let steps = knots.len() - 1;
+pub(crate) fn between_knots<const N: usize>(knots: &[f32; N], u: f32) -> (f32, f32) {
+    const { assert!(N >= 2, "a sampler needs two knots at least") };
+    let steps = N - 1;
     // The last step's end stays out of reach.
     let x = (u * steps as f32).clamp(0.0, steps as f32 - 1e-3);
-    let k = (x as usize).min(steps - 1);
+    // Through i32, which vector units convert to directly (`x` is in [0, steps) or NaN, which
+    // both conversions take to 0).
+    let k = (x as i32 as usize).min(steps - 1);
     let width = knots[k + 1] - knots[k];
     (knots[k] + (x - k as f32) * width, steps as f32 * width)
 }
 
 /// λ (nm) at the cumulative probabilities k/4096, k = 0..=4096: the knots
 /// [`sample_wavelength`] interpolates between (what the GPU backend uploads).
-pub fn wavelength_knots() -> &'static [f32] {
+pub fn wavelength_knots() -> &'static WavelengthKnots {
     &sampler().knots
 }
 
