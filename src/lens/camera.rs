@@ -23,7 +23,7 @@ use glam::Mat4;
 use super::dispersion::DispersionTable;
 use super::ghost::{GHOST_EVERY, Ghosts};
 use super::hero_wavelengths::{
-    BackwardScratch, BackwardTrace, Combined, HeroRays, MAX_WAVELENGTHS, wavelength_of_set_from,
+    BackwardScratch, BackwardTrace, Combined, HeroRays, MAX_WAVELENGTHS,
 };
 use super::movements::FilmMovements;
 use super::pupil::{ExitPupil, FilmRays, PupilSampler, PupilSampling, concentric_disk};
@@ -31,12 +31,12 @@ use super::system::LensSystem;
 use super::trace::Travel;
 use super::trace_batch::ghost::{GhostBatch, GhostLens};
 use super::trace_batch::{Isa, Wavelengths, on_isa, trace_batch, trace_batch_spectral, widened};
+use super::wavelength_draws::{WavelengthDraws, draw_wavelengths};
 use crate::batch::RayBatch;
 use crate::film::filter::quantise;
 use crate::glass::FRAUNHOFER_D_NM;
 use crate::sampling::sobol::{SobolScratch, owen_sobol_batch};
 use crate::sampling::{Rng, hash32};
-use crate::spectral::{WavelengthSet, draw_wavelength_set_from, set_knots, wavelength_knots};
 
 /// Where the camera stands: the rigid transform from the camera frame (see above) to the world.
 #[derive(Resource, Clone, Copy, Debug, PartialEq)]
@@ -468,46 +468,22 @@ impl LensCamera<'_> {
                 let n = out.rays.len();
                 let count = out.wavelength.len() / n.max(1);
                 // A ray blocked before the lens (most of a fisheye's frame) carries no light at
-                // any wavelength: it gets the d line and a factor of 0, and no draws.
+                // any wavelength: it gets the d line and a factor of 0.
                 let needs = &mut scratch.needs_wavelengths;
                 needs.clear();
                 needs.extend_from_slice(&out.rays.alive[..n]);
                 for &i in &scratch.ghosts {
                     needs[i as usize] = true;
                 }
-                // Every ray's set and wavelengths are drawn, then the blocked rays' replaced:
-                // a loop without a branch, so its table look-ups go eight or sixteen at a time.
                 let [.., wave_u, set_inverse_density] = &mut scratch.u;
-                if count > 1 {
-                    let knots = set_knots(count as u32);
-                    for (u, inverse_density) in
-                        wave_u.iter_mut().zip(set_inverse_density.iter_mut())
-                    {
-                        let set = draw_wavelength_set_from(knots, *u, count as u32);
-                        (*u, *inverse_density) = (set.u, set.inverse_density);
-                    }
-                } else {
-                    set_inverse_density.fill(1.0);
-                }
-                let knots = wavelength_knots();
-                for k in 0..count {
-                    let block = k * n..(k + 1) * n;
-                    for (((nm, weight), (&u, &inverse_density)), &needs) in out.wavelength
-                        [block.clone()]
-                    .iter_mut()
-                    .zip(&mut out.wavelength_weight[block])
-                    .zip(wave_u.iter().zip(set_inverse_density.iter()))
-                    .zip(needs.iter())
-                    {
-                        let set = WavelengthSet { u, inverse_density };
-                        let sample = wavelength_of_set_from(knots, set, k as u32, count as u32);
-                        (*nm, *weight) = if needs {
-                            (sample.nm, sample.inverse_pdf)
-                        } else {
-                            (FRAUNHOFER_D_NM as f32, 0.0)
-                        };
-                    }
-                }
+                let draws = WavelengthDraws {
+                    u: wave_u,
+                    inverse_density: set_inverse_density,
+                    needs,
+                    nm: &mut out.wavelength,
+                    inverse_pdf: &mut out.wavelength_weight,
+                };
+                draw_wavelengths(draws, count, Isa::detect());
                 let wavelengths = Wavelengths {
                     table,
                     nm: &out.wavelength[..n],

@@ -51,6 +51,7 @@ pub mod system;
 pub(crate) mod test_lens;
 pub mod trace;
 pub mod trace_batch;
+pub(crate) mod wavelength_draws;
 pub mod workload;
 
 pub use prescription::{
