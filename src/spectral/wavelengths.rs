@@ -39,8 +39,7 @@ struct Sampler {
 const KNOTS: usize = 4096;
 
 /// λ (nm) at the cumulative probabilities k/4096, k = 0..=4096 (see [`wavelength_knots`]). A
-/// fixed size, so that a look-up between two knots needs no bounds check and a loop of draws
-/// vectorises.
+/// fixed size, so that a look-up between two knots needs no bounds check.
 pub type WavelengthKnots = [f32; KNOTS + 1];
 
 fn sampler() -> &'static Sampler {
