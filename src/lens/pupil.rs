@@ -215,10 +215,11 @@ impl ExitPupil {
             systems.push(system.at_wavelength(crate::spectral::LAMBDA_MAX));
         }
         // The search asks only which rays pass: what the surfaces reflect away changes a
-        // ray's throughput, never whether it passes, so its rays skip the losses.
-        for system in &mut systems {
-            system.f32s.reflectance = None;
-        }
+        // ray's throughput, never whether it passes, so it traces the lossless lens.
+        let systems: Vec<LensSystem> = systems
+            .into_iter()
+            .map(|system| system.with_reflectance(None))
+            .collect();
         let reach = movements.reach(film_diagonal);
         let film_radius = reach.radius;
         let rear_z = system.rear_z();
