@@ -93,20 +93,19 @@ mod vectors {
     use super::{Knots, WavelengthDraws};
     use crate::glass::FRAUNHOFER_D_NM;
     use crate::lens::trace_batch::pairs::{pairs_avx2, pairs_avx512};
-
-    /// The constants of `spectral::between_knots` for a table of `len` knots: the steps, and
-    /// the end of the last step kept out of reach (computed as the scalar code computes it).
-    fn steps_and_end(len: usize) -> (f32, f32, i32) {
-        let steps = len - 1;
-        (steps as f32, steps as f32 - 1e-3, steps as i32 - 1)
-    }
+    use crate::spectral::wavelengths::KnotSteps;
 
     /// `between_knots` for 16 lanes: clamp as `f32::clamp` (the second operand of `max`
     /// and `min` is the one a NaN passes through, as it does there), the step through i32 as
     /// the scalar code takes it, then the same products and sums.
     #[target_feature(enable = "avx512f,avx512vl,avx512bw,avx512dq")]
     fn between_knots_avx512(knots: &[f32], u: __m512) -> (__m512, __m512) {
-        let (steps, end, last) = steps_and_end(knots.len());
+        let KnotSteps {
+            steps,
+            end,
+            last_step,
+        } = KnotSteps::of(knots.len());
+        let last = last_step as i32;
         let steps_v = _mm512_set1_ps(steps);
         let x = _mm512_mul_ps(u, steps_v);
         let x = _mm512_min_ps(_mm512_set1_ps(end), _mm512_max_ps(_mm512_setzero_ps(), x));
@@ -186,7 +185,12 @@ mod vectors {
     /// `between_knots` for 8 lanes, as [`between_knots_avx512`].
     #[target_feature(enable = "avx2")]
     fn between_knots_avx2(knots: &[f32], u: __m256) -> (__m256, __m256) {
-        let (steps, end, last) = steps_and_end(knots.len());
+        let KnotSteps {
+            steps,
+            end,
+            last_step,
+        } = KnotSteps::of(knots.len());
+        let last = last_step as i32;
         let steps_v = _mm256_set1_ps(steps);
         let x = _mm256_mul_ps(u, steps_v);
         let x = _mm256_min_ps(_mm256_set1_ps(end), _mm256_max_ps(_mm256_setzero_ps(), x));

@@ -126,14 +126,43 @@ pub fn sample_wavelength_from(knots: &WavelengthKnots, u: f32) -> WavelengthSamp
 #[inline(always)]
 pub(crate) fn between_knots<const N: usize>(knots: &[f32; N], u: f32) -> (f32, f32) {
     const { assert!(N >= 2, "a sampler needs two knots at least") };
-    let steps = N - 1;
-    // The last step's end stays out of reach.
-    let x = (u * steps as f32).clamp(0.0, steps as f32 - 1e-3);
+    let KnotSteps {
+        steps,
+        end,
+        last_step,
+    } = KnotSteps::of(N);
+    let x = (u * steps).clamp(0.0, end);
     // Through i32, which vector units convert to directly (`x` is in [0, steps) or NaN, which
     // both conversions take to 0).
-    let k = (x as i32 as usize).min(steps - 1);
+    let k = (x as i32 as usize).min(last_step);
     let width = knots[k + 1] - knots[k];
-    (knots[k] + (x - k as f32) * width, steps as f32 * width)
+    (knots[k] + (x - k as f32) * width, steps * width)
+}
+
+/// The constants [`between_knots`] draws with from a table of knots, shared with the draws
+/// that run many lanes at a time (`crate::lens::wavelength_draws`) so that both give the same
+/// bits.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct KnotSteps {
+    /// The table's steps.
+    pub steps: f32,
+    /// Where `u · steps` is clamped: the last step's end stays out of reach.
+    pub end: f32,
+    /// The last step's index.
+    pub last_step: usize,
+}
+
+impl KnotSteps {
+    /// For a table of `len` ≥ 2 knots.
+    #[inline(always)]
+    pub(crate) const fn of(len: usize) -> KnotSteps {
+        let steps = len - 1;
+        KnotSteps {
+            steps: steps as f32,
+            end: steps as f32 - 1e-3,
+            last_step: steps - 1,
+        }
+    }
 }
 
 /// λ (nm) at the cumulative probabilities k/4096, k = 0..=4096: the knots
