@@ -100,7 +100,8 @@ pub struct RenderArgs {
     #[arg(long, value_name = "FILE.exr")]
     pub exr: Option<PathBuf>,
     /// Exposure of the 8-bit outputs in stops: pixel = film irradiance × 2^EV [default:
-    /// automatic, the image's log-average luminance to 18 % grey].
+    /// automatic, the log-average luminance of the pixels within 10 stops of the image's
+    /// brightest percent to 18 % grey].
     #[arg(long, value_name = "EV", allow_hyphen_values = true, value_parser = number::<f32>)]
     pub exposure: Option<f32>,
     /// JPEG quality of a .jpg/.jpeg output, 1–100 [default: 90].

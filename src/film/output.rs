@@ -61,22 +61,66 @@ pub fn luminance(c: [f32; 3]) -> f32 {
     0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2]
 }
 
-/// Exposure (a linear scale) that maps the image's log-average luminance to 18 % grey, the
-/// photographer's "middle grey"; 1 for a black image. A real lens at f/5.6 passes far less
-/// light than a pinhole model would suggest, so a fixed scale would give black or white images.
+/// How far below the image's bright end (its [`METERED_PERCENTILE`] luminance) a pixel still
+/// counts toward the automatic exposure, in stops. An 8-bit sRGB picture shows about 11.7 stops
+/// below white (its first step is 1/(255 · 12.92) of it), and the bright end sits a few stops
+/// under white, so light this far below it is black in any picture that shows the bright end.
+pub const METERED_STOPS: i32 = 10;
+
+/// The luminance percentile that marks the image's bright end for [`METERED_STOPS`]: high
+/// enough to hold the scene's highlights, low enough that a few fireflies do not move it.
+pub const METERED_PERCENTILE: f64 = 0.99;
+
+/// Exposure (a linear scale) that maps the log-average luminance of the image's visible pixels
+/// to 18 % grey, the photographer's "middle grey"; 1 for a black image. A real lens at f/5.6
+/// passes far less light than a pinhole model would suggest, so a fixed scale would give black
+/// or white images.
+///
+/// Visible means within [`METERED_STOPS`] of the bright end ([`METERED_PERCENTILE`] of the
+/// lit pixels). A pixel that received no light has no logarithm and never counted; one that
+/// received a trace of it must not count either. A lens's flare leaves a few ghost samples in a
+/// black sky and beyond a fisheye's image circle, thousands of times dimmer than the scene, and
+/// counted in the log-average those pulled it down by 4–9 stops: the default render's floor and
+/// cones came out white (4.6 stops too bright; the fisheye 9.6, a Cornell box 7.8).
+///
+/// The bright end is read off a histogram of the luminances' `f32` bits (eight bins a stop):
+/// two passes over the pixels and no copy of them.
 pub fn auto_exposure(pixels: &[[f32; 3]]) -> f32 {
-    let (mut sum_log, mut count) = (0.0f64, 0usize);
-    for &p in pixels {
-        let l = luminance(p);
-        if l > 0.0 && l.is_finite() {
-            sum_log += (l as f64).ln();
-            count += 1;
-        }
+    // Positive finite floats order like their bits; the top 12 bits of a positive float are
+    // its exponent and 3 bits of mantissa, an eighth of a stop.
+    const BIN_SHIFT: u32 = 20;
+    let lit = || {
+        pixels
+            .iter()
+            .map(|&p| luminance(p))
+            .filter(|l| *l > 0.0 && l.is_finite())
+    };
+    let mut histogram = vec![0u64; (f32::MAX.to_bits() >> BIN_SHIFT) as usize + 1];
+    let mut count = 0u64;
+    for l in lit() {
+        histogram[(l.to_bits() >> BIN_SHIFT) as usize] += 1;
+        count += 1;
     }
     if count == 0 {
         return 1.0;
     }
-    let log_average = (sum_log / count as f64).exp();
+    let rank = (METERED_PERCENTILE * count as f64).ceil() as u64;
+    let mut below = 0;
+    let bright_bin = histogram
+        .iter()
+        .position(|&n| {
+            below += n;
+            below >= rank
+        })
+        .unwrap_or(histogram.len() - 1);
+    let bright_end = f32::from_bits((bright_bin as u32) << BIN_SHIFT);
+    let floor = bright_end * 2f32.powi(-METERED_STOPS);
+    let (mut sum_log, mut metered) = (0.0f64, 0usize);
+    for l in lit().filter(|&l| l >= floor) {
+        sum_log += f64::from(l).ln();
+        metered += 1;
+    }
+    let log_average = (sum_log / metered as f64).exp();
     (0.18 / log_average) as f32
 }
 
@@ -388,6 +432,61 @@ mod tests {
         let pixels = vec![[0.02f32; 3]; 100];
         let k = auto_exposure(&pixels);
         assert!((luminance(pixels[0]) * k - 0.18).abs() < 1e-5);
+    }
+
+    #[test]
+    fn auto_exposure_of_a_black_image_is_one() {
+        assert_eq!(auto_exposure(&[[0.0; 3]; 10]), 1.0);
+        assert_eq!(auto_exposure(&[[-1.0, 0.0, 0.0], [f32::NAN; 3]]), 1.0);
+        assert_eq!(auto_exposure(&[]), 1.0);
+    }
+
+    /// Half the frame a lit grey at luminance 1, half black but for a trace of light in some
+    /// pixels (a lens's flare in a night sky, 2⁻¹⁴ to 2⁻²⁰ of the grey): the exposure is the
+    /// grey's alone, 0.18, as without the trace. Before the metering window the trace pulled the
+    /// log-average down by 8 stops.
+    #[test]
+    fn a_trace_of_light_in_the_black_does_not_move_the_exposure() {
+        let grey = [1.0f32; 3];
+        let clean: Vec<[f32; 3]> = (0..1000)
+            .map(|i| if i < 500 { grey } else { [0.0; 3] })
+            .collect();
+        let traced: Vec<[f32; 3]> = (0..1000)
+            .map(|i| match i {
+                0..500 => grey,
+                _ if i % 3 == 0 => [2f32.powi(-14 - (i % 7)); 3],
+                _ => [0.0; 3],
+            })
+            .collect();
+        assert!((auto_exposure(&clean) - 0.18).abs() < 1e-6);
+        assert!((auto_exposure(&traced) - 0.18).abs() < 1e-6);
+    }
+
+    /// Dim parts of the scene within the window still count: a quarter of the frame at
+    /// luminance 1, the rest at 2⁻⁴ (4 stops down) and 2⁻⁹ (9 stops): the log-average is the
+    /// geometric mean of all of them, 2^(−(0.5·4 + 0.25·9)) = 2^−4.25.
+    #[test]
+    fn dim_parts_within_the_window_count() {
+        let pixels: Vec<[f32; 3]> = (0..1000)
+            .map(|i| match i % 4 {
+                0 => [1.0; 3],
+                1 | 2 => [2f32.powi(-4); 3],
+                _ => [2f32.powi(-9); 3],
+            })
+            .collect();
+        let expected = 0.18 / 2f64.powf(-4.25);
+        assert!((f64::from(auto_exposure(&pixels)) / expected - 1.0).abs() < 1e-5);
+    }
+
+    /// A firefly or two (under 1 % of the pixels) does not set the bright end: a pixel 20
+    /// stops above a grey frame leaves the grey's exposure (it is itself metered, so the
+    /// log-average moves by its 20 stops ÷ 1000 pixels).
+    #[test]
+    fn a_firefly_does_not_set_the_bright_end() {
+        let mut pixels = vec![[1.0f32; 3]; 1000];
+        pixels[7] = [2f32.powi(20); 3];
+        let expected = 0.18 / 2f64.powf(20.0 / 1000.0);
+        assert!((f64::from(auto_exposure(&pixels)) / expected - 1.0).abs() < 1e-5);
     }
 
     #[test]

@@ -619,3 +619,66 @@ fn the_same_render_writes_the_same_bytes_under_parallel_load() {
         assert!(bytes(d, &format!("m3.{ext}")) == first, "m3.{ext}");
     }
 }
+
+/// The 8-bit picture of the default render is exposed for its scene: the floor and the cones,
+/// not the trace of flare that ghost samples leave in the black sky. Before the automatic
+/// exposure metered only pixels within ten stops of the bright end, that trace pulled its
+/// log-average down by four to five stops, and the floor came out white (as did the README's
+/// picture). With the flare off the sky is black and the exposure was right: the two pictures
+/// now show the floor alike.
+#[test]
+fn flare_in_a_black_sky_does_not_expose_the_picture_to_white() {
+    let dir = tempfile::tempdir().unwrap();
+    // The floor: rows 330–420 and columns 150–350 of the 512² default render (the issue's
+    // grey-floor region), here at 128².
+    let floor_of = |flare: &str| {
+        let out = dir.path().join(format!("flare-{flare}.png"));
+        ok(&realcam(
+            dir.path(),
+            &[
+                "render",
+                "--width",
+                "128",
+                "--height",
+                "128",
+                "--spp",
+                "16",
+                "--seed",
+                "5",
+                "--flare",
+                flare,
+                "--out",
+                out.to_str().unwrap(),
+            ],
+        ));
+        let picture = image::open(&out).unwrap().to_rgb8();
+        let floor: Vec<f64> = (83..105)
+            .flat_map(|y| (38..88).map(move |x| (x, y)))
+            .map(|(x, y)| {
+                picture
+                    .get_pixel(x, y)
+                    .0
+                    .iter()
+                    .map(|&c| f64::from(c))
+                    .sum::<f64>()
+                    / 3.0
+            })
+            .collect();
+        let clipped = floor.iter().filter(|&&v| v >= 254.0).count();
+        (floor.iter().sum::<f64>() / floor.len() as f64, clipped)
+    };
+    let (with_flare, clipped) = floor_of("on");
+    let (without, _) = floor_of("off");
+    assert_eq!(
+        clipped, 0,
+        "the floor clips to white: mean 8-bit level {with_flare:.0}"
+    );
+    assert!(
+        (120.0..230.0).contains(&with_flare),
+        "the floor's mean 8-bit level is {with_flare:.0}"
+    );
+    assert!(
+        (with_flare / without - 1.0).abs() < 0.1,
+        "the floor's level with the flare on, {with_flare:.0}, against {without:.0} with it off"
+    );
+}
