@@ -81,23 +81,26 @@ pub fn contact_sheet(frames: &[Thumbnail]) -> RgbImage {
             }
         })
         .collect();
-    let lines = frames
-        .iter()
-        .map(|f| f.caption.lines().count() as u32)
-        .max()
-        .unwrap_or(0);
     let largest = (
         thumbs.iter().map(RgbImage::width).max().unwrap_or(1),
         thumbs.iter().map(RgbImage::height).max().unwrap_or(1),
     );
+    // Each caption wrapped to its thumbnail's width: a long lens name under a small frame
+    // would otherwise run into the next cell's caption.
+    let captions: Vec<Vec<String>> = thumbs
+        .iter()
+        .zip(frames)
+        .map(|(thumb, frame)| wrap_caption(&frame.caption, thumb.width() / GLYPH_WIDTH))
+        .collect();
+    let lines = captions.iter().map(|c| c.len() as u32).max().unwrap_or(0);
     let layout = Layout::new(frames.len(), largest, lines);
     let (width, height) = layout.size();
     let mut sheet = RgbImage::from_pixel(width as u32, height as u32, BACKGROUND);
-    for (i, (thumb, frame)) in thumbs.iter().zip(frames).enumerate() {
+    for (i, (thumb, caption)) in thumbs.iter().zip(&captions).enumerate() {
         let x = PADDING + (i as u32 % layout.columns) * layout.cell_width;
         let y = PADDING + (i as u32 / layout.columns) * layout.cell_height;
         imageops::replace(&mut sheet, thumb, x as i64, y as i64);
-        for (line, text) in frame.caption.lines().enumerate() {
+        for (line, text) in caption.iter().enumerate() {
             draw_text(
                 &mut sheet,
                 x,
@@ -109,6 +112,40 @@ pub fn contact_sheet(frames: &[Thumbnail]) -> RgbImage {
     sheet
 }
 
+/// Width of a character of [`draw_text`]'s font, pixels.
+const GLYPH_WIDTH: u32 = 8;
+
+/// `caption`'s lines broken to at most `columns` characters each (at least one): after the
+/// last '-', ' ', '/' or ',' that leaves at least half a line, else at the width.
+fn wrap_caption(caption: &str, columns: u32) -> Vec<String> {
+    let columns = columns.max(1) as usize;
+    let mut wrapped = Vec::new();
+    for line in caption.lines() {
+        let mut rest: Vec<char> = line.chars().collect();
+        while rest.len() > columns {
+            let cut = rest[..columns]
+                .iter()
+                .rposition(|c| matches!(c, '-' | ' ' | '/' | ','))
+                .map(|at| at + 1)
+                .filter(|&at| 2 * at >= columns)
+                .unwrap_or(columns);
+            wrapped.push(
+                rest[..cut]
+                    .iter()
+                    .collect::<String>()
+                    .trim_end()
+                    .to_string(),
+            );
+            rest.drain(..cut);
+            while rest.first() == Some(&' ') {
+                rest.remove(0);
+            }
+        }
+        wrapped.push(rest.into_iter().collect());
+    }
+    wrapped
+}
+
 /// Draws `text` in the 8×8 public-domain bitmap font; characters it lacks become '?'.
 pub fn draw_text(image: &mut RgbImage, x: u32, y: u32, text: &str) {
     for (i, c) in text.chars().enumerate() {
@@ -118,7 +155,7 @@ pub fn draw_text(image: &mut RgbImage, x: u32, y: u32, text: &str) {
             .unwrap_or([0; 8]);
         for (row, bits) in glyph.iter().enumerate() {
             for col in 0..8 {
-                let (px, py) = (x + i as u32 * 8 + col, y + row as u32);
+                let (px, py) = (x + i as u32 * GLYPH_WIDTH + col, y + row as u32);
                 if bits & (1 << col) != 0 && px < image.width() && py < image.height() {
                     image.put_pixel(px, py, INK);
                 }
@@ -136,7 +173,7 @@ mod tests {
         let frames: Vec<Thumbnail> = (0..5)
             .map(|i| Thumbnail {
                 image: RgbImage::from_pixel(40, 30, Rgb([i * 50, 0, 0])),
-                caption: format!("lens {i}\nf/2"),
+                caption: format!("lens{i}\nf/2"),
             })
             .collect();
         let sheet = contact_sheet(&frames);
@@ -151,6 +188,34 @@ mod tests {
         assert!(inked > 100, "captions drawn: {inked} pixels");
         let layout = Layout::new(5, (40, 30), 2);
         assert_eq!(layout.size(), (sheet.width() as u64, sheet.height() as u64));
+    }
+
+    /// A caption wider than its frame wraps to the frame's width, at a hyphen where one
+    /// leaves half a line, so it never runs into the next cell; every character is kept.
+    #[test]
+    fn long_captions_wrap_within_their_frame() {
+        assert_eq!(
+            wrap_caption("canon-ef-100mm-f2.8-macro\nf=100.0mm f/2.8", 16),
+            ["canon-ef-100mm-", "f2.8-macro", "f=100.0mm f/2.8"]
+        );
+        assert_eq!(wrap_caption("abcdefghij", 4), ["abcd", "efgh", "ij"]);
+        assert_eq!(wrap_caption("short", 16), ["short"]);
+        assert_eq!(wrap_caption("x", 0), ["x"]);
+        let frames: Vec<Thumbnail> = (0..2)
+            .map(|_| Thumbnail {
+                image: RgbImage::from_pixel(64, 16, Rgb([0, 0, 0])),
+                caption: "nikon-af-s-600mm-f4e-fl-if".to_string(),
+            })
+            .collect();
+        let sheet = contact_sheet(&frames);
+        // 64 px hold 8 characters: "nikon-", "af-s-", "600mm-", "f4e-fl-", "if".
+        assert_eq!(sheet.height(), 16 + PADDING + 5 * LINE_HEIGHT + PADDING);
+        // No ink in the gap between the two cells.
+        for x in PADDING + 64..PADDING + 64 + PADDING {
+            for y in 0..sheet.height() {
+                assert_ne!(*sheet.get_pixel(x, y), INK, "ink at ({x}, {y})");
+            }
+        }
     }
 
     #[test]
