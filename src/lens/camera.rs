@@ -23,7 +23,7 @@ use glam::Mat4;
 use super::dispersion::DispersionTable;
 use super::ghost::{GHOST_EVERY, Ghosts};
 use super::hero_wavelengths::{
-    BackwardScratch, BackwardTrace, Combined, HeroRays, MAX_WAVELENGTHS,
+    BackwardScratch, BackwardTrace, Combined, HeroRays, MAX_WAVELENGTHS, PendingCompanions,
 };
 use super::movements::FilmMovements;
 use super::pupil::{ExitPupil, FilmRays, PupilSampler, PupilSampling, concentric_disk};
@@ -265,6 +265,10 @@ pub struct CameraRays {
     /// pixels, on the film filter's grid (see [`crate::film::filter`]): laid out as
     /// `wavelength` with several wavelengths per sample, else one per ray (the film jitter).
     pub film_position: Vec<[f32; 2]>,
+    /// With several wavelengths per sample, the heroes whose companions are still to be
+    /// landed ([`LensCamera::land_companions`]); `wavelength_weight`, `wavelength_offset` and
+    /// `film_position` hold their final values only once they are.
+    pub companions: PendingCompanions,
 }
 
 /// What [`LensCamera::generate`] works in besides its outputs: a batch's per-pixel inputs and
@@ -304,6 +308,19 @@ struct Scratch {
 thread_local! {
     static CAMERA_SCRATCH: std::cell::RefCell<Scratch> =
         std::cell::RefCell::new(Scratch::default());
+}
+
+widened! {
+    /// [`BackwardTrace::land_companions`] compiled for wider vector units.
+    fn land_companions_avx2 / land_companions_avx512(
+        backward: &BackwardTrace,
+        hero: HeroRays,
+        carries_light: impl Fn(usize) -> bool,
+        out: Combined,
+        scratch: &mut BackwardScratch,
+    ) {
+        backward.land_companions(hero, carries_light, out, scratch)
+    }
 }
 
 /// Seed key of the camera's sample patterns, apart from the shading streams.
@@ -369,8 +386,22 @@ impl LensCamera<'_> {
 
     /// Generates sample `sample` of each pixel in `pixels` (x, y) into `out`, replacing its
     /// contents: film point and pupil point from the sample's own numbers, traced through
-    /// the lens as one SoA batch, then moved to the world frame.
+    /// the lens as one SoA batch, then moved to the world frame; in a spectral render with
+    /// several wavelengths per sample, every hero's companions landed.
     pub fn generate(
+        &self,
+        pixels: impl IntoIterator<Item = (u32, u32)>,
+        sample: u32,
+        seed: u64,
+        out: &mut CameraRays,
+    ) {
+        self.generate_heroes(pixels, sample, seed, out);
+        self.land_companions(out, |_| true);
+    }
+
+    /// [`Self::generate`], leaving the companions of the heroes in `out.companions` for
+    /// [`Self::land_companions`]: the pipeline lands only those of samples that carry light.
+    pub fn generate_heroes(
         &self,
         pixels: impl IntoIterator<Item = (u32, u32)>,
         sample: u32,
@@ -381,6 +412,57 @@ impl LensCamera<'_> {
         // free.
         CAMERA_SCRATCH
             .with_borrow_mut(|scratch| self.generate_in(pixels, sample, seed, out, scratch))
+    }
+
+    /// Lands the companions of the heroes [`Self::generate_heroes`] left in `out` for which
+    /// `carries_light` holds (by index in the batch): traces them back through the lens and
+    /// sets their samples' factors, offsets and film positions (see
+    /// [`super::hero_wavelengths`]). The others' samples must add nothing to the film.
+    pub fn land_companions(&self, out: &mut CameraRays, carries_light: impl Fn(usize) -> bool) {
+        let Some(table) = self.dispersion else {
+            return;
+        };
+        if out.companions.is_empty() {
+            return;
+        }
+        CAMERA_SCRATCH.with_borrow_mut(|scratch| {
+            let sampler = self.pupil.sampler();
+            let backward = self.backward_trace(table, &sampler);
+            let hero = HeroRays {
+                pending: &out.companions,
+                transmission: &out.rays.tr,
+                nm: &out.wavelength,
+            };
+            let combined = Combined {
+                coefficient: &mut out.wavelength_weight,
+                offset: &mut out.wavelength_offset,
+                position: &mut out.film_position,
+            };
+            // The landing's loops compiled again for wider vector units, as the kernel's.
+            let scratch = &mut scratch.backward;
+            on_isa!(Isa::detect(),
+                baseline: backward.land_companions(hero, carries_light, combined, scratch),
+                avx2: land_companions_avx2(&backward, hero, carries_light, combined, scratch),
+                avx512: land_companions_avx512(&backward, hero, carries_light, combined, scratch),
+            )
+        })
+    }
+
+    /// The backward traces' view of this camera (see [`super::hero_wavelengths`]).
+    fn backward_trace<'a>(
+        &'a self,
+        table: &'a DispersionTable,
+        sampler: &'a PupilSampler,
+    ) -> BackwardTrace<'a> {
+        BackwardTrace {
+            surfaces: &self.system.f32s,
+            table,
+            film: self.film.film_map(),
+            size: [self.film.width, self.film.height],
+            tilt: FilmTilt::of(&self.film.movements),
+            sampler,
+            film_z: self.film_z(),
+        }
     }
 
     /// [`Self::generate`] with its working memory in `scratch`.
@@ -414,6 +496,7 @@ impl LensCamera<'_> {
         out.wavelength_offset.clear();
         out.film_position.clear();
         out.film_position.resize(n, [0.0; 2]);
+        out.companions.clear();
         if self.dispersion.is_some() {
             let count = self.wavelengths_per_sample() as usize;
             out.wavelength.resize(n * count, 0.0);
@@ -495,15 +578,6 @@ impl LensCamera<'_> {
                     Travel::FilmToScene,
                 );
                 if count > 1 {
-                    let backward = BackwardTrace {
-                        surfaces: &self.system.f32s,
-                        table,
-                        film: self.film.film_map(),
-                        size: [self.film.width, self.film.height],
-                        tilt: FilmTilt::of(&self.film.movements),
-                        sampler: &sampler,
-                        film_z,
-                    };
                     if self.ghosts.is_some() {
                         scratch.ghost_inverse_pdf.clear();
                         scratch.ghost_inverse_pdf.extend(
@@ -513,19 +587,14 @@ impl LensCamera<'_> {
                                 .map(|&i| out.wavelength_weight[i as usize]),
                         );
                     }
-                    let hero = HeroRays {
-                        rays: &out.rays,
-                        px: &scratch.px,
-                        py: &scratch.py,
-                        nm: &out.wavelength,
-                    };
                     let combined = Combined {
-                        weight: &mut out.weight,
                         coefficient: &mut out.wavelength_weight,
                         offset: &mut out.wavelength_offset,
                         position: &mut out.film_position,
                     };
-                    backward.combine(hero, combined, &mut scratch.backward);
+                    let pixels = [&scratch.px[..], &scratch.py[..]];
+                    out.companions
+                        .keep(&out.rays, pixels, &mut out.weight, combined);
                     // What the mask and the surfaces pass is in each wavelength's factor.
                     self.trace_ghost_samples(&sampler, film_z, out, scratch);
                     self.move_to_world(film_z, out);

@@ -131,21 +131,80 @@ pub(crate) struct BackwardTrace<'a> {
     pub film_z: f32,
 }
 
-/// A batch's hero samples, as the forward trace left them (lens frame): rays on the front
-/// surface heading into the scene, their pixels, and their wavelengths.
-pub(crate) struct HeroRays<'a> {
-    pub rays: &'a RayBatch,
-    pub px: &'a [f32],
-    pub py: &'a [f32],
-    /// Wavelength-major: `count` blocks of one wavelength per ray, the heroes first.
-    pub nm: &'a [f32],
+/// A batch's heroes as the forward trace left them (lens frame), kept until their companions
+/// are landed ([`LensCamera::land_companions`](super::camera::LensCamera::land_companions)). A
+/// companion shares its hero's scene path, so a sample whose path found no light adds nothing
+/// at any wavelength: the pipeline lands companions only once shading has shown which samples
+/// carry light (a black sky's, most of the default scene's frame above its horizon, need none).
+#[derive(Clone, Debug, Default)]
+pub struct PendingCompanions {
+    /// Per ray of the batch, its scene ray on the front surface: origin (mm), direction.
+    origin: [Vec<f32>; 3],
+    direction: [Vec<f32>; 3],
+    /// Its camera weight W₀ if its companions are to land (it passed the lens with a weight),
+    /// else 0.
+    weight: Vec<f32>,
+    /// Its pixel (x, y).
+    pixel: [Vec<f32>; 2],
+}
+
+impl PendingCompanions {
+    /// Keeps every ray of `rays` with its pixel (`px`, `py`) for
+    /// [`BackwardTrace::land_companions`], and makes `weight` and `out` what they are for every
+    /// sample whatever its companions: the weight 1 for a hero that passed with a weight (its
+    /// W₀, the weight on the way in, goes into the factors), 0 for any other, and no share of
+    /// a sample that did not pass.
+    #[inline(always)]
+    pub(crate) fn keep(
+        &mut self,
+        rays: &RayBatch,
+        [px, py]: [&[f32]; 2],
+        weight: &mut [f32],
+        out: Combined,
+    ) {
+        let n = rays.len();
+        let count = out.coefficient.len() / n.max(1);
+        let from: [&[f32]; 6] = [&rays.ox, &rays.oy, &rays.oz, &rays.dx, &rays.dy, &rays.dz];
+        let to = self.origin.iter_mut().chain(&mut self.direction);
+        for (kept, v) in to
+            .chain(&mut self.pixel)
+            .zip(from.into_iter().chain([px, py]))
+        {
+            kept.clear();
+            kept.extend_from_slice(&v[..n]);
+        }
+        let alive = &rays.alive[..n];
+        self.weight.clear();
+        self.weight
+            .extend(alive.iter().zip(&mut weight[..n]).map(|(&alive, weight)| {
+                let lands = alive & (*weight > 0.0);
+                let kept = if lands { *weight } else { 0.0 };
+                *weight = if lands { 1.0 } else { 0.0 };
+                kept
+            }));
+        for i in (0..n).filter(|&i| !alive[i]) {
+            for k in 0..count {
+                out.coefficient[k * n + i] = 0.0;
+                out.offset[k * n + i] = [0, 0];
+            }
+        }
+    }
+
+    pub(crate) fn clear(&mut self) {
+        self.weight.clear();
+    }
+
+    /// Whether no ray waits for its companions (none kept, or none passed).
+    pub fn is_empty(&self) -> bool {
+        self.weight.is_empty()
+    }
 }
 
 /// The backward traces' buffers, kept between batches.
 #[derive(Clone, Debug, Default)]
 pub(crate) struct BackwardScratch {
     rays: RayBatch,
-    /// The heroes that passed the lens, by index in their batch.
+    /// The heroes being landed, by index in their batch.
     passed: Vec<u32>,
     /// The backward rays' wavelengths.
     nm: Vec<f32>,
@@ -214,12 +273,10 @@ impl BackwardScratch {
     }
 }
 
-/// Per ray and wavelength, what [`BackwardTrace::combine`] makes: the film's factor
+/// Per ray and wavelength, what [`BackwardTrace::land_companions`] makes: the film's factor
 /// (`coefficient`, see [`super::camera::CameraRays::wavelength_weight`]) and the pixel offset
 /// its contribution goes to.
 pub(crate) struct Combined<'a> {
-    /// In: W₀ per ray. Out: 1 for every ray that passes (the weights are in the factors).
-    pub weight: &'a mut [f32],
     /// In: 1/p(λ_k), wavelength-major. Out: T_k / (p(λ_k) · Σ_{j ∈ K_k} 1/W_j), 0 where the
     /// wavelength does not count.
     pub coefficient: &'a mut [f32],
@@ -230,37 +287,55 @@ pub(crate) struct Combined<'a> {
     pub position: &'a mut [[f32; 2]],
 }
 
+/// A batch's heroes as [`BackwardTrace::land_companions`] reads them: those `pending` keeps,
+/// the hero rays' throughputs `transmission` (what the mask and the surfaces passed), and every
+/// ray's wavelengths `nm` (wavelength-major: `count` blocks of one per ray, the heroes first).
+pub(crate) struct HeroRays<'a> {
+    pub pending: &'a PendingCompanions,
+    pub transmission: &'a [f32],
+    pub nm: &'a [f32],
+}
+
 impl BackwardTrace<'_> {
-    /// Traces every alive hero ray backward at each companion wavelength (`hero.nm`'s blocks
-    /// after the first) and combines the N techniques with the balance heuristic (see the
-    /// module docs). Wavelength k counts when it lands within [`SPLAT_RADIUS`] of the hero's
-    /// pixel; its techniques K_k are the valid wavelengths that land within the same radius
-    /// of *its* pixel (exactly those whose samples would add this contribution), so the
-    /// weights of each contribution sum to one.
+    /// Traces the pending heroes for which `carries_light` holds (by index in their batch)
+    /// backward at each companion wavelength (`hero.nm`'s blocks after the first) and combines
+    /// the N techniques with the balance heuristic (see the module docs). Wavelength k counts
+    /// when it lands within [`SPLAT_RADIUS`] of the hero's pixel; its techniques K_k are the
+    /// valid wavelengths that land within the same radius of *its* pixel (exactly those whose
+    /// samples would add this contribution), so the weights of each contribution sum to one.
+    /// The other heroes' factors are left as they are: their samples add nothing.
     #[inline(always)]
-    pub fn combine(&self, hero: HeroRays, out: Combined, scratch: &mut BackwardScratch) {
-        let n = hero.rays.len();
+    pub fn land_companions(
+        &self,
+        hero: HeroRays,
+        carries_light: impl Fn(usize) -> bool,
+        out: Combined,
+        scratch: &mut BackwardScratch,
+    ) {
+        let pending = hero.pending;
+        let n = hero.transmission.len();
         let count = hero.nm.len() / n.max(1);
-        let rays = hero.rays;
         scratch.clear_with_room(n, n * (count - 1));
-        // Only the heroes that passed are traced back: `passed` lists them, and backward ray
-        // (k − 1)·m + p is hero passed[p] at wavelength k.
-        scratch
-            .passed
-            .extend((0..n as u32).filter(|&i| rays.alive[i as usize]));
+        // Only the heroes that passed with a weight and carry light are traced back: `passed`
+        // lists them, and backward ray (k − 1)·m + p is hero passed[p] at wavelength k.
+        scratch.passed.extend(
+            (0..n as u32)
+                .filter(|&i| pending.weight[i as usize] > 0.0 && carries_light(i as usize)),
+        );
         let m = scratch.passed.len();
         let backward = &mut scratch.rays;
         backward.resize(m * (count - 1));
         // Every companion starts as the same ray: the first block is built from the heroes,
         // the others are copies of it.
+        let ([ox, oy, oz], [dx, dy, dz]) = (&pending.origin, &pending.direction);
         for (p, &i) in scratch.passed.iter().enumerate() {
-            let (d, o) = (rays.direction(i as usize), rays.origin(i as usize));
-            backward.ox[p] = o[0] + BACKWARD_START_MM * d[0];
-            backward.oy[p] = o[1] + BACKWARD_START_MM * d[1];
-            backward.oz[p] = o[2] + BACKWARD_START_MM * d[2];
-            backward.dx[p] = -d[0];
-            backward.dy[p] = -d[1];
-            backward.dz[p] = -d[2];
+            let i = i as usize;
+            backward.ox[p] = ox[i] + BACKWARD_START_MM * dx[i];
+            backward.oy[p] = oy[i] + BACKWARD_START_MM * dy[i];
+            backward.oz[p] = oz[i] + BACKWARD_START_MM * dz[i];
+            backward.dx[p] = -dx[i];
+            backward.dy[p] = -dy[i];
+            backward.dz[p] = -dz[i];
         }
         for block in 1..count - 1 {
             for v in [
@@ -411,8 +486,8 @@ impl BackwardTrace<'_> {
     }
 }
 
-/// [`BackwardTrace::combine`]'s per-ray loop, once the backward rays have landed: `FIXED`
-/// wavelengths per ray, or `count` when `FIXED` is 0.
+/// [`BackwardTrace::land_companions`]' per-ray loop, once the backward rays have landed:
+/// `FIXED` wavelengths per ray, or `count` when `FIXED` is 0.
 #[inline(always)]
 fn combine_rays<const FIXED: usize>(
     hero: HeroRays,
@@ -421,9 +496,8 @@ fn combine_rays<const FIXED: usize>(
     count: usize,
 ) {
     let count = if FIXED > 0 { FIXED } else { count };
-    let n = hero.rays.len();
-    let rays = hero.rays;
-    let m = scratch.passed.len();
+    let n = hero.transmission.len();
+    let pending = hero.pending;
     let BackwardScratch {
         rays: backward,
         passed,
@@ -433,39 +507,28 @@ fn combine_rays<const FIXED: usize>(
         inverse_weight,
         ..
     } = scratch;
+    let m = passed.len();
     // Per wavelength of one ray: its pixel, 1/W (0: not a technique) and transmission.
     let mut pixel = [[0i32; 2]; MAX_WAVELENGTHS as usize];
     let mut inverse = [0.0f32; MAX_WAVELENGTHS as usize];
     let mut transmission = [0.0f32; MAX_WAVELENGTHS as usize];
-    let mut next_passed = 0;
-    for i in 0..n {
-        let hero_pixel = [hero.px[i] as i32, hero.py[i] as i32];
-        let w0 = out.weight[i];
+    for (p, &i) in passed.iter().enumerate() {
+        let i = i as usize;
+        let (px, py) = (pending.pixel[0][i], pending.pixel[1][i]);
+        let hero_pixel = [px as i32, py as i32];
         pixel[0] = hero_pixel;
-        inverse[0] = if rays.alive[i] && w0 > 0.0 {
-            1.0 / w0
-        } else {
-            0.0
-        };
-        transmission[0] = rays.tr[i];
-        let traced = passed.get(next_passed) == Some(&(i as u32));
+        inverse[0] = 1.0 / pending.weight[i];
+        transmission[0] = hero.transmission[i];
         for k in 1..count {
-            let j = (k - 1) * m + next_passed;
-            if traced {
-                let [qx, qy] = landed_at[j];
-                out.position[k * n + i] = [quantise(qx - hero.px[i]), quantise(qy - hero.py[i])];
-            }
-            (pixel[k], inverse[k], transmission[k]) = if traced {
-                (
-                    [landed_x[j], landed_y[j]],
-                    inverse_weight[j],
-                    backward.tr[j],
-                )
-            } else {
-                ([0, 0], 0.0, 0.0)
-            };
+            let j = (k - 1) * m + p;
+            let [qx, qy] = landed_at[j];
+            out.position[k * n + i] = [quantise(qx - px), quantise(qy - py)];
+            (pixel[k], inverse[k], transmission[k]) = (
+                [landed_x[j], landed_y[j]],
+                inverse_weight[j],
+                backward.tr[j],
+            );
         }
-        next_passed += usize::from(traced);
         // Most often every wavelength is a technique landing in the hero's pixel: then
         // every share has the same techniques.
         let all_home = (0..count).all(|k| inverse[k] > 0.0 && pixel[k] == hero_pixel);
@@ -475,7 +538,6 @@ fn combine_rays<const FIXED: usize>(
                 out.coefficient[k * n + i] *= t / inverse_sum;
                 out.offset[k * n + i] = [0, 0];
             }
-            out.weight[i] = 1.0;
             continue;
         }
         for k in 0..count {
@@ -497,7 +559,6 @@ fn combine_rays<const FIXED: usize>(
                 out.offset[k * n + i] = [0, 0];
             }
         }
-        out.weight[i] = if inverse[0] > 0.0 { 1.0 } else { 0.0 };
     }
 }
 
@@ -593,19 +654,25 @@ mod tests {
                 let mut weight = out.weight.clone();
                 let mut offset = vec![[0i8; 2]; 2 * n];
                 let mut position = vec![[0f32; 2]; 2 * n];
-                let hero = HeroRays {
-                    rays: &rays,
-                    px: &px,
-                    py: &py,
-                    nm: &nm,
-                };
-                let combined = Combined {
-                    weight: &mut weight,
+                let mut pending = PendingCompanions::default();
+                let kept = Combined {
                     coefficient: &mut coefficient,
                     offset: &mut offset,
                     position: &mut position,
                 };
-                backward.combine(hero, combined, &mut BackwardScratch::default());
+                pending.keep(&rays, [&px, &py], &mut weight, kept);
+                let hero = HeroRays {
+                    pending: &pending,
+                    transmission: &rays.tr,
+                    nm: &nm,
+                };
+                let combined = Combined {
+                    coefficient: &mut coefficient,
+                    offset: &mut offset,
+                    position: &mut position,
+                };
+                let scratch = &mut BackwardScratch::default();
+                backward.land_companions(hero, |_| true, combined, scratch);
                 for i in (0..n).filter(|&i| out.rays.alive[i]) {
                     passed += 1;
                     // Each technique gets half: W₀ / 2 times the wavelength's 1/p.
@@ -631,6 +698,52 @@ mod tests {
                 agree as f64 >= 0.995 * passed as f64,
                 "{name}: {agree} of {passed} rays came back to their film point"
             );
+        }
+    }
+
+    /// The pipeline lands the companions only of the samples that carry light, once shading
+    /// has run. A hero's landing depends on nothing but its own ray, so landing some of them
+    /// gives each of those exactly the factors, pixels and film points that landing them all
+    /// does, and the samples' weights do not depend on it.
+    #[test]
+    fn landing_some_companions_gives_them_what_landing_all_does() {
+        let spectral = Setup {
+            spectral: true,
+            ..PLAIN
+        };
+        for name in ["dgauss.50mm", "fisheye.10mm"] {
+            let lens = TestLens::new(name, spectral.clone());
+            let camera = LensCamera {
+                wavelengths: 3,
+                ..lens.camera()
+            };
+            let (width, height) = (lens.film.width, lens.film.height);
+            let pixels: Vec<(u32, u32)> = (0..height)
+                .flat_map(|y| (0..width).map(move |x| (x, y)))
+                .collect();
+            let lit = |i: usize| i % 3 != 1;
+            let mut compared = 0;
+            for sample in 0..4 {
+                let (mut all, mut some) = (CameraRays::default(), CameraRays::default());
+                camera.generate(pixels.iter().copied(), sample, 7, &mut all);
+                camera.generate_heroes(pixels.iter().copied(), sample, 7, &mut some);
+                camera.land_companions(&mut some, lit);
+                assert_eq!(all.weight, some.weight, "{name}");
+                let n = all.weight.len();
+                assert_eq!(all.wavelength.len(), 3 * n);
+                for i in (0..n).filter(|&i| lit(i) && all.rays.alive[i]) {
+                    for k in 0..3 {
+                        let j = k * n + i;
+                        let (a, b) = (all.wavelength_weight[j], some.wavelength_weight[j]);
+                        assert_eq!(a.to_bits(), b.to_bits(), "{name}: ray {i}, wavelength {k}");
+                        assert_eq!(all.wavelength_offset[j], some.wavelength_offset[j]);
+                        assert_eq!(all.film_position[j], some.film_position[j]);
+                    }
+                    // A companion that counts (the comparison above is not of zeros alone).
+                    compared += usize::from(all.wavelength_weight[n + i] > 0.0);
+                }
+            }
+            assert!(compared >= 50, "{name}: {compared} companions compared");
         }
     }
 

@@ -1,5 +1,6 @@
 //! The pass stages on a GPU: GenerateRays → Trace → Shade → Weight → WriteFilm as one kernel
-//! (`gpu::film`), fed by uploads that follow the ECS's change detection:
+//! (`gpu::film`; it lands a sample's companion wavelengths as it generates the sample's rays, so
+//! LandCompanions has no GPU system), fed by uploads that follow the ECS's change detection:
 //!
 //! - the scene's geometry and textures (BVH, triangles, texels) go up once per scene; its
 //!   shading data (materials, lights, environment, path depth, seed) again only when one of

@@ -1,8 +1,8 @@
 //! The render schedule: one bevy_ecs [`Schedule`] whose stages are named [`SystemSet`]s.
 //!
 //! ```text
-//! LoadScene → BuildBvh → DeriveLens → GenerateRays → Trace → Shade → Weight → WriteFilm
-//! └─ once per scene ─┘   └ on change ┘ └──────────── once per sample pass ─────────────┘
+//! LoadScene → BuildBvh → DeriveLens → GenerateRays → Trace → Shade → LandCompanions → Weight → WriteFilm
+//! └─ once per scene ─┘   └ on change ┘ └──────────────────── once per sample pass ───────────────────┘
 //! ```
 //!
 //! Every run of the schedule is cheap when nothing changed: LoadScene acts only on a new
@@ -13,7 +13,7 @@
 //!
 //! Laid out as bevy's own crates are: this module chains the stages and lets each stage group
 //! add its systems (`scene`: LoadScene and BuildBvh; the lens's derivation systems for
-//! DeriveLens; `pass`: the five pass stages); `resources` holds what they share and
+//! DeriveLens; `pass`: the six pass stages); `resources` holds what they share and
 //! `renderer` the [`Renderer`] that drives them.
 
 #[cfg(test)]
@@ -52,18 +52,20 @@ pub enum Stage {
     GenerateRays,
     Trace,
     Shade,
+    LandCompanions,
     Weight,
     WriteFilm,
 }
 
 impl Stage {
-    pub const ALL: [Stage; 8] = [
+    pub const ALL: [Stage; 9] = [
         Stage::LoadScene,
         Stage::BuildBvh,
         Stage::DeriveLens,
         Stage::GenerateRays,
         Stage::Trace,
         Stage::Shade,
+        Stage::LandCompanions,
         Stage::Weight,
         Stage::WriteFilm,
     ];
@@ -76,6 +78,7 @@ impl Stage {
             Stage::GenerateRays => "generate_rays",
             Stage::Trace => "trace",
             Stage::Shade => "shade",
+            Stage::LandCompanions => "land_companions",
             Stage::Weight => "weight",
             Stage::WriteFilm => "write_film",
         }

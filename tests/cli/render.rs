@@ -90,7 +90,14 @@ fn stats_give_each_stage_its_busy_time_within_wall_time_times_threads() {
     ok(&realcam(dir.path(), &args));
     let stats = stats_in(dir.path());
     assert_eq!(stats["threads"], 2);
-    for stage in ["generate_rays", "trace", "shade", "weight", "write_film"] {
+    for stage in [
+        "generate_rays",
+        "trace",
+        "shade",
+        "land_companions",
+        "weight",
+        "write_film",
+    ] {
         let wall = stats["stage_seconds"][stage].as_f64().unwrap();
         let busy = stats["stage_busy_seconds"][stage].as_f64().unwrap();
         assert!(busy > 0.0, "{stage}: busy {busy} s");

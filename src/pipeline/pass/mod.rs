@@ -1,7 +1,8 @@
-//! The pass stages: GenerateRays → Trace → Shade → Weight → WriteFilm, one module each, run
-//! while a pass is pending. Each works tile by tile in parallel through [`run_on_tiles`]; rays
-//! travel between them in each tile's [`TileBatch`](super::TileBatch).
+//! The pass stages: GenerateRays → Trace → Shade → LandCompanions → Weight → WriteFilm, one
+//! module each, run while a pass is pending. Each works tile by tile in parallel through
+//! [`run_on_tiles`]; rays travel between them in each tile's [`TileBatch`](super::TileBatch).
 
+mod companions;
 mod film;
 mod rays;
 mod shade;
@@ -21,6 +22,7 @@ use super::gpu::on_gpu;
 use super::resources::{PassCancel, PassState, RenderStats};
 use crate::accel::BatchParallelism;
 
+pub use companions::land_companions;
 pub use film::write_film;
 pub use rays::generate_rays;
 pub(crate) use rays::{ActiveLensQuery, LensChanged, lens_camera};
@@ -28,7 +30,7 @@ pub use shade::shade;
 pub use trace::trace_rays;
 pub use weight::weight;
 
-/// Adds the five pass systems to `schedule`, each in its stage and only while a pass is
+/// Adds the six pass systems to `schedule`, each in its stage and only while a pass is
 /// pending and the passes render on the CPU (see `pipeline::gpu` for the GPU's).
 pub(super) fn add_systems(schedule: &mut Schedule) {
     let on_cpu = || pass_pending.and_then(not(on_gpu));
@@ -36,6 +38,9 @@ pub(super) fn add_systems(schedule: &mut Schedule) {
         generate_rays.in_set(Stage::GenerateRays).run_if(on_cpu()),
         trace_rays.in_set(Stage::Trace).run_if(on_cpu()),
         shade.in_set(Stage::Shade).run_if(on_cpu()),
+        land_companions
+            .in_set(Stage::LandCompanions)
+            .run_if(on_cpu()),
         weight.in_set(Stage::Weight).run_if(on_cpu()),
         write_film.in_set(Stage::WriteFilm).run_if(on_cpu()),
     ));

@@ -108,7 +108,8 @@ pub fn generate_rays(
         cancel.as_deref(),
         &mut stats,
         |(tile, mut batch): (&FilmTile, Mut<TileBatch>)| {
-            camera.generate(tile.pixels(), pass.sample, settings.seed, &mut batch.camera);
+            // The companion wavelengths land once shading has shown which samples carry light.
+            camera.generate_heroes(tile.pixels(), pass.sample, settings.seed, &mut batch.camera);
             batch.camera.rays.alive_count() as u64
         },
     )

@@ -119,9 +119,11 @@ impl WeighTile<'_> {
             let w = camera.weight[i];
             let radiance_i = [radiance.r[i], radiance.g[i], radiance.b[i]];
             // A ray of weight 0 (the lens blocked it, or its hero wavelength) adds nothing:
-            // every share the loop below would make of it is its radiance times 0. A
+            // every share the loop below would make of it is its radiance times 0. Nor does
+            // a path that found no light (LandCompanions left its companions unlanded). A
             // non-finite radiance still goes there, to be counted as rejected.
-            if w == 0.0 && radiance_i.iter().all(|v| v.is_finite()) {
+            let dark = radiance_i == [0.0; 3];
+            if dark || (w == 0.0 && radiance_i.iter().all(|v| v.is_finite())) {
                 [radiance.r[i], radiance.g[i], radiance.b[i]] = [0.0; 3];
                 continue;
             }
