@@ -20,8 +20,8 @@ pub const BYTES_PER_PIXEL: u64 = 200;
 /// Since the camera's working arrays are kept per thread instead of per tile (2026-11-27,
 /// mimalloc): 171, 212 and 298 B with 1, 3 and 8 wavelengths, 155 without; the estimates stay,
 /// with that much more room. Since the heroes that pass the lens are kept from GenerateRays to
-/// LandCompanions (2026-11-28), several wavelengths take about 34 B a pixel more (the default
-/// scene at 2048², three wavelengths: a peak of 985 against 843 MB).
+/// LandCompanions (2026-11-28), several wavelengths take about 35 B a pixel more (the default
+/// scene at 2048², three wavelengths: a peak of 991 against 843 MB).
 const SPECTRAL_BYTES_PER_PIXEL: u64 = 40;
 const BYTES_PER_EXTRA_WAVELENGTH: u64 = 64;
 
