@@ -104,6 +104,19 @@ pub struct FirstOrder {
     pub system: Transfer,
 }
 
+impl FirstOrder {
+    /// The working f-number with the film at lens-frame `film_z`: the image-side cone's
+    /// length over its width, exit pupil to film ÷ exit-pupil diameter (paraxial). It is what
+    /// sets the film's exposure and depth of field. Focused at infinity (the film at the rear
+    /// focal point) it is the f-number EFL/EPD; focused closer it is N·(1 + |m|/P), m the
+    /// magnification and P the pupil magnification (the bellows factor). A lens focused by a
+    /// group in front of its stop (internal focus) keeps its exit pupil and film where they
+    /// are, and so its working f-number, while its EFL, and with it EFL/EPD, shrinks.
+    pub fn working_f_number(&self, film_z: f64) -> f64 {
+        (film_z - self.exit_pupil.z_mm).abs() / self.exit_pupil.diameter_mm
+    }
+}
+
 /// Errors that make first-order quantities meaningless.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum FirstOrderError {

@@ -377,6 +377,7 @@ impl LensReport {
             "entrance_pupil": fo.entrance_pupil,
             "exit_pupil": fo.exit_pupil,
             "f_number": fo.f_number,
+            "working_f_number": fo.working_f_number(system.rear_z() + self.film_distance),
             "coating": self.coating_name(),
             "transmission": self.transmission(),
             "t_number": self.t_number(),
@@ -468,7 +469,7 @@ impl LensReport {
             }),
         };
         out += &format!(
-            "\nfocal length        {:10.3} mm\nback focal length   {:10.3} mm\nfront focal point   z = {:.3} mm\nprincipal planes    front z = {:.3} mm, rear z = {:.3} mm\nentrance pupil      z = {:.3} mm, diameter {:.3} mm\nexit pupil          z = {:.3} mm, diameter {:.3} mm\nf-number            f/{:.2} (stop {:.2} mm)\ntotal track         {:10.3} mm (front vertex to film)\nfilm distance       {:10.3} mm ({focus})\nclosest focus       {:10.3} m\nfield of view       {fov} diagonal on a {:.1} mm film diagonal\nexit-pupil bounds   {} segments, {} rays, {:.3} s to derive\n",
+            "\nfocal length        {:10.3} mm\nback focal length   {:10.3} mm\nfront focal point   z = {:.3} mm\nprincipal planes    front z = {:.3} mm, rear z = {:.3} mm\nentrance pupil      z = {:.3} mm, diameter {:.3} mm\nexit pupil          z = {:.3} mm, diameter {:.3} mm\nf-number            f/{:.2} (stop {:.2} mm)\nworking f-number    f/{:.2} (exit pupil to film ÷ its diameter)\ntotal track         {:10.3} mm (front vertex to film)\nfilm distance       {:10.3} mm ({focus})\nclosest focus       {:10.3} m\nfield of view       {fov} diagonal on a {:.1} mm film diagonal\nexit-pupil bounds   {} segments, {} rays, {:.3} s to derive\n",
             fo.focal_length,
             fo.back_focal_length,
             fo.front_focal_z,
@@ -480,6 +481,7 @@ impl LensReport {
             fo.exit_pupil.diameter_mm,
             fo.f_number,
             system.stop_diameter(),
+            fo.working_f_number(system.rear_z() + self.film_distance),
             system.rear_z() + self.film_distance,
             self.film_distance,
             self.prescription

@@ -491,3 +491,47 @@ fn bounds_and_rear_element_sampling_measure_the_same_irradiance() {
         );
     }
 }
+
+/// The working f-number is the image-side cone of an on-axis point at the focus distance:
+/// checked with a real near-axis ray from that point (its slope behind the lens, scaled by how
+/// far it passes from the stop's centre to the stop's edge), focused at 2 and 5 m, and focused
+/// at infinity, where it is the f-number EFL/EPD (the exit pupil and the entrance pupil are
+/// images of one stop: a paraxial identity between two separate matrix products).
+#[test]
+fn working_f_number_is_the_image_side_cone() {
+    for name in ["dgauss.50mm.dat", "wide.22mm.dat", "telephoto.250mm.dat"] {
+        let (system, fo) = load(name);
+        assert!(
+            close(fo.working_f_number(fo.rear_focal_z), fo.f_number, 1e-9),
+            "{name} at infinity: working f/{} against f/{}",
+            fo.working_f_number(fo.rear_focal_z),
+            fo.f_number
+        );
+        let whole = system.f64s.slice(0..system.surface_count());
+        let front = system.f64s.slice(0..system.stop);
+        let stop_z = system.f64s.vertex_z[system.stop];
+        let stop_radius = system.stop_diameter() / 2.0;
+        for metres in [2.0, 5.0] {
+            let film_distance = paraxial_film_distance(&system, &fo, metres * 1000.0).unwrap();
+            let film_z = system.rear_z() + film_distance;
+            // The focus distance is measured from the film (as pbrt's).
+            let ray = Ray {
+                origin: [0.0, 0.0, film_z - metres * 1000.0],
+                direction: normalize([1e-6, 0.0, 1.0]),
+            };
+            let at_stop = trace(&front, ray, Travel::SceneToFilm).unwrap();
+            let y_stop = at_stop.origin[0]
+                + (stop_z - at_stop.origin[2]) * at_stop.direction[0] / at_stop.direction[2];
+            let out = trace(&whole, ray, Travel::SceneToFilm).unwrap();
+            let slope = (out.direction[0] / out.direction[2]).abs();
+            let marginal_slope = slope * stop_radius / y_stop.abs();
+            let working = 1.0 / (2.0 * marginal_slope);
+            assert!(
+                close(fo.working_f_number(film_z), working, 1e-4),
+                "{name} at {metres} m: working f/{} against the real ray's f/{working}",
+                fo.working_f_number(film_z)
+            );
+            assert!(working > fo.f_number, "{name}: closer focus, a slower cone");
+        }
+    }
+}

@@ -552,3 +552,43 @@ fn real_rays_through_each_zoom_position_follow_its_gaps() {
         }
     }
 }
+
+/// An internally focused lens (the Nikon 600 mm f/4's group in front of the stop) keeps its
+/// exit pupil and its film where they are as it focuses, and so its working f-number, while its
+/// EFL shrinks and EFL/EPD with it: the report gives both, so that "f/2.4" at close focus is not
+/// taken for the light the film gets.
+#[test]
+fn an_internally_focused_lens_keeps_its_working_f_number() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("lenses/nikon-af-s-600mm-f4e-fl-if.toml");
+    let lens = Prescription::load(&path, None).unwrap();
+    let at = |metres: f64| {
+        report(
+            &lens,
+            LensSettings {
+                focus_distance: Some(metres),
+                ..LensSettings::default()
+            },
+        )
+        .to_json()
+    };
+    let (far, near) = (at(f64::INFINITY), at(4.81));
+    let number = |r: &serde_json::Value, key: &str| r[key].as_f64().unwrap();
+    assert_eq!(far["exit_pupil"], near["exit_pupil"]);
+    assert!(number(&near, "f_number") < 0.7 * number(&far, "f_number"));
+    // Focused at infinity the film is at the rear focal point (to the focus solve's 1e-6 mm).
+    assert!(close(
+        number(&far, "working_f_number"),
+        number(&far, "f_number"),
+        1e-6
+    ));
+    assert!(
+        close(
+            number(&near, "working_f_number"),
+            number(&far, "working_f_number"),
+            1e-3
+        ),
+        "working f/{} at 4.81 m against f/{} at infinity",
+        number(&near, "working_f_number"),
+        number(&far, "working_f_number")
+    );
+}
