@@ -194,7 +194,8 @@ impl PendingCompanions {
         self.weight.clear();
     }
 
-    /// Whether no ray waits for its companions (none kept, or none passed).
+    /// Whether nothing is kept: the batch was generated with one wavelength a sample, or
+    /// without dispersion.
     pub fn is_empty(&self) -> bool {
         self.weight.is_empty()
     }
