@@ -192,7 +192,7 @@ for key in sorted(rows, key=lambda k: (k.split(".t")[0], int(k.split(".t")[1])))
     rates = ", ".join(f"{r['samples_per_second'] / 1e6:.2f}" for r in rows[key])
     print(f"{key:<16} {s['samples_per_second'] / 1e6:7.2f} M/s (runs {rates}); wall {s['wall_seconds']:.2f} s;"
           f" load {wall.get('load_scene', 0):.2f} bvh {wall.get('build_bvh', 0):.2f}")
-    for stage in ("generate_rays", "trace", "shade", "weight", "write_film"):
+    for stage in ("generate_rays", "trace", "shade", "land_companions", "weight", "write_film"):
         if stage in wall and wall[stage] > 0:
             b = busy.get(stage, 0.0)
             print(f"    {stage:<14} wall {wall[stage]:7.3f} s  busy {b:7.3f} s  busy/(wall×threads) {b / (wall[stage] * threads):.2f}")

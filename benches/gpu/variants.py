@@ -143,7 +143,7 @@ def grouped(runs, scenes, threads, variants):
             yield scene, count, [(variant, mine) for variant, mine in group if mine]
 
 
-STAGES = ("generate_rays", "trace", "shade", "weight", "write_film")
+STAGES = ("generate_rays", "trace", "shade", "land_companions", "weight", "write_film")
 
 
 def print_stages(runs, scenes, threads, variants):

@@ -12,7 +12,7 @@ runs = {}
 for p in glob.glob(os.path.join(sys.argv[1], "*.json")):
     scene, t, s, k = os.path.basename(p)[:-5].split(".")
     d = json.load(open(p))
-    runs.setdefault((scene, int(t[1:])), {}).setdefault(int(s[1:]), []).append(sum(d["stage_seconds"].get(x, 0) for x in ("generate_rays", "trace", "shade", "weight", "write_film")))
+    runs.setdefault((scene, int(t[1:])), {}).setdefault(int(s[1:]), []).append(sum(d["stage_seconds"].get(x, 0) for x in ("generate_rays", "trace", "shade", "land_companions", "weight", "write_film")))
 per = {}
 for (scene, t), by in sorted(runs.items()):
     lo, hi = min(by), max(by)
