@@ -85,6 +85,7 @@ async function refreshLens() {
       ["lens", info.name],
       ["focal length", number(info.focal_length_mm) + " mm"],
       ["f-number", "f/" + number(info.f_number)],
+      ["working f-number", "f/" + number(info.working_f_number)],
       ["stop diameter", number(info.stop_diameter_mm) + " mm"],
       ["back focal length", number(info.back_focal_length_mm) + " mm"],
       ["film distance", number(info.film_distance_mm, 3) + " mm"],
