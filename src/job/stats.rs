@@ -7,7 +7,7 @@ use crate::lens::elements::LensDerivationStats;
 use crate::pipeline::{GpuBackend, RenderStats, Renderer, Stage};
 
 /// Seconds per stage, by the stage's name.
-fn per_stage(times: &[std::time::Duration; 9]) -> Value {
+fn per_stage(times: &[std::time::Duration; Stage::ALL.len()]) -> Value {
     Stage::ALL
         .iter()
         .map(|s| {

@@ -122,13 +122,13 @@ pub struct PipelineFault(pub String);
 /// Counters and wall times for `--stats`.
 #[derive(Resource, Clone, Debug, Default)]
 pub struct RenderStats {
-    pub stage_time: [Duration; 9],
+    pub stage_time: [Duration; Stage::ALL.len()],
     /// Per stage, the time spent inside its per-tile work summed over the tiles: set against
     /// `stage_time` × threads it says how long the workers sat idle (waiting for the stage's
     /// last tiles) rather than worked. A tile that waits on its own parallel work (the rays'
     /// traversal and shading split again) may run another tile meanwhile, and both count: the
     /// sum can exceed `stage_time` × threads by that overlap, a few per cent at 16 threads.
-    pub stage_busy: [Duration; 9],
+    pub stage_busy: [Duration; Stage::ALL.len()],
     pub scene_loads: u64,
     pub bvh_builds: u64,
     pub triangles: u64,
