@@ -187,9 +187,19 @@ impl GridTaps {
         if self.filter.is_box() {
             return self.filter.taps(position, extent);
         }
-        let floor = position.floor();
-        let own = floor as i32;
-        let step = ((position - floor) * STEPS as f32) as usize;
+        self.taps_at(grid_steps(position), extent)
+    }
+
+    /// [`Self::taps`] for the grid point `steps` steps of [`POSITION_STEP`] from the frame's
+    /// edge: the pixel is `steps` ÷ 256 rounded down and the step into it the remainder, both
+    /// exact, so no float is rounded on the way to the table.
+    #[inline(always)]
+    pub fn taps_at(&self, steps: i32, extent: u32) -> (i32, [f32; TAPS]) {
+        let own = steps >> STEPS.trailing_zeros();
+        if self.filter.is_box() {
+            return (own.clamp(0, extent as i32 - 1), [1.0, 0.0, 0.0]);
+        }
+        let step = (steps & (STEPS as i32 - 1)) as usize;
         let extent = extent as i32;
         let inside = usize::from(own >= 1)
             | usize::from(own < extent) << 1
@@ -197,6 +207,19 @@ impl GridTaps {
         let [a, b, c, _] = self.table[inside * STEPS + step];
         (own - 1, [a, b, c])
     }
+}
+
+/// A position (pixels) in steps of [`POSITION_STEP`], rounded down: exact for a position on
+/// the grid ([`quantise`]), as a multiple of 1/256 times 256 is an integer in f32.
+#[inline(always)]
+pub fn grid_steps(position: f32) -> i32 {
+    (position * STEPS as f32).floor() as i32
+}
+
+/// The grid point (see [`grid_steps`]) `offset` pixels from the corner of pixel `pixel`.
+#[inline(always)]
+pub fn grid_point(pixel: u32, offset: f32) -> i32 {
+    pixel as i32 * STEPS as i32 + grid_steps(offset)
 }
 
 /// `position` (pixels) on the 1/256-pixel grid the filter's weights are taken at.
@@ -309,6 +332,34 @@ mod tests {
                         (looked_up.0, looked_up.1.map(f32::to_bits)),
                         (first, weights.map(f32::to_bits)),
                         "{filter} at {position} of {extent}"
+                    );
+                }
+            }
+        }
+    }
+
+    /// A share's grid point, from its pixel and its offset from that pixel's corner (a
+    /// companion's lies up to a few pixels either side), weighs it as its position in pixels
+    /// does: the integer path to the table gives Filter::taps's weights, bit for bit.
+    #[test]
+    fn a_grid_point_weighs_a_share_as_its_position_does() {
+        for filter in Filter::ALL {
+            let grid = filter.grid();
+            for (pixel, extent) in [(0u32, 16u32), (1, 16), (7, 16), (14, 16), (15, 16), (3, 5)] {
+                for step in -3 * 256..4 * 256 {
+                    let offset = step as f32 * POSITION_STEP;
+                    let position = pixel as f32 + offset;
+                    if !(0.0..=extent as f32).contains(&position) {
+                        continue;
+                    }
+                    let at = grid_point(pixel, offset);
+                    assert_eq!(at, pixel as i32 * 256 + step);
+                    let (first, weights) = filter.taps(position, extent);
+                    let looked_up = grid.taps_at(at, extent);
+                    assert_eq!(
+                        (looked_up.0, looked_up.1.map(f32::to_bits)),
+                        (first, weights.map(f32::to_bits)),
+                        "{filter}: pixel {pixel} + {offset} of {extent}"
                     );
                 }
             }

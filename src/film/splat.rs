@@ -92,15 +92,16 @@ impl Spread {
         self.touched
     }
 
-    /// Adds `rgb` spread by `filter` from image position (`x`, `y`) (pixels, quantised) on a
-    /// frame of `size` pixels. Every tap lies inside the border (a share lands within
-    /// [`SPLAT_RADIUS`] of its pixel), those beyond the frame with weight 0, so the 3 × 3 taps
-    /// are added without a test.
+    /// Adds `rgb` spread by `filter` from the image's grid point (`x`, `y`) (in steps of
+    /// [`POSITION_STEP`](super::filter::POSITION_STEP), see
+    /// [`grid_point`](super::filter::grid_point)) on a frame of `size` pixels. Every tap lies
+    /// inside the border (a share lands within [`SPLAT_RADIUS`] of its pixel), those beyond the
+    /// frame with weight 0, so the 3 × 3 taps are added without a test.
     #[inline(always)]
-    pub fn add(&mut self, filter: &GridTaps, [x, y]: [f32; 2], size: [u32; 2], rgb: [f32; 3]) {
+    pub fn add(&mut self, filter: &GridTaps, [x, y]: [i32; 2], size: [u32; 2], rgb: [f32; 3]) {
         self.touched = true;
-        let (first_x, weights_x) = filter.taps(x, size[0]);
-        let (first_y, weights_y) = filter.taps(y, size[1]);
+        let (first_x, weights_x) = filter.taps_at(x, size[0]);
+        let (first_y, weights_y) = filter.taps_at(y, size[1]);
         let column = (first_x - self.x0) as usize;
         for (ky, &wy) in weights_y.iter().enumerate() {
             let start = (first_y + ky as i32 - self.y0) as usize * self.width as usize + column;

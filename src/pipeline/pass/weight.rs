@@ -6,7 +6,7 @@ use bevy_ecs::world::Mut;
 
 use super::run_on_tiles;
 use crate::film::FilmTile;
-use crate::film::filter::Filter;
+use crate::film::filter::{Filter, grid_point};
 use crate::film::splat::Splat;
 use crate::lens::hero_wavelengths::MAX_WAVELENGTHS;
 use crate::lens::trace_batch::{Isa, on_isa, widened};
@@ -175,7 +175,10 @@ impl WeighTile<'_> {
                 }
             } else if finite {
                 for share in lit {
-                    let at = [x as f32 + share.position[0], y as f32 + share.position[1]];
+                    let at = [
+                        grid_point(x, share.position[0]),
+                        grid_point(y, share.position[1]),
+                    ];
                     spread.add(&taps, at, size, share.rgb);
                 }
             }
