@@ -127,7 +127,7 @@ impl Filter {
     /// share's weights depend on nothing else (its position less those pixel centres is exact in
     /// f32), so each row is taken by `taps` itself at a position on a frame just large enough
     /// to give its pattern; patterns no share has (no pixel inside, or a gap) stay zero. The CPU
-    /// looks weights up here ([`GridTaps::taps`]) and the GPU's gather gets the same table,
+    /// looks weights up here ([`GridTaps::taps_at`]) and the GPU's gather gets the same table,
     /// so both weigh every share exactly alike. Empty for the box, which weighs nothing.
     pub fn tap_table(self) -> &'static [[f32; 4]] {
         static TABLES: [std::sync::OnceLock<Vec<[f32; 4]>>; 3] =
