@@ -11,9 +11,9 @@
 //! the reference's mean luminance; the equal-time luminance ratio against RGB,
 //! (e / e_rgb)·√(t / t_rgb) (errors fall as 1/√spp), by either time; and each spectral
 //! estimator's luminance and chroma errors at equal passes' time against the one-wavelength
-//! estimator's (`vs ×1`: below 1, better than one wavelength a sample in the same time). Then the floor
-//! figure: the default render (512², 64 spp, dgauss.50mm), mean chroma (max−min)/max over rows
-//! 330–420, columns 150–350, per filter.
+//! estimator's (`vs ×1`: below 1, better than one wavelength a sample in the same time). Then
+//! the floor figure: the default render (512², 64 spp, dgauss.50mm), mean chroma
+//! (max−min)/max over rows 330–420, columns 150–350, per filter.
 //! Prints tables (no timing asserts): `cargo bench --bench colour_noise` (about 22 minutes on 2
 //! cores; `-- --reference-spp N` for a quicker, noisier run; `-- --filter tent` for one filter's
 //! rows, `-- --lens NAME` for one lens's, `-- --no-floor` without the floor table,

@@ -161,7 +161,7 @@ impl Filter {
         })
     }
 
-    /// The filter with its table at hand, for weighing many shares ([`GridTaps::taps`]): the
+    /// The filter with its table at hand, for weighing many shares ([`GridTaps::taps_at`]): the
     /// table is found once, not per share.
     #[inline(always)]
     pub fn grid(self) -> GridTaps {
@@ -180,24 +180,15 @@ pub struct GridTaps {
 }
 
 impl GridTaps {
-    /// [`Filter::taps`] for a `position` on the grid ([`quantise`]), looked up in
-    /// [`Filter::tap_table`]: the same weights, bit for bit, without evaluating the profile.
-    #[inline(always)]
-    pub fn taps(&self, position: f32, extent: u32) -> (i32, [f32; TAPS]) {
-        if self.filter.is_box() {
-            return self.filter.taps(position, extent);
-        }
-        self.taps_at(grid_steps(position), extent)
-    }
-
-    /// [`Self::taps`] for the grid point `steps` steps of [`POSITION_STEP`] from the frame's
-    /// edge: the pixel is `steps` ÷ 256 rounded down and the step into it the remainder, both
-    /// exact, so no float is rounded on the way to the table.
+    /// [`Filter::taps`] for the grid point `steps` steps of [`POSITION_STEP`] from the frame's
+    /// edge ([`grid_point`]), looked up in [`Filter::tap_table`]: the same weights, bit for bit,
+    /// without evaluating the profile. The pixel is `steps` ÷ 256 rounded down and the step into
+    /// it the remainder, both exact, so no float is rounded on the way to the table.
     #[inline(always)]
     pub fn taps_at(&self, steps: i32, extent: u32) -> (i32, [f32; TAPS]) {
         let own = steps >> STEPS.trailing_zeros();
         if self.filter.is_box() {
-            return (own.clamp(0, extent as i32 - 1), [1.0, 0.0, 0.0]);
+            return self.filter.taps(own as f32, extent);
         }
         let step = (steps & (STEPS as i32 - 1)) as usize;
         let extent = extent as i32;
@@ -327,7 +318,7 @@ mod tests {
                         .fold(0, |bits, k| bits | (1 << k));
                     let row = table[inside * steps + at % steps];
                     assert_eq!(row[..3], weights, "{filter} at {position} of {extent}");
-                    let looked_up = filter.grid().taps(position, extent);
+                    let looked_up = filter.grid().taps_at(grid_steps(position), extent);
                     assert_eq!(
                         (looked_up.0, looked_up.1.map(f32::to_bits)),
                         (first, weights.map(f32::to_bits)),
