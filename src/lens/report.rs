@@ -120,6 +120,11 @@ fn zoom_position_reports(
 }
 
 impl LensReport {
+    /// Lens-frame z of the film, mm (the rear vertex plus the film distance).
+    fn film_z(&self) -> f64 {
+        self.geometry.system.rear_z() + self.film_distance
+    }
+
     pub fn derive(
         prescription: Prescription,
         options: &LensSettings,
@@ -304,7 +309,7 @@ impl LensReport {
         let Some(ghosts) = system.ghosts.as_deref() else {
             return Vec::new();
         };
-        let film_z = system.rear_z() + self.film_distance;
+        let film_z = self.film_z();
         let at_d: Vec<f64> = system
             .rows
             .iter()
@@ -377,7 +382,7 @@ impl LensReport {
             "entrance_pupil": fo.entrance_pupil,
             "exit_pupil": fo.exit_pupil,
             "f_number": fo.f_number,
-            "working_f_number": fo.working_f_number(system.rear_z() + self.film_distance),
+            "working_f_number": fo.working_f_number(self.film_z()),
             "coating": self.coating_name(),
             "transmission": self.transmission(),
             "t_number": self.t_number(),
@@ -388,7 +393,7 @@ impl LensReport {
                 "open_fraction": self.geometry.open_fraction,
                 "area_equivalent_f_number": self.geometry.f_number(),
             })),
-            "total_track_mm": system.rear_z() + self.film_distance,
+            "total_track_mm": self.film_z(),
             "vertex_span_mm": system.rear_z(),
             "film_distance_mm": self.film_distance,
             "focus_distance_m": match self.focus { FocusSetting::Distance { metres, .. } => json!(metres), FocusSetting::FilmDistance(_) => Value::Null },
@@ -481,8 +486,8 @@ impl LensReport {
             fo.exit_pupil.diameter_mm,
             fo.f_number,
             system.stop_diameter(),
-            fo.working_f_number(system.rear_z() + self.film_distance),
-            system.rear_z() + self.film_distance,
+            fo.working_f_number(self.film_z()),
+            self.film_z(),
             self.film_distance,
             self.prescription
                 .spacings

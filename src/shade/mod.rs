@@ -50,6 +50,15 @@ pub struct RadianceBatch {
     pub b: Vec<f32>,
 }
 
+impl RadianceBatch {
+    /// Whether ray `i`'s path brought any light: a non-finite value counts, as it is not
+    /// known to be none (Weight rejects it).
+    #[inline(always)]
+    pub fn found_light(&self, i: usize) -> bool {
+        self.r[i] != 0.0 || self.g[i] != 0.0 || self.b[i] != 0.0
+    }
+}
+
 /// Counters a shading pass adds to: the work done, and where the light came from (or why
 /// none came), so that a black image can say why it is black.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]

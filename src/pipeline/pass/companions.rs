@@ -45,9 +45,7 @@ pub fn land_companions(
                 radiance,
                 ..
             } = &mut *batch;
-            let carries_light =
-                |i: usize| radiance.r[i] != 0.0 || radiance.g[i] != 0.0 || radiance.b[i] != 0.0;
-            camera.land_companions(rays, carries_light);
+            camera.land_companions(rays, |i| radiance.found_light(i));
         },
     )
     .for_each(drop);

@@ -122,8 +122,7 @@ impl WeighTile<'_> {
             // every share the loop below would make of it is its radiance times 0. Nor does
             // a path that found no light (LandCompanions left its companions unlanded). A
             // non-finite radiance still goes there, to be counted as rejected.
-            let dark = radiance_i == [0.0; 3];
-            if dark || (w == 0.0 && radiance_i.iter().all(|v| v.is_finite())) {
+            if !radiance.found_light(i) || (w == 0.0 && radiance_i.iter().all(|v| v.is_finite())) {
                 [radiance.r[i], radiance.g[i], radiance.b[i]] = [0.0; 3];
                 continue;
             }
