@@ -319,11 +319,16 @@ impl BackwardTrace<'_> {
         scratch.clear_with_room(n, n * (count - 1));
         // Only the heroes that passed with a weight and carry light are traced back: `passed`
         // lists them, and backward ray (k − 1)·m + p is hero passed[p] at wavelength k.
-        scratch.passed.extend(
-            (0..n as u32)
-                .filter(|&i| pending.weight[i as usize] > 0.0 && carries_light(i as usize)),
-        );
-        let m = scratch.passed.len();
+        // Written without a branch per hero (whether one counts is as good as random): every
+        // index is stored, and the count advances past those that count.
+        let weight = &pending.weight[..n];
+        scratch.passed.resize(n, 0);
+        let mut m = 0;
+        for (i, &w) in weight.iter().enumerate() {
+            scratch.passed[m] = i as u32;
+            m += usize::from((w > 0.0) & carries_light(i));
+        }
+        scratch.passed.truncate(m);
         let backward = &mut scratch.rays;
         backward.resize(m * (count - 1));
         // Every companion starts as the same ray: the first block is built from the heroes,

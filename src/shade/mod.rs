@@ -55,7 +55,8 @@ impl RadianceBatch {
     /// known to be none (Weight rejects it).
     #[inline(always)]
     pub fn found_light(&self, i: usize) -> bool {
-        self.r[i] != 0.0 || self.g[i] != 0.0 || self.b[i] != 0.0
+        // `|`, not `||`: no branch per channel where a batch's rays are tested in a loop.
+        (self.r[i] != 0.0) | (self.g[i] != 0.0) | (self.b[i] != 0.0)
     }
 }
 
