@@ -182,10 +182,16 @@ impl PendingCompanions {
                 *weight = if lands { 1.0 } else { 0.0 };
                 kept
             }));
-        for i in (0..n).filter(|&i| !alive[i]) {
-            for k in 0..count {
-                out.coefficient[k * n + i] = 0.0;
-                out.offset[k * n + i] = [0, 0];
+        // A select per ray and wavelength, not a branch per ray: the loops vectorise.
+        for k in 0..count {
+            let block = k * n..(k + 1) * n;
+            for (coefficient, &alive) in out.coefficient[block.clone()].iter_mut().zip(alive) {
+                *coefficient = if alive { *coefficient } else { 0.0 };
+            }
+            for (offset, &alive) in out.offset[block].iter_mut().zip(alive) {
+                // All ones where it passed, else zero (a select on two bytes stays scalar).
+                let keep = -i8::from(alive);
+                *offset = offset.map(|o| o & keep);
             }
         }
     }
