@@ -54,8 +54,8 @@ unsafe impl GlobalAlloc for CountingAllocator {
 static ALLOCATOR: CountingAllocator = CountingAllocator;
 
 /// Allocations a pass of the default scene may make once every tile has rendered a few: the
-/// stages' lists of tiles and of their results (11 on 2026-11-27, 13 on 2026-11-28, at any
-/// number of tiles).
+/// stages' lists of tiles and of their results (11 on 2026-11-27, 13 on 2026-11-28, 10 once
+/// each stage kept its tiles and their results in one list; at any number of tiles).
 /// Before the tiles and threads kept their working memory, a pass made about 27 a tile (1,729
 /// at 256², 64 tiles) and reallocated some arrays for many passes.
 const STEADY_STATE_PER_PASS: u64 = 16;
