@@ -24,4 +24,5 @@ pub mod scene;
 pub mod server;
 pub mod shade;
 pub mod spectral;
+pub(crate) mod sync;
 pub mod units;

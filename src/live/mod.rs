@@ -23,6 +23,7 @@ use crate::lens::diagram::draw_report_diagram;
 use crate::lens::report::LensReport;
 use crate::lens::settings::LensSettings;
 use crate::pipeline::{PassCancel, RenderStats};
+use crate::sync::lock;
 use session::Session;
 
 /// What the render thread is asked to do.
@@ -266,11 +267,6 @@ impl LiveLab {
     pub fn is_stopped(&self) -> bool {
         self.shared.stopped.load(Ordering::Relaxed)
     }
-}
-
-fn lock<T>(mutex: &Mutex<T>) -> MutexGuard<'_, T> {
-    // A panicking reader leaves the data intact (every writer replaces it whole).
-    mutex.lock().unwrap_or_else(|e| e.into_inner())
 }
 
 /// The render thread: takes requests between passes, renders a coarse first pass after each

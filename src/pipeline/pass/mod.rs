@@ -22,6 +22,7 @@ use super::Stage;
 use super::gpu::on_gpu;
 use super::resources::{PassCancel, PassState, RenderStats};
 use crate::accel::BatchParallelism;
+use crate::sync::lock;
 
 pub use companions::land_companions;
 pub use film::write_film;
@@ -133,11 +134,6 @@ enum TileCell<T, R> {
     Waiting(T),
     Running,
     Done(R),
-}
-
-/// The cell's lock (a poisoned one too: nothing panics while one is held).
-fn lock<T>(cell: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
-    cell.lock().unwrap_or_else(PoisonError::into_inner)
 }
 
 #[cfg(test)]
