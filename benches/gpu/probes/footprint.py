@@ -64,13 +64,14 @@ def main():
         for scene in args.scenes.split(","):
             for size, spp in SIZES:
                 base = f"{scene}.{size}.r{round_}"
+                # Kind: (processes, threads each).
                 kinds = {
-                    "t1": [(1, 1)],
-                    f"t{n}": [(1, n)],
-                    f"copies{n}": [(n, 1)],
-                    f"procs4x{n // 4}": [(4, n // 4)],
+                    "t1": (1, 1),
+                    f"t{n}": (1, n),
+                    f"copies{n}": (n, 1),
+                    f"procs4x{n // 4}": (4, n // 4),
                 }
-                for kind, [(procs, threads)] in kinds.items():
+                for kind, (procs, threads) in kinds.items():
                     jobs = [command(scene, size, spp, threads, f"{base}.{kind}.{k}") for k in range(procs)]
                     results.setdefault((scene, size, kind), []).append(at_once(jobs))
                 print(f"[{time.time() - start:5.0f} s] {base} done", flush=True)
